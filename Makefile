@@ -1,0 +1,100 @@
+# deltamap — build, test, demo, bench.  `make help` lists the targets.
+#
+#   make deps            install the Debian packages the project needs (idempotent)
+#   make / make all      build build/deltamap
+#   make test            deps + build + unit tests (cmocka) + CLI tests
+#   make test SANITIZE=1 the same built with -fsanitize=address,undefined
+#   make demo            deps + build + run the main job on a built-in robot
+#   make bench           speed and memory figures
+#   make install         install to $(PREFIX)/bin (PREFIX=/usr/local)
+
+CC      ?= cc
+PREFIX  ?= /usr/local
+PKGS    := openblas lapacke inih jansson
+PKG_CONFIG ?= pkg-config
+
+ifeq ($(SANITIZE),1)
+BUILD   := build/sanitize
+OPT     := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=undefined
+else
+BUILD   := build
+OPT     := -O2 -g
+endif
+
+CFLAGS  ?=
+CFLAGS  += -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(OPT) -Wall -Wextra -fopenmp -Iinclude
+LDLIBS  := -lm
+PKG_CFLAGS = $(shell $(PKG_CONFIG) --cflags $(PKGS) 2>/dev/null)
+PKG_LIBS   = $(shell $(PKG_CONFIG) --libs $(PKGS) 2>/dev/null)
+SUNDIALS_LIBS := -lsundials_cvode -lsundials_nvecserial
+
+LIB_SRC := $(filter-out src/main.c,$(wildcard src/*.c))
+LIB_OBJ := $(patsubst src/%.c,$(BUILD)/obj/%.o,$(LIB_SRC)) $(BUILD)/obj/presets.o
+TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
+TEST_BIN:= $(addprefix $(BUILD)/tests/,$(TESTS))
+BIN     := $(BUILD)/deltamap
+
+.PHONY: all deps test unit-tests cli-tests demo bench install clean help
+.DELETE_ON_ERROR:
+
+all: $(BIN)
+
+help:
+	@sed -n '1,12p' Makefile | sed 's/^# \{0,1\}//'
+
+deps:
+	@tools/install-deps.sh
+
+$(BUILD)/obj/%.o: src/%.c $(wildcard include/*.h) | $(BUILD)/obj
+	$(CC) $(CFLAGS) $(PKG_CFLAGS) -c $< -o $@
+
+# The presets are the shipped robots/*.ini, compiled in as strings.
+$(BUILD)/presets.c: $(wildcard robots/*.ini) tools/embed-presets.sh | $(BUILD)/obj
+	tools/embed-presets.sh robots/*.ini > $@
+
+$(BUILD)/obj/presets.o: $(BUILD)/presets.c
+	$(CC) $(CFLAGS) -c $< -o $@
+
+$(BUILD)/libdeltamap.a: $(LIB_OBJ)
+	$(AR) rcs $@ $^
+
+$(BIN): $(BUILD)/obj/main.o $(BUILD)/libdeltamap.a
+	$(CC) $(CFLAGS) $^ -o $@ $(PKG_LIBS) $(SUNDIALS_LIBS) $(LDLIBS)
+
+$(BUILD)/tests/%: tests/%.c tests/dm_test.h $(BUILD)/libdeltamap.a | $(BUILD)/tests
+	$(CC) $(CFLAGS) $(PKG_CFLAGS) -Itests $< -o $@ $(BUILD)/libdeltamap.a \
+	    $(PKG_LIBS) $(SUNDIALS_LIBS) -lcmocka $(LDLIBS)
+
+$(BUILD)/obj $(BUILD)/tests:
+	mkdir -p $@
+
+# Tests run single-threaded BLAS inside, OpenMP as the test chooses.
+unit-tests: $(TEST_BIN)
+	@set -e; for t in $(TEST_BIN); do echo "== $$t"; OPENBLAS_NUM_THREADS=1 $$t; done
+
+cli-tests: $(BIN)
+	@DELTAMAP=$(BIN) tests/cli_tests.sh
+
+test: deps
+	@$(MAKE) --no-print-directory unit-tests cli-tests
+	@echo "all tests passed"
+
+demo: deps
+	@$(MAKE) --no-print-directory $(BIN)
+	$(BIN) modes --robot chen2018 --at 0,0,-0.5 --modes 10
+
+bench: deps
+	@$(MAKE) --no-print-directory $(BUILD)/tests/bench_modal
+	OPENBLAS_NUM_THREADS=1 $(BUILD)/tests/bench_modal
+
+$(BUILD)/tests/bench_modal: tests/bench_modal.c $(BUILD)/libdeltamap.a | $(BUILD)/tests
+	$(CC) $(CFLAGS) $(PKG_CFLAGS) -Itests $< -o $@ $(BUILD)/libdeltamap.a \
+	    $(PKG_LIBS) $(LDLIBS)
+
+install: $(BIN)
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/deltamap/robots
+	install -m 755 $(BIN) $(DESTDIR)$(PREFIX)/bin/deltamap
+	install -m 644 robots/*.ini $(DESTDIR)$(PREFIX)/share/deltamap/robots/
+
+clean:
+	rm -rf build

@@ -1,0 +1,76 @@
+/* dm_assembly — the frozen-configuration finite-element model (MODEL.md §2).
+ *
+ * Arms (na elements) and rods (nb elements each, two per chain) are 3-D
+ * beams; short bars and the platform are rigid. Each beam node's six global
+ * displacements are a linear map ("node map") of a few reduced DOFs U:
+ *   free node      -> its own 6 DOFs
+ *   arm root       -> nothing (clamped)
+ *   upper rod end  -> elbow's 6 DOFs via the short bar + 2 own bending rotations
+ *   lower rod end  -> platform's 6 DOFs via the platform + 2 own bending rotations
+ * and M = sum (T_e S_e)' M_e (T_e S_e), likewise K (Chen eq. 13–21).
+ *
+ * Order of U: chain 0, 1, 2 (arm nodes 1..na; then rod +d and rod -d, each:
+ * upper-end rotations, interior nodes, lower-end rotations), then the 6
+ * platform DOFs (dx, dy, dz, ex, ey, ez) last. Matrices are dense n x n,
+ * column-major. A dm_model is one thread's workspace; the robot it points
+ * to is read-only. */
+#ifndef DM_ASSEMBLY_H
+#define DM_ASSEMBLY_H
+
+#include "dm_beam.h"
+#include "dm_error.h"
+#include "dm_kinematics.h"
+#include "dm_robot.h"
+
+#define DM_NODEMAP_MAX 8
+
+/* u_node[r] = sum_j c[r][j] * U[idx[j]], r over (u, v, w, tx, ty, tz) global. */
+typedef struct dm_nodemap {
+    int m;
+    int idx[DM_NODEMAP_MAX];
+    double c[6][DM_NODEMAP_MAX];
+} dm_nodemap;
+
+typedef enum { DM_MEMBER_ARM = 0, DM_MEMBER_ROD = 1 } dm_member_kind;
+
+typedef struct dm_element {
+    dm_member_kind member;
+    int chain;
+    double x1[3], x2[3];    /* node positions, m */
+    double length_m;
+    double lambda[9];       /* local axes (rows) */
+    dm_nodemap node[2];
+} dm_element;
+
+typedef struct dm_model {
+    const dm_robot *robot;
+    int na, nb;
+    int n;                  /* reduced DOFs */
+    int platform_dof;       /* first of the 6 platform DOFs (== n - 6) */
+    int chain_dof[3];       /* first DOF of each chain's block */
+    int nelem;
+    dm_element *elem;
+    dm_beam_props props[2]; /* arm, rod */
+    double platform_mass[36]; /* 6x6 rigid mass of platform (+ payload) */
+    dm_pose pose;
+    double *M, *K;          /* n x n column-major */
+    double *F_gravity;      /* n: consistent gravity load */
+} dm_model;
+
+/* Number the DOFs for this robot and mesh and allocate the matrices. */
+dm_model *dm_model_alloc(const dm_robot *robot, int na, int nb, dm_error *err);
+void dm_model_free(dm_model *model);
+
+/* Build M, K and the gravity load at a pose (from dm_kin_inverse). */
+int dm_model_build(dm_model *model, const dm_pose *pose, dm_error *err);
+
+/* Add to F (length n) the consistent load of one element whose nodes have
+ * global accelerations a12 (translation, rotation per node):
+ * F += (T S)' M_e T a12. Used for gravity and for inertial loads. */
+void dm_model_add_element_load(const dm_model *model, const dm_element *e,
+                               const double a12[12], double *F);
+
+/* Global 6-vector of a node given reduced DOFs U. */
+void dm_nodemap_apply(const dm_nodemap *map, const double *U, double out[6]);
+
+#endif

@@ -1,0 +1,37 @@
+/* dm_error — one way to report failure across deltamap.
+ *
+ * Every library function that can fail returns an int status (DM_OK == 0)
+ * and, when given a non-NULL dm_error, writes a message that names what
+ * went wrong (file, line and key for input errors). There is no global
+ * error state: each caller (and each thread) owns its dm_error. */
+#ifndef DM_ERROR_H
+#define DM_ERROR_H
+
+enum dm_status {
+    DM_OK = 0,
+    DM_EINVAL = 2,       /* bad input: file, option or value */
+    DM_EUNREACHABLE = 3, /* pose outside the workspace */
+    DM_ENUMERIC = 4,     /* singular matrix, LAPACK/SUNDIALS failure */
+    DM_EIO = 5,          /* file system error */
+    DM_ENOMEM = 6,
+    DM_EINTERRUPT = 7    /* stopped by a signal; finished work is kept */
+};
+
+#define DM_ERROR_MSG_LEN 1024
+
+typedef struct dm_error {
+    int code;
+    char msg[DM_ERROR_MSG_LEN];
+} dm_error;
+
+void dm_error_clear(dm_error *err);
+
+/* Record code and a printf-style message in err (if not NULL); returns code
+ * so that `return dm_fail(err, DM_EINVAL, "...")` reads naturally. */
+int dm_fail(dm_error *err, int code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+/* Short name of a status code ("bad input", "unreachable pose", ...). */
+const char *dm_status_name(int code);
+
+#endif

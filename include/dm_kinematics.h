@@ -1,0 +1,59 @@
+/* dm_kinematics — rigid-body kinematics of the Delta robot (MODEL.md §1).
+ *
+ * Base frame O-XYZ at the centre of the fixed platform, Z up. Chain i has
+ * radial unit e_i, actuator axis t_i; arm angle alpha_i > 0 points the arm
+ * below the base plane. The platform translates only. Units: m, rad, s. */
+#ifndef DM_KINEMATICS_H
+#define DM_KINEMATICS_H
+
+#include "dm_error.h"
+#include "dm_robot.h"
+
+/* The rigid configuration of the robot at one platform position. */
+typedef struct dm_pose {
+    double P[3];          /* platform centre */
+    double alpha[3];      /* arm angles, rad */
+    double e[3][3];       /* radial unit per chain */
+    double t[3][3];       /* actuator axis per chain */
+    double A[3][3];       /* arm root (actuator joint) */
+    double B[3][3];       /* elbow (arm end) */
+    double C[3][3];       /* platform attachment centre P + r e_i */
+    double cond;          /* 2-norm condition number of J (alpha_dot = J P_dot) */
+} dm_pose;
+
+/* Inverse kinematics with the robot's elbow branch; DM_EUNREACHABLE (and a
+ * message naming the chain) when |kappa| > rho for some chain. Also fills
+ * the singularity measure pose->cond. */
+int dm_kin_inverse(const dm_robot *robot, const double P[3], dm_pose *pose, dm_error *err);
+
+/* Forward kinematics: the platform positions (0, 1 or 2) reached with arm
+ * angles alpha. Solutions are ordered by ascending z. Returns their count. */
+int dm_kin_forward(const dm_robot *robot, const double alpha[3], double P[2][3]);
+
+/* Jacobian J (row-major 3x3) with alpha_dot = J * P_dot. Returns
+ * DM_ENUMERIC at a serial singularity (an arm's motion does not change its
+ * rod length). */
+int dm_kin_jacobian(const dm_robot *robot, const dm_pose *pose, double J[9], dm_error *err);
+
+/* Arm rates for platform velocity v (m/s). */
+int dm_kin_rates(const dm_robot *robot, const dm_pose *pose, const double v[3],
+                 double alpha_dot[3], dm_error *err);
+
+/* Arm accelerations for platform velocity v and acceleration a, including
+ * the velocity (centripetal) terms. */
+int dm_kin_accelerations(const dm_robot *robot, const dm_pose *pose, const double v[3],
+                         const double a[3], double alpha_ddot[3], dm_error *err);
+
+/* Rigid-body motion of the links, for inertial loads (MODEL.md §3). */
+typedef struct dm_link_motion {
+    double alpha_dot[3], alpha_ddot[3];
+    double vB[3][3], aB[3][3];       /* elbow velocity / acceleration */
+    double vP[3], aP[3];             /* platform */
+    double rod_omega[3][3];          /* rod angular velocity per chain */
+    double rod_alpha[3][3];          /* rod angular acceleration per chain */
+} dm_link_motion;
+
+int dm_kin_link_motion(const dm_robot *robot, const dm_pose *pose, const double v[3],
+                       const double a[3], dm_link_motion *motion, dm_error *err);
+
+#endif

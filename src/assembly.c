@@ -1,0 +1,311 @@
+/* Frozen-configuration assembly (MODEL.md §2). */
+#include "dm_assembly.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "dm_vec3.h"
+
+/* ---- DOF numbering -------------------------------------------------------- */
+
+static int chain_size(int na, int nb) { return 6 * na + 2 * (2 + 6 * (nb - 1) + 2); }
+
+/* First DOF of arm node k (1..na) in chain i. */
+static int arm_node_dof(const dm_model *md, int i, int k)
+{
+    return md->chain_dof[i] + 6 * (k - 1);
+}
+
+/* First DOF of rod s (0: +d, 1: -d) in chain i: upper rotations come first,
+ * then interior nodes 1..nb-1, then lower rotations. */
+static int rod_dof(const dm_model *md, int i, int s)
+{
+    return md->chain_dof[i] + 6 * md->na + s * (4 + 6 * (md->nb - 1));
+}
+
+dm_model *dm_model_alloc(const dm_robot *robot, int na, int nb, dm_error *err)
+{
+    if (na < 1 || nb < 1 || na > 64 || nb > 64) {
+        dm_fail(err, DM_EINVAL, "mesh %d,%d: elements per arm and rod must be 1..64", na, nb);
+        return NULL;
+    }
+    dm_model *md = calloc(1, sizeof *md);
+    if (!md) {
+        dm_fail(err, DM_ENOMEM, "out of memory for the model");
+        return NULL;
+    }
+    md->robot = robot;
+    md->na = na;
+    md->nb = nb;
+    for (int i = 0; i < 3; i++)
+        md->chain_dof[i] = i * chain_size(na, nb);
+    md->platform_dof = 3 * chain_size(na, nb);
+    md->n = md->platform_dof + 6;
+    md->nelem = 3 * (na + 2 * nb);
+    size_t nn = (size_t)md->n * (size_t)md->n;
+    md->elem = calloc((size_t)md->nelem, sizeof *md->elem);
+    md->M = calloc(nn, sizeof *md->M);
+    md->K = calloc(nn, sizeof *md->K);
+    md->F_gravity = calloc((size_t)md->n, sizeof *md->F_gravity);
+    if (!md->elem || !md->M || !md->K || !md->F_gravity) {
+        dm_fail(err, DM_ENOMEM, "out of memory for a %d-DOF model", md->n);
+        dm_model_free(md);
+        return NULL;
+    }
+    dm_beam_props_of(&robot->arm, &md->props[DM_MEMBER_ARM]);
+    dm_beam_props_of(&robot->rod, &md->props[DM_MEMBER_ROD]);
+    return md;
+}
+
+void dm_model_free(dm_model *md)
+{
+    if (!md)
+        return;
+    free(md->elem);
+    free(md->M);
+    free(md->K);
+    free(md->F_gravity);
+    free(md);
+}
+
+/* ---- node maps ------------------------------------------------------------ */
+
+static void map_clamped(dm_nodemap *m) { memset(m, 0, sizeof *m); }
+
+static void map_free(dm_nodemap *m, int dof)
+{
+    memset(m, 0, sizeof *m);
+    m->m = 6;
+    for (int j = 0; j < 6; j++) {
+        m->idx[j] = dof + j;
+        m->c[j][j] = 1.0;
+    }
+}
+
+/* Rod end on a rigid body: translation u = u_ref + theta_ref x s (s from the
+ * body's reference point to the end), rotation = phi_y y + phi_z z with the
+ * rod's local y, z (ball joint: no rotation about the rod axis). */
+static void map_rod_end(dm_nodemap *m, int ref_dof, const double s[3], int rot_dof,
+                        const double lambda[9])
+{
+    double S[9];
+    map_free(m, ref_dof);
+    dm_skew3(s, S);
+    for (int r = 0; r < 3; r++) {
+        for (int c = 0; c < 3; c++)
+            m->c[r][3 + c] = -S[3 * r + c]; /* theta x s = -s x theta */
+        m->c[3 + r][3 + r] = 0.0;           /* the rotations are the rod end's own */
+    }
+    m->m = 8;
+    m->idx[6] = rot_dof;
+    m->idx[7] = rot_dof + 1;
+    for (int r = 0; r < 3; r++) {
+        m->c[3 + r][6] = lambda[3 + r];
+        m->c[3 + r][7] = lambda[6 + r];
+    }
+}
+
+void dm_nodemap_apply(const dm_nodemap *map, const double *U, double out[6])
+{
+    for (int r = 0; r < 6; r++) {
+        double s = 0;
+        for (int j = 0; j < map->m; j++)
+            s += map->c[r][j] * U[map->idx[j]];
+        out[r] = s;
+    }
+}
+
+/* ---- elements ------------------------------------------------------------- */
+
+static void lerp3(const double a[3], const double b[3], double s, double out[3])
+{
+    for (int k = 0; k < 3; k++)
+        out[k] = a[k] + s * (b[k] - a[k]);
+}
+
+static int set_geometry(dm_element *e, dm_member_kind kind, int chain, const double x1[3],
+                        const double x2[3], const double y_hint[3], dm_error *err)
+{
+    double axis[3];
+    e->member = kind;
+    e->chain = chain;
+    dm_copy3(x1, e->x1);
+    dm_copy3(x2, e->x2);
+    dm_sub3(x2, x1, axis);
+    e->length_m = dm_norm3(axis);
+    if (dm_beam_frame(axis, y_hint, e->lambda))
+        return dm_fail(err, DM_ENUMERIC,
+                       "chain %d: %s element has no local frame (axis parallel to t_i)",
+                       chain, kind == DM_MEMBER_ARM ? "arm" : "rod");
+    return DM_OK;
+}
+
+static int build_arm(dm_model *md, int i, dm_element *e, dm_error *err)
+{
+    const dm_pose *p = &md->pose;
+    for (int k = 0; k < md->na; k++, e++) {
+        double x1[3], x2[3];
+        lerp3(p->A[i], p->B[i], (double)k / md->na, x1);
+        lerp3(p->A[i], p->B[i], (double)(k + 1) / md->na, x2);
+        int rc = set_geometry(e, DM_MEMBER_ARM, i, x1, x2, p->t[i], err);
+        if (rc)
+            return rc;
+        if (k == 0)
+            map_clamped(&e->node[0]);
+        else
+            map_free(&e->node[0], arm_node_dof(md, i, k));
+        map_free(&e->node[1], arm_node_dof(md, i, k + 1));
+    }
+    return DM_OK;
+}
+
+static int build_rod(dm_model *md, int i, int s, dm_element *e, dm_error *err)
+{
+    const dm_pose *p = &md->pose;
+    const dm_robot *rb = md->robot;
+    double sign = s == 0 ? 1.0 : -1.0, bar[3], top[3], bottom[3], plat_arm[3];
+    dm_scale3(sign * rb->rod_half_spacing_m, p->t[i], bar);
+    dm_axpy3(p->B[i], 1.0, bar, top);
+    dm_axpy3(p->C[i], 1.0, bar, bottom);
+    dm_axpy3(bar, rb->platform_radius_m, p->e[i], plat_arm); /* P -> lower end */
+    int base = rod_dof(md, i, s), nb = md->nb;
+    int lower_rot = base + 2 + 6 * (nb - 1);
+    for (int k = 0; k < nb; k++, e++) {
+        double x1[3], x2[3];
+        lerp3(top, bottom, (double)k / nb, x1);
+        lerp3(top, bottom, (double)(k + 1) / nb, x2);
+        int rc = set_geometry(e, DM_MEMBER_ROD, i, x1, x2, p->t[i], err);
+        if (rc)
+            return rc;
+        if (k == 0)
+            map_rod_end(&e->node[0], arm_node_dof(md, i, md->na), bar, base, e->lambda);
+        else
+            map_free(&e->node[0], base + 2 + 6 * (k - 1));
+        if (k == nb - 1)
+            map_rod_end(&e->node[1], md->platform_dof, plat_arm, lower_rot, e->lambda);
+        else
+            map_free(&e->node[1], base + 2 + 6 * k);
+    }
+    return DM_OK;
+}
+
+/* El = T * S (12 x m): the element's local DOFs in terms of its reduced DOFs. */
+static int element_map(const dm_element *e, double El[12][2 * DM_NODEMAP_MAX],
+                       int idx[2 * DM_NODEMAP_MAX])
+{
+    int m = 0;
+    memset(El, 0, sizeof(double) * 12 * 2 * DM_NODEMAP_MAX);
+    for (int nd = 0; nd < 2; nd++) {
+        const dm_nodemap *nm = &e->node[nd];
+        for (int j = 0; j < nm->m; j++, m++) {
+            idx[m] = nm->idx[j];
+            for (int blk = 0; blk < 2; blk++)
+                for (int r = 0; r < 3; r++) {
+                    double s = 0;
+                    for (int k = 0; k < 3; k++)
+                        s += e->lambda[3 * r + k] * nm->c[3 * blk + k][j];
+                    El[6 * nd + 3 * blk + r][m] = s;
+                }
+        }
+    }
+    return m;
+}
+
+/* X[idx, idx] += El' Ke El */
+static void scatter(double *X, int n, const double Ke[144],
+                    double El[12][2 * DM_NODEMAP_MAX], const int idx[], int m)
+{
+    double KE[12][2 * DM_NODEMAP_MAX];
+    for (int r = 0; r < 12; r++)
+        for (int j = 0; j < m; j++) {
+            double s = 0;
+            for (int k = 0; k < 12; k++)
+                s += Ke[r * 12 + k] * El[k][j];
+            KE[r][j] = s;
+        }
+    for (int a = 0; a < m; a++)
+        for (int b = 0; b < m; b++) {
+            double s = 0;
+            for (int k = 0; k < 12; k++)
+                s += El[k][a] * KE[k][b];
+            X[(size_t)idx[b] * n + idx[a]] += s;
+        }
+}
+
+void dm_model_add_element_load(const dm_model *md, const dm_element *e, const double a12[12],
+                               double *F)
+{
+    double El[12][2 * DM_NODEMAP_MAX], Me[144], aloc[12], f[12];
+    int idx[2 * DM_NODEMAP_MAX];
+    int m = element_map(e, El, idx);
+    dm_beam_mass(&md->props[e->member], e->length_m, Me);
+    for (int blk = 0; blk < 4; blk++)
+        for (int r = 0; r < 3; r++) {
+            double s = 0;
+            for (int k = 0; k < 3; k++)
+                s += e->lambda[3 * r + k] * a12[3 * blk + k];
+            aloc[3 * blk + r] = s;
+        }
+    for (int r = 0; r < 12; r++) {
+        double s = 0;
+        for (int k = 0; k < 12; k++)
+            s += Me[r * 12 + k] * aloc[k];
+        f[r] = s;
+    }
+    for (int j = 0; j < m; j++) {
+        double s = 0;
+        for (int k = 0; k < 12; k++)
+            s += El[k][j] * f[k];
+        F[idx[j]] += s;
+    }
+}
+
+static void add_platform(dm_model *md)
+{
+    const dm_robot *rb = md->robot;
+    double *MP = md->platform_mass;
+    memset(MP, 0, 36 * sizeof *MP);
+    for (int k = 0; k < 3; k++) {
+        MP[7 * k] = rb->platform_mass_kg;
+        MP[7 * (k + 3)] = rb->platform_inertia_kgm2[k];
+    }
+    int p = md->platform_dof, n = md->n;
+    for (int c = 0; c < 6; c++)
+        for (int r = 0; r < 6; r++)
+            md->M[(size_t)(p + c) * n + p + r] += MP[6 * c + r];
+    for (int k = 0; k < 3; k++)
+        md->F_gravity[p + k] += rb->platform_mass_kg * rb->gravity_ms2[k];
+}
+
+int dm_model_build(dm_model *md, const dm_pose *pose, dm_error *err)
+{
+    size_t nn = (size_t)md->n * (size_t)md->n;
+    md->pose = *pose;
+    memset(md->M, 0, nn * sizeof *md->M);
+    memset(md->K, 0, nn * sizeof *md->K);
+    memset(md->F_gravity, 0, (size_t)md->n * sizeof *md->F_gravity);
+    dm_element *e = md->elem;
+    for (int i = 0; i < 3; i++) {
+        int rc = build_arm(md, i, e, err);
+        e += md->na;
+        for (int s = 0; s < 2 && !rc; s++, e += md->nb)
+            rc = build_rod(md, i, s, e, err);
+        if (rc)
+            return rc;
+    }
+    const double *g = md->robot->gravity_ms2;
+    const double g12[12] = {g[0], g[1], g[2], 0, 0, 0, g[0], g[1], g[2], 0, 0, 0};
+    for (int k = 0; k < md->nelem; k++) {
+        const dm_element *el = &md->elem[k];
+        double El[12][2 * DM_NODEMAP_MAX], Ke[144], Me[144];
+        int idx[2 * DM_NODEMAP_MAX];
+        int m = element_map(el, El, idx);
+        dm_beam_stiffness(&md->props[el->member], el->length_m, Ke);
+        dm_beam_mass(&md->props[el->member], el->length_m, Me);
+        scatter(md->K, md->n, Ke, El, idx, m);
+        scatter(md->M, md->n, Me, El, idx, m);
+        dm_model_add_element_load(md, el, g12, md->F_gravity);
+    }
+    add_platform(md);
+    return DM_OK;
+}

@@ -1,0 +1,208 @@
+/* Inverse/forward kinematics, rates, accelerations and the singularity
+ * measure of the Delta robot (MODEL.md §1). */
+#include "dm_kinematics.h"
+
+#include <lapacke.h>
+#include <math.h>
+#include <string.h>
+
+#include "dm_vec3.h"
+
+static void chain_axes(const dm_robot *rb, int i, double e[3], double t[3])
+{
+    double th = rb->theta0_rad + i * 2.0 * M_PI / 3.0;
+    e[0] = cos(th); e[1] = sin(th); e[2] = 0;
+    t[0] = -sin(th); t[1] = cos(th); t[2] = 0;
+}
+
+/* Elbow position for arm angle a. */
+static void elbow_at(const dm_robot *rb, const double A[3], const double e[3], double a,
+                     double B[3])
+{
+    double la = rb->arm_length_m;
+    B[0] = A[0] + la * cos(a) * e[0];
+    B[1] = A[1] + la * cos(a) * e[1];
+    B[2] = A[2] - la * sin(a);
+}
+
+/* dB/dalpha and d2B/dalpha2 */
+static void elbow_derivatives(const dm_robot *rb, const dm_pose *p, int i, double b1[3],
+                              double b2[3])
+{
+    double la = rb->arm_length_m, a = p->alpha[i];
+    const double *e = p->e[i];
+    for (int k = 0; k < 3; k++) {
+        double ez = (k == 2);
+        b1[k] = la * (-sin(a) * e[k] - cos(a) * ez);
+        b2[k] = la * (-cos(a) * e[k] + sin(a) * ez);
+    }
+}
+
+static double condition_number(const double J[9])
+{
+    double a[9], s[3], u[1], vt[1], work[16];
+    memcpy(a, J, sizeof a);
+    if (LAPACKE_dgesvd_work(LAPACK_ROW_MAJOR, 'N', 'N', 3, 3, a, 3, s, u, 1, vt, 1, work, 16))
+        return INFINITY;
+    return s[2] > 0 ? s[0] / s[2] : INFINITY;
+}
+
+int dm_kin_inverse(const dm_robot *rb, const double P[3], dm_pose *pose, dm_error *err)
+{
+    double la = rb->arm_length_m, lb = rb->rod_length_m;
+    memset(pose, 0, sizeof *pose);
+    dm_copy3(P, pose->P);
+    for (int i = 0; i < 3; i++) {
+        double *e = pose->e[i], *t = pose->t[i], Q[3];
+        chain_axes(rb, i, e, t);
+        dm_scale3(rb->base_radius_m, e, pose->A[i]);
+        dm_axpy3(P, rb->platform_radius_m, e, pose->C[i]);
+        dm_axpy3(P, rb->platform_radius_m - rb->base_radius_m, e, Q);
+        double qe = dm_dot3(Q, e), qz = Q[2];
+        double kappa = (dm_dot3(Q, Q) + la * la - lb * lb) / (2.0 * la);
+        double rho = hypot(qe, qz);
+        if (!(fabs(kappa) <= rho) || rho == 0.0)
+            return dm_fail(err, DM_EUNREACHABLE,
+                           "pose (%g, %g, %g) m is unreachable: chain %d cannot close "
+                           "(|kappa| = %.6g m > rho = %.6g m)",
+                           P[0], P[1], P[2], i, fabs(kappa), rho);
+        /* qe cos a - qz sin a = rho cos(a + psi) = kappa */
+        double psi = atan2(qz, qe), delta = acos(fmin(1.0, kappa / rho));
+        double a1 = remainder(-psi + delta, 2.0 * M_PI);
+        double a2 = remainder(-psi - delta, 2.0 * M_PI);
+        int out_first = cos(a1) >= cos(a2); /* elbow-out: larger B.e */
+        pose->alpha[i] = (out_first != rb->elbow_in) ? a1 : a2;
+        elbow_at(rb, pose->A[i], e, pose->alpha[i], pose->B[i]);
+    }
+    double J[9];
+    pose->cond = dm_kin_jacobian(rb, pose, J, NULL) ? INFINITY : condition_number(J);
+    return DM_OK;
+}
+
+int dm_kin_forward(const dm_robot *rb, const double alpha[3], double P[2][3])
+{
+    /* Each chain: |P - S_i| = lb with S_i = B_i - r e_i. Subtracting sphere
+     * equations gives two planes; their line meets sphere 0 in 0-2 points. */
+    double S[3][3], e[3], t[3];
+    for (int i = 0; i < 3; i++) {
+        double A[3], B[3];
+        chain_axes(rb, i, e, t);
+        dm_scale3(rb->base_radius_m, e, A);
+        elbow_at(rb, A, e, alpha[i], B);
+        dm_axpy3(B, -rb->platform_radius_m, e, S[i]);
+    }
+    double n1[3], n2[3], dir[3];
+    dm_sub3(S[1], S[0], n1);
+    dm_sub3(S[2], S[0], n2);
+    double c1 = 0.5 * (dm_dot3(S[1], S[1]) - dm_dot3(S[0], S[0]));
+    double c2 = 0.5 * (dm_dot3(S[2], S[2]) - dm_dot3(S[0], S[0]));
+    dm_cross3(n1, n2, dir);
+    double dd = dm_dot3(dir, dir);
+    if (dd == 0.0)
+        return 0;
+    /* point X0 on both planes: X0 = (c1 (n2 x dir) + c2 (dir x n1)) / |dir|^2 */
+    double a1[3], a2[3], X0[3];
+    dm_cross3(n2, dir, a1);
+    dm_cross3(dir, n1, a2);
+    for (int k = 0; k < 3; k++)
+        X0[k] = (c1 * a1[k] + c2 * a2[k]) / dd;
+    double w[3];
+    dm_sub3(X0, S[0], w);
+    double lb = rb->rod_length_m;
+    double qa = dd, qb = 2.0 * dm_dot3(w, dir), qc = dm_dot3(w, w) - lb * lb;
+    double disc = qb * qb - 4.0 * qa * qc;
+    if (disc < 0)
+        return 0;
+    double s1 = (-qb - sqrt(disc)) / (2 * qa), s2 = (-qb + sqrt(disc)) / (2 * qa);
+    dm_axpy3(X0, s1, dir, P[0]);
+    dm_axpy3(X0, s2, dir, P[1]);
+    if (P[0][2] > P[1][2]) {
+        double tmp[3];
+        dm_copy3(P[0], tmp);
+        dm_copy3(P[1], P[0]);
+        dm_copy3(tmp, P[1]);
+    }
+    return disc == 0 ? 1 : 2;
+}
+
+/* Row i of J is L_i / (L_i . dB_i/dalpha_i), from d/dt |B_i - C_i|^2 = 0. */
+int dm_kin_jacobian(const dm_robot *rb, const dm_pose *p, double J[9], dm_error *err)
+{
+    for (int i = 0; i < 3; i++) {
+        double L[3], b1[3], b2[3];
+        dm_sub3(p->B[i], p->C[i], L);
+        elbow_derivatives(rb, p, i, b1, b2);
+        double den = dm_dot3(L, b1);
+        if (fabs(den) <= 1e-12 * dm_norm3(L) * rb->arm_length_m)
+            return dm_fail(err, DM_ENUMERIC, "chain %d is at a serial singularity", i);
+        for (int k = 0; k < 3; k++)
+            J[3 * i + k] = L[k] / den;
+    }
+    return DM_OK;
+}
+
+int dm_kin_rates(const dm_robot *rb, const dm_pose *p, const double v[3], double alpha_dot[3],
+                 dm_error *err)
+{
+    double J[9];
+    int rc = dm_kin_jacobian(rb, p, J, err);
+    if (rc)
+        return rc;
+    for (int i = 0; i < 3; i++)
+        alpha_dot[i] = dm_dot3(&J[3 * i], v);
+    return DM_OK;
+}
+
+/* From d2/dt2 |B - C|^2 = 0:
+ * |L_dot|^2 + L.(alpha_ddot b1 + alpha_dot^2 b2 - a) = 0. */
+int dm_kin_accelerations(const dm_robot *rb, const dm_pose *p, const double v[3],
+                         const double a[3], double alpha_ddot[3], dm_error *err)
+{
+    double ad[3];
+    int rc = dm_kin_rates(rb, p, v, ad, err);
+    if (rc)
+        return rc;
+    for (int i = 0; i < 3; i++) {
+        double L[3], b1[3], b2[3], Ldot[3];
+        dm_sub3(p->B[i], p->C[i], L);
+        elbow_derivatives(rb, p, i, b1, b2);
+        for (int k = 0; k < 3; k++)
+            Ldot[k] = ad[i] * b1[k] - v[k];
+        alpha_ddot[i] = (dm_dot3(L, a) - ad[i] * ad[i] * dm_dot3(L, b2) - dm_dot3(Ldot, Ldot)) /
+                        dm_dot3(L, b1);
+    }
+    return DM_OK;
+}
+
+int dm_kin_link_motion(const dm_robot *rb, const dm_pose *p, const double v[3],
+                       const double a[3], dm_link_motion *m, dm_error *err)
+{
+    memset(m, 0, sizeof *m);
+    int rc = dm_kin_rates(rb, p, v, m->alpha_dot, err);
+    if (!rc)
+        rc = dm_kin_accelerations(rb, p, v, a, m->alpha_ddot, err);
+    if (rc)
+        return rc;
+    dm_copy3(v, m->vP);
+    dm_copy3(a, m->aP);
+    for (int i = 0; i < 3; i++) {
+        double b1[3], b2[3], L[3], dv[3], da[3];
+        elbow_derivatives(rb, p, i, b1, b2);
+        double w = m->alpha_dot[i], wd = m->alpha_ddot[i];
+        for (int k = 0; k < 3; k++) {
+            m->vB[i][k] = w * b1[k];
+            m->aB[i][k] = wd * b1[k] + w * w * b2[k];
+        }
+        /* Rods swing without spin: omega = L x (vC - vB)/|L|^2, L = C - B;
+         * its rate is L x (aC - aB)/|L|^2 since L_dot x L_dot = 0. */
+        dm_sub3(p->C[i], p->B[i], L);
+        double L2 = dm_dot3(L, L);
+        dm_sub3(v, m->vB[i], dv);
+        dm_sub3(a, m->aB[i], da);
+        dm_cross3(L, dv, m->rod_omega[i]);
+        dm_cross3(L, da, m->rod_alpha[i]);
+        dm_scale3(1.0 / L2, m->rod_omega[i], m->rod_omega[i]);
+        dm_scale3(1.0 / L2, m->rod_alpha[i], m->rod_alpha[i]);
+    }
+    return DM_OK;
+}

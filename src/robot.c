@@ -1,0 +1,534 @@
+/* Robot description files: INI parsed with libinih, validated key by key.
+ *
+ * Parsing is table driven: every accepted [section] key has one row saying
+ * where it goes, how it is read and whether it is required. The handler
+ * records the line of every key so that checks made after parsing (a
+ * missing dimension, a tube whose bore exceeds its diameter) still name the
+ * file, line and key. */
+#include "dm_robot.h"
+
+#include <errno.h>
+#include <stdarg.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <ini.h>
+
+typedef enum {
+    KEY_POSITIVE,   /* double > 0 */
+    KEY_NONNEG,     /* double >= 0 */
+    KEY_REAL,       /* any finite double */
+    KEY_DEGREES,    /* finite double in degrees, stored in radians */
+    KEY_COUNT,      /* integer >= 1 */
+    KEY_VEC3,       /* three finite doubles "a, b, c" */
+    KEY_VEC3_NONNEG,/* three doubles >= 0 */
+    KEY_SHAPE,      /* rect | square | circle | tube */
+    KEY_ELBOW,      /* out | in */
+    KEY_NAME        /* free text */
+} key_kind;
+
+typedef struct {
+    const char *section;
+    const char *key;
+    key_kind kind;
+    size_t offset;
+    int required;
+    const char *unit;
+} key_spec;
+
+#define R_OFF(field) offsetof(dm_robot, field)
+
+static const key_spec KEYS[] = {
+    {"robot", "name", KEY_NAME, R_OFF(name), 0, ""},
+    {"geometry", "base_radius", KEY_POSITIVE, R_OFF(base_radius_m), 1, "m"},
+    {"geometry", "platform_radius", KEY_POSITIVE, R_OFF(platform_radius_m), 1, "m"},
+    {"geometry", "arm_length", KEY_POSITIVE, R_OFF(arm_length_m), 1, "m"},
+    {"geometry", "rod_length", KEY_POSITIVE, R_OFF(rod_length_m), 1, "m"},
+    {"geometry", "rod_half_spacing", KEY_POSITIVE, R_OFF(rod_half_spacing_m), 1, "m"},
+    {"geometry", "theta0_deg", KEY_DEGREES, R_OFF(theta0_rad), 0, "deg"},
+    {"geometry", "elbow", KEY_ELBOW, R_OFF(elbow_in), 0, ""},
+#define MEMBER_KEYS(sec, m)                                                        \
+    {sec, "shape", KEY_SHAPE, R_OFF(m.shape), 1, ""},                              \
+    {sec, "width", KEY_POSITIVE, R_OFF(m.b_m), 0, "m"},                            \
+    {sec, "height", KEY_POSITIVE, R_OFF(m.h_m), 0, "m"},                           \
+    {sec, "side", KEY_POSITIVE, R_OFF(m.diameter_m), 0, "m"},                      \
+    {sec, "diameter", KEY_POSITIVE, R_OFF(m.diameter_m), 0, "m"},                  \
+    {sec, "inner_diameter", KEY_POSITIVE, R_OFF(m.inner_diameter_m), 0, "m"},      \
+    {sec, "youngs_modulus", KEY_POSITIVE, R_OFF(m.youngs_pa), 1, "Pa"},            \
+    {sec, "shear_modulus", KEY_POSITIVE, R_OFF(m.shear_pa), 0, "Pa"},              \
+    {sec, "poisson_ratio", KEY_REAL, 0, 0, ""},                                    \
+    {sec, "density", KEY_POSITIVE, R_OFF(m.density_kgm3), 1, "kg/m^3"}
+    MEMBER_KEYS("arm", arm),
+    MEMBER_KEYS("rod", rod),
+    {"platform", "mass", KEY_POSITIVE, R_OFF(platform_mass_kg), 1, "kg"},
+    {"platform", "inertia", KEY_VEC3_NONNEG, R_OFF(platform_inertia_kgm2), 0, "kg*m^2"},
+    {"environment", "gravity", KEY_VEC3, R_OFF(gravity_ms2), 0, "m/s^2"},
+    {"damping", "alpha", KEY_NONNEG, R_OFF(rayleigh_alpha), 0, "1/s"},
+    {"damping", "beta", KEY_NONNEG, R_OFF(rayleigh_beta), 0, "s"},
+    {"mesh", "na", KEY_COUNT, R_OFF(na), 0, ""},
+    {"mesh", "nb", KEY_COUNT, R_OFF(nb), 0, ""},
+    {"workspace", "home", KEY_VEC3, R_OFF(home_m), 0, "m"},
+    {"workspace", "singular_condition", KEY_POSITIVE, R_OFF(singular_cond), 0, ""},
+};
+#define NKEYS (sizeof KEYS / sizeof KEYS[0])
+
+/* Sections that exist but accept no key yet: [effects] is reserved for
+ * the model extensions of MODEL.md §6. */
+static const char *const RESERVED_SECTIONS[] = {"effects", NULL};
+
+typedef struct {
+    dm_robot *robot;
+    const char *source;
+    int line;              /* line being parsed (counted by our reader) */
+    int key_line[NKEYS];   /* line where each key was set, 0 = absent */
+    double poisson[2];     /* arm, rod */
+    dm_error *err;
+} parse_state;
+
+static int parse_double(const char *s, double *out)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    while (*end == ' ' || *end == '\t')
+        end++;
+    if (end == s || *end != '\0' || errno == ERANGE || !isfinite(v))
+        return -1;
+    *out = v;
+    return 0;
+}
+
+static int parse_vec3(const char *s, double out[3])
+{
+    char buf[256];
+    if (strlen(s) >= sizeof buf)
+        return -1;
+    strcpy(buf, s);
+    char *save = NULL, *tok = strtok_r(buf, ",", &save);
+    for (int i = 0; i < 3; i++) {
+        if (!tok || parse_double(tok + strspn(tok, " \t"), &out[i]))
+            return -1;
+        tok = strtok_r(NULL, ",", &save);
+    }
+    return tok ? -1 : 0;
+}
+
+/* Record "FILE:LINE: [section] key: what" and return 0 (inih's "stop"). */
+static int key_error(parse_state *st, int line, const char *section,
+                     const char *key, const char *fmt, ...)
+    __attribute__((format(printf, 5, 6)));
+
+static int key_error(parse_state *st, int line, const char *section,
+                     const char *key, const char *fmt, ...)
+{
+    char what[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(what, sizeof what, fmt, ap);
+    va_end(ap);
+    dm_fail(st->err, DM_EINVAL, "%s:%d: [%s] %s: %s", st->source, line,
+            section, key, what);
+    return 0;
+}
+
+static int store_value(parse_state *st, const key_spec *ks, const char *value)
+{
+    char *dst = (char *)st->robot + ks->offset;
+    double v = 0, v3[3];
+    switch (ks->kind) {
+    case KEY_NAME:
+        if (strlen(value) >= DM_NAME_LEN || !*value)
+            return key_error(st, st->line, ks->section, ks->key,
+                             "name must be 1 to 63 characters, got '%s'", value);
+        strcpy(dst, value);
+        return 1;
+    case KEY_SHAPE: {
+        static const char *const shapes[] = {"rect", "square", "circle", "tube"};
+        for (int i = 0; i < 4; i++)
+            if (!strcmp(value, shapes[i])) {
+                *(dm_section_shape *)dst = (dm_section_shape)i;
+                return 1;
+            }
+        return key_error(st, st->line, ks->section, ks->key,
+                         "'%s' is not a section shape (rect, square, circle, tube)", value);
+    }
+    case KEY_ELBOW:
+        if (strcmp(value, "out") && strcmp(value, "in"))
+            return key_error(st, st->line, ks->section, ks->key,
+                             "'%s' is not an elbow branch (out, in)", value);
+        *(int *)dst = !strcmp(value, "in");
+        return 1;
+    case KEY_COUNT: {
+        char *end;
+        long n = strtol(value, &end, 10);
+        if (end == value || *end || n < 1 || n > 64)
+            return key_error(st, st->line, ks->section, ks->key,
+                             "'%s' is not a whole number from 1 to 64", value);
+        *(int *)dst = (int)n;
+        return 1;
+    }
+    case KEY_VEC3:
+    case KEY_VEC3_NONNEG:
+        if (parse_vec3(value, v3))
+            return key_error(st, st->line, ks->section, ks->key,
+                             "'%s' is not three numbers 'a, b, c'", value);
+        if (ks->kind == KEY_VEC3_NONNEG && (v3[0] < 0 || v3[1] < 0 || v3[2] < 0))
+            return key_error(st, st->line, ks->section, ks->key,
+                             "'%s' has a negative component", value);
+        memcpy(dst, v3, sizeof v3);
+        return 1;
+    default:
+        break;
+    }
+    if (parse_double(value, &v))
+        return key_error(st, st->line, ks->section, ks->key, "'%s' is not a number", value);
+    if (ks->kind == KEY_POSITIVE && !(v > 0))
+        return key_error(st, st->line, ks->section, ks->key, "must be > 0, got %s", value);
+    if (ks->kind == KEY_NONNEG && v < 0)
+        return key_error(st, st->line, ks->section, ks->key, "must be >= 0, got %s", value);
+    if (ks->kind == KEY_DEGREES)
+        v *= M_PI / 180.0;
+    if (!strcmp(ks->key, "poisson_ratio")) {
+        if (!(v > -1.0 && v < 0.5))
+            return key_error(st, st->line, ks->section, ks->key,
+                             "must lie in (-1, 0.5), got %s", value);
+        st->poisson[!strcmp(ks->section, "rod")] = v;
+        return 1;
+    }
+    *(double *)dst = v;
+    return 1;
+}
+
+static int handler(void *user, const char *section, const char *name, const char *value)
+{
+    parse_state *st = user;
+    if (st->err && st->err->code)
+        return 0; /* report only the first error */
+    for (size_t i = 0; i < NKEYS; i++) {
+        if (strcmp(KEYS[i].section, section) || strcmp(KEYS[i].key, name))
+            continue;
+        if (st->key_line[i])
+            return key_error(st, st->line, section, name,
+                             "given twice (first on line %d)", st->key_line[i]);
+        st->key_line[i] = st->line;
+        return store_value(st, &KEYS[i], value);
+    }
+    for (int r = 0; RESERVED_SECTIONS[r]; r++)
+        if (!strcmp(section, RESERVED_SECTIONS[r]))
+            return key_error(st, st->line, section, name,
+                             "no model extension of this name is available in this version");
+    int known_section = 0;
+    for (size_t i = 0; i < NKEYS; i++)
+        known_section |= !strcmp(KEYS[i].section, section);
+    if (!known_section)
+        return key_error(st, st->line, section, name,
+                         "unknown section [%s]", section);
+    return key_error(st, st->line, section, name, "unknown key");
+}
+
+/* ---- reading ------------------------------------------------------------ */
+
+/* inih reads through this callback one line at a time; counting the
+ * newlines it hands out gives the line number of the key being parsed. */
+typedef struct {
+    const char *pos;
+    int lines_done;
+    parse_state *st;
+} line_reader;
+
+static char *read_line(char *buf, int size, void *stream)
+{
+    line_reader *rd = stream;
+    if (!*rd->pos)
+        return NULL;
+    int n = 0;
+    while (n < size - 1 && rd->pos[n] && rd->pos[n] != '\n')
+        n++;
+    if (n < size - 1 && rd->pos[n] == '\n')
+        n++;
+    memcpy(buf, rd->pos, (size_t)n);
+    buf[n] = '\0';
+    rd->pos += n;
+    rd->st->line = rd->lines_done + 1;
+    if (n > 0 && buf[n - 1] == '\n')
+        rd->lines_done++;
+    return buf;
+}
+
+static void set_defaults(dm_robot *robot)
+{
+    memset(robot, 0, sizeof *robot);
+    robot->gravity_ms2[2] = -9.80665;
+    robot->na = 4; /* converges f1..f6 to 0.1 % (MODEL.md §2, docs/convergence) */
+    robot->nb = 4;
+    robot->singular_cond = 100.0;
+}
+
+static int key_index(const char *section, const char *key)
+{
+    for (size_t i = 0; i < NKEYS; i++)
+        if (!strcmp(KEYS[i].section, section) && !strcmp(KEYS[i].key, key))
+            return (int)i;
+    return -1;
+}
+
+static int line_of(const parse_state *st, const char *section, const char *key)
+{
+    int i = key_index(section, key);
+    return i < 0 ? 0 : st->key_line[i];
+}
+
+/* Which dimension keys each shape takes. */
+static int shape_uses(dm_section_shape shape, const char *key)
+{
+    switch (shape) {
+    case DM_SECTION_RECT: return !strcmp(key, "width") || !strcmp(key, "height");
+    case DM_SECTION_SQUARE: return !strcmp(key, "side");
+    case DM_SECTION_CIRCLE: return !strcmp(key, "diameter");
+    case DM_SECTION_TUBE:
+        return !strcmp(key, "diameter") || !strcmp(key, "inner_diameter");
+    }
+    return 0;
+}
+
+static int finish_member(parse_state *st, const char *sec, dm_member *m, double poisson)
+{
+    static const char *const dims[] = {"width", "height", "side", "diameter", "inner_diameter"};
+    int shape_line = line_of(st, sec, "shape");
+    for (int k = 0; k < 5; k++) {
+        int line = line_of(st, sec, dims[k]);
+        if (line && !shape_uses(m->shape, dims[k]))
+            return !key_error(st, line, sec, dims[k], "does not apply to this section shape");
+        if (!line && shape_uses(m->shape, dims[k]))
+            return !key_error(st, shape_line, sec, dims[k],
+                              "required by this section shape but missing");
+    }
+    if (m->shape == DM_SECTION_TUBE && !(m->inner_diameter_m < m->diameter_m))
+        return !key_error(st, line_of(st, sec, "inner_diameter"), sec, "inner_diameter",
+                          "must be smaller than diameter (%g m)", m->diameter_m);
+    int g_line = line_of(st, sec, "shear_modulus"), nu_line = line_of(st, sec, "poisson_ratio");
+    if (g_line && nu_line)
+        return !key_error(st, nu_line, sec, "poisson_ratio",
+                          "give shear_modulus or poisson_ratio, not both (shear_modulus on line %d)",
+                          g_line);
+    if (!g_line && !nu_line)
+        return !key_error(st, shape_line, sec, "poisson_ratio",
+                          "missing: give poisson_ratio or shear_modulus");
+    if (!g_line)
+        m->shear_pa = m->youngs_pa / (2.0 * (1.0 + poisson));
+    return dm_section_compute(m, &m->section, st->err);
+}
+
+static int check_required(parse_state *st)
+{
+    for (size_t i = 0; i < NKEYS; i++)
+        if (KEYS[i].required && !st->key_line[i])
+            return dm_fail(st->err, DM_EINVAL, "%s: [%s] %s: required key missing (%s)",
+                           st->source, KEYS[i].section, KEYS[i].key,
+                           *KEYS[i].unit ? KEYS[i].unit : "see docs/robot-file.md");
+    return DM_OK;
+}
+
+/* Derived defaults and whole-robot checks, once every key is read. */
+static int finish_robot(parse_state *st)
+{
+    dm_robot *rb = st->robot;
+    int rc = check_required(st);
+    if (rc)
+        return rc;
+    if (finish_member(st, "arm", &rb->arm, st->poisson[0]) ||
+        finish_member(st, "rod", &rb->rod, st->poisson[1]))
+        return DM_EINVAL;
+    double offset = fabs(rb->base_radius_m - rb->platform_radius_m);
+    if (offset >= rb->arm_length_m + rb->rod_length_m)
+        return dm_fail(st->err, DM_EINVAL,
+                       "%s:%d: [geometry] rod_length: the robot can reach nothing: "
+                       "arm_length + rod_length (%g m) must exceed |base_radius - "
+                       "platform_radius| (%g m)",
+                       st->source, line_of(st, "geometry", "rod_length"),
+                       rb->arm_length_m + rb->rod_length_m, offset);
+    if (!line_of(st, "platform", "inertia")) {
+        double r = rb->platform_radius_m, m = rb->platform_mass_kg;
+        rb->platform_inertia_kgm2[0] = m * r * r / 4; /* thin disc */
+        rb->platform_inertia_kgm2[1] = m * r * r / 4;
+        rb->platform_inertia_kgm2[2] = m * r * r / 2;
+    }
+    if (!line_of(st, "workspace", "home")) {
+        /* On the axis, below the base, where |Q|^2 = la^2 + lb^2. */
+        double la = rb->arm_length_m, lb = rb->rod_length_m;
+        double z2 = la * la + lb * lb - offset * offset;
+        rb->home_m[2] = -sqrt(z2 > 0 ? z2 : 0.25 * (la + lb) * (la + lb));
+    }
+    if (!rb->name[0])
+        snprintf(rb->name, DM_NAME_LEN, "unnamed");
+    return DM_OK;
+}
+
+int dm_robot_parse_string(const char *text, const char *source, dm_robot *robot,
+                          dm_error *err)
+{
+    dm_error local;
+    if (!err)
+        err = &local;
+    dm_error_clear(err);
+    set_defaults(robot);
+    snprintf(robot->source, DM_SOURCE_LEN, "%s", source);
+    parse_state st = {.robot = robot, .source = source, .err = err};
+    line_reader rd = {.pos = text, .st = &st};
+    int bad_line = ini_parse_stream(read_line, &rd, handler, &st);
+    if (err->code)
+        return err->code;
+    if (bad_line)
+        return dm_fail(err, DM_EINVAL, "%s:%d: not an INI line (expected [section] or key = value)",
+                       source, bad_line);
+    return finish_robot(&st);
+}
+
+int dm_robot_parse_file(const char *path, dm_robot *robot, dm_error *err)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return dm_fail(err, DM_EIO, "%s: cannot open robot file: %s", path, strerror(errno));
+    char *text = NULL;
+    size_t len = 0, cap = 0, got;
+    char chunk[4096];
+    while ((got = fread(chunk, 1, sizeof chunk, f)) > 0) {
+        if (len + got + 1 > cap) {
+            cap = 2 * (len + got + 1);
+            char *grown = realloc(text, cap);
+            if (!grown) {
+                free(text);
+                fclose(f);
+                return dm_fail(err, DM_ENOMEM, "%s: out of memory reading robot file", path);
+            }
+            text = grown;
+        }
+        memcpy(text + len, chunk, got);
+        len += got;
+    }
+    int read_failed = ferror(f);
+    fclose(f);
+    if (read_failed) {
+        free(text);
+        return dm_fail(err, DM_EIO, "%s: read error", path);
+    }
+    if (memchr(text ? text : "", '\0', len)) {
+        free(text);
+        return dm_fail(err, DM_EINVAL, "%s: not a text file (contains NUL bytes)", path);
+    }
+    int rc = dm_robot_parse_string(text ? (text[len] = '\0', text) : "", path, robot, err);
+    free(text);
+    return rc;
+}
+
+/* ---- presets -------------------------------------------------------------- */
+
+/* Generated at build time from robots/NAME.ini (see Makefile): the shipped
+ * example files are the single source of the presets. */
+extern const char *const dm_preset_names_table[];
+extern const char *const dm_preset_texts_table[];
+
+const char *const *dm_robot_preset_names(void) { return dm_preset_names_table; }
+
+int dm_robot_load(const char *spec, dm_robot *robot, dm_error *err)
+{
+    for (int i = 0; dm_preset_names_table[i]; i++) {
+        if (strcmp(spec, dm_preset_names_table[i]))
+            continue;
+        char source[DM_SOURCE_LEN];
+        snprintf(source, sizeof source, "robots/%s.ini (built-in preset)", spec);
+        return dm_robot_parse_string(dm_preset_texts_table[i], source, robot, err);
+    }
+    if (!strchr(spec, '/') && !strchr(spec, '.')) {
+        FILE *probe = fopen(spec, "r");
+        if (!probe) {
+            char names[256] = "";
+            for (int i = 0; dm_preset_names_table[i]; i++)
+                snprintf(names + strlen(names), sizeof names - strlen(names), "%s%s",
+                         i ? ", " : "", dm_preset_names_table[i]);
+            return dm_fail(err, DM_EINVAL, "'%s' is neither a preset (%s) nor a robot file",
+                           spec, names);
+        }
+        fclose(probe);
+    }
+    return dm_robot_parse_file(spec, robot, err);
+}
+
+/* ---- sections ------------------------------------------------------------ */
+
+static void rect_section(double b, double h, dm_section *s)
+{
+    double lo = b < h ? b : h, hi = b < h ? h : b, q = lo / hi;
+    s->area_m2 = b * h;
+    s->iy_m4 = b * h * h * h / 12.0;
+    s->iz_m4 = h * b * b * b / 12.0;
+    s->ip_m4 = s->iy_m4 + s->iz_m4;
+    s->j_m4 = hi * lo * lo * lo * (1.0 / 3.0 - 0.21 * q * (1.0 - q * q * q * q / 12.0));
+}
+
+static void tube_section(double D, double d, dm_section *s)
+{
+    double D2 = D * D, d2 = d * d;
+    s->area_m2 = M_PI * (D2 - d2) / 4.0;
+    s->iy_m4 = s->iz_m4 = M_PI * (D2 * D2 - d2 * d2) / 64.0;
+    s->ip_m4 = s->j_m4 = s->iy_m4 + s->iz_m4;
+}
+
+int dm_section_compute(const dm_member *m, dm_section *out, dm_error *err)
+{
+    switch (m->shape) {
+    case DM_SECTION_RECT: rect_section(m->b_m, m->h_m, out); break;
+    case DM_SECTION_SQUARE: rect_section(m->diameter_m, m->diameter_m, out); break;
+    case DM_SECTION_CIRCLE: tube_section(m->diameter_m, 0.0, out); break;
+    case DM_SECTION_TUBE: tube_section(m->diameter_m, m->inner_diameter_m, out); break;
+    default: return dm_fail(err, DM_EINVAL, "unknown section shape %d", (int)m->shape);
+    }
+    if (!(out->area_m2 > 0 && out->iy_m4 > 0 && out->iz_m4 > 0 && out->j_m4 > 0))
+        return dm_fail(err, DM_EINVAL, "section has no area or stiffness");
+    return DM_OK;
+}
+
+/* ---- writing ------------------------------------------------------------- */
+
+static void write_member(FILE *out, const char *sec, const dm_member *m)
+{
+    static const char *const shapes[] = {"rect", "square", "circle", "tube"};
+    fprintf(out, "\n[%s]\nshape = %s\n", sec, shapes[m->shape]);
+    switch (m->shape) {
+    case DM_SECTION_RECT:
+        fprintf(out, "width = %.17g\nheight = %.17g\n", m->b_m, m->h_m);
+        break;
+    case DM_SECTION_SQUARE: fprintf(out, "side = %.17g\n", m->diameter_m); break;
+    case DM_SECTION_CIRCLE: fprintf(out, "diameter = %.17g\n", m->diameter_m); break;
+    case DM_SECTION_TUBE:
+        fprintf(out, "diameter = %.17g\ninner_diameter = %.17g\n", m->diameter_m,
+                m->inner_diameter_m);
+        break;
+    }
+    fprintf(out, "youngs_modulus = %.17g\nshear_modulus = %.17g\ndensity = %.17g\n",
+            m->youngs_pa, m->shear_pa, m->density_kgm3);
+}
+
+int dm_robot_write(const dm_robot *rb, FILE *out)
+{
+    fprintf(out, "[robot]\nname = %s\n", rb->name);
+    fprintf(out, "\n[geometry]\nbase_radius = %.17g\nplatform_radius = %.17g\n"
+                 "arm_length = %.17g\nrod_length = %.17g\nrod_half_spacing = %.17g\n"
+                 "theta0_deg = %.17g\nelbow = %s\n",
+            rb->base_radius_m, rb->platform_radius_m, rb->arm_length_m, rb->rod_length_m,
+            rb->rod_half_spacing_m, rb->theta0_rad * 180.0 / M_PI, rb->elbow_in ? "in" : "out");
+    write_member(out, "arm", &rb->arm);
+    write_member(out, "rod", &rb->rod);
+    const double *J = rb->platform_inertia_kgm2, *g = rb->gravity_ms2, *h = rb->home_m;
+    fprintf(out, "\n[platform]\nmass = %.17g\ninertia = %.17g, %.17g, %.17g\n",
+            rb->platform_mass_kg, J[0], J[1], J[2]);
+    fprintf(out, "\n[environment]\ngravity = %.17g, %.17g, %.17g\n", g[0], g[1], g[2]);
+    fprintf(out, "\n[damping]\nalpha = %.17g\nbeta = %.17g\n", rb->rayleigh_alpha,
+            rb->rayleigh_beta);
+    fprintf(out, "\n[mesh]\nna = %d\nnb = %d\n", rb->na, rb->nb);
+    fprintf(out, "\n[workspace]\nhome = %.17g, %.17g, %.17g\nsingular_condition = %.17g\n",
+            h[0], h[1], h[2], rb->singular_cond);
+    return ferror(out) ? DM_EIO : DM_OK;
+}
