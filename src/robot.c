@@ -297,14 +297,15 @@ static int finish_member(parse_state *st, const char *sec, dm_member *m, double 
 {
     static const char *const dims[] = {"width", "height", "side", "diameter", "inner_diameter"};
     int shape_line = line_of(st, sec, "shape");
-    for (int k = 0; k < 5; k++) {
+    for (int k = 0; k < 5; k++) { /* misplaced keys first: the likelier mistake */
         int line = line_of(st, sec, dims[k]);
         if (line && !shape_uses(m->shape, dims[k]))
             return !key_error(st, line, sec, dims[k], "does not apply to this section shape");
-        if (!line && shape_uses(m->shape, dims[k]))
+    }
+    for (int k = 0; k < 5; k++)
+        if (!line_of(st, sec, dims[k]) && shape_uses(m->shape, dims[k]))
             return !key_error(st, shape_line, sec, dims[k],
                               "required by this section shape but missing");
-    }
     if (m->shape == DM_SECTION_TUBE && !(m->inner_diameter_m < m->diameter_m))
         return !key_error(st, line_of(st, sec, "inner_diameter"), sec, "inner_diameter",
                           "must be smaller than diameter (%g m)", m->diameter_m);

@@ -1,0 +1,314 @@
+/* The deltamap command line (see dm_cli.h). */
+#include "dm_cli.h"
+
+#include <getopt.h>
+#include <jansson.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dm_analysis.h"
+
+#define DM_VERSION "0.1.0"
+#define EXIT_USAGE 1
+
+static const char MAIN_HELP[] =
+    "usage: deltamap COMMAND [options]\n"
+    "\n"
+    "Elastodynamics of Delta parallel robots (see README.md, docs/).\n"
+    "\n"
+    "commands:\n"
+    "  modes     natural frequencies, mode shapes, static gravity error and\n"
+    "            platform stiffness at one pose\n"
+    "  robot     check a robot file or preset and print it in full\n"
+    "  presets   list the built-in robots\n"
+    "\n"
+    "`deltamap COMMAND --help` describes a command's options.\n"
+    "\n"
+    "exit codes: 0 success, 1 usage error, 2 bad input (robot file, option\n"
+    "value), 3 unreachable pose, 4 numerical failure (singular structure),\n"
+    "5 i/o error, 6 out of memory, 7 interrupted\n";
+
+static const char MODES_HELP[] =
+    "usage: deltamap modes --robot R [--at X,Y,Z] [--modes K] [--mesh NA,NB]\n"
+    "                      [--method partial|all] [--json]\n"
+    "\n"
+    "Frozen-configuration modal analysis at one platform pose (MODEL.md §2-5).\n"
+    "\n"
+    "  --robot R       preset name (chen2018, zheng2017, han2011) or robot file\n"
+    "  --at X,Y,Z      platform centre in m (default: the robot's [workspace] home)\n"
+    "  --modes K       number of modes to compute and print (default 10)\n"
+    "  --mesh NA,NB    elements per arm and per rod (default: the robot file's\n"
+    "                  [mesh], 4,4 for the presets; 1,1 is Chen's 48-DOF model)\n"
+    "  --method M      eigen solver: partial (k lowest modes only, default) or\n"
+    "                  all (every mode, dsygvd); results agree to round-off\n"
+    "  --json          one JSON object on stdout instead of the table\n";
+
+static const char ROBOT_HELP[] =
+    "usage: deltamap robot R\n"
+    "\n"
+    "Parse robot file or preset R, check it, and print it with every default\n"
+    "filled in (the format of docs/robot-file.md).\n";
+
+static int report(const dm_error *err)
+{
+    fprintf(stderr, "deltamap: %s\n", err->msg);
+    return err->code;
+}
+
+static int usage_error(const char *cmd, const char *msg, const char *arg)
+{
+    fprintf(stderr, "deltamap %s: %s%s%s\n(see `deltamap %s --help`)\n", cmd, msg,
+            arg ? ": " : "", arg ? arg : "", cmd);
+    return EXIT_USAGE;
+}
+
+/* "a,b,c" with exactly n finite numbers */
+static int parse_list(const char *s, double *out, int n)
+{
+    const char *p = s;
+    for (int i = 0; i < n; i++) {
+        char *end;
+        out[i] = strtod(p, &end);
+        if (end == p || !isfinite(out[i]))
+            return -1;
+        p = end;
+        if (i < n - 1) {
+            if (*p != ',')
+                return -1;
+            p++;
+        }
+    }
+    return *p ? -1 : 0;
+}
+
+static int parse_int(const char *s, int lo, int hi, int *out)
+{
+    char *end;
+    long v = strtol(s, &end, 10);
+    if (end == s || *end || v < lo || v > hi)
+        return -1;
+    *out = (int)v;
+    return 0;
+}
+
+/* ---- modes ------------------------------------------------------------- */
+
+typedef struct {
+    const char *robot;
+    double at[3];
+    int have_at, k, na, nb, json;
+    dm_eigen_method method;
+} modes_opts;
+
+static int parse_modes_opts(int argc, char **argv, modes_opts *o)
+{
+    static const struct option longopts[] = {
+        {"robot", required_argument, 0, 'r'}, {"at", required_argument, 0, 'a'},
+        {"modes", required_argument, 0, 'k'}, {"mesh", required_argument, 0, 'm'},
+        {"method", required_argument, 0, 'M'}, {"json", no_argument, 0, 'j'},
+        {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
+    int c;
+    double mesh[2];
+    memset(o, 0, sizeof *o);
+    o->k = 10;
+    optind = 1;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, "", longopts, NULL)) != -1) {
+        switch (c) {
+        case 'r': o->robot = optarg; break;
+        case 'a':
+            if (parse_list(optarg, o->at, 3))
+                return usage_error("modes", "--at takes X,Y,Z in m", optarg);
+            o->have_at = 1;
+            break;
+        case 'k':
+            if (parse_int(optarg, 1, 100000, &o->k))
+                return usage_error("modes", "--modes takes a whole number >= 1", optarg);
+            break;
+        case 'm':
+            if (parse_list(optarg, mesh, 2) || mesh[0] != floor(mesh[0]) ||
+                mesh[1] != floor(mesh[1]) || mesh[0] < 1 || mesh[1] < 1 || mesh[0] > 64 ||
+                mesh[1] > 64)
+                return usage_error("modes", "--mesh takes NA,NB, whole numbers 1..64", optarg);
+            o->na = (int)mesh[0];
+            o->nb = (int)mesh[1];
+            break;
+        case 'M':
+            if (!strcmp(optarg, "partial"))
+                o->method = DM_EIGEN_PARTIAL;
+            else if (!strcmp(optarg, "all"))
+                o->method = DM_EIGEN_ALL;
+            else
+                return usage_error("modes", "--method is partial or all", optarg);
+            break;
+        case 'j': o->json = 1; break;
+        case 'h': fputs(MODES_HELP, stdout); exit(0);
+        default: return usage_error("modes", "unknown or incomplete option", argv[optind - 1]);
+        }
+    }
+    if (optind < argc)
+        return usage_error("modes", "unexpected argument", argv[optind]);
+    if (!o->robot)
+        return usage_error("modes", "--robot is required", NULL);
+    return 0;
+}
+
+static void print_modes_table(const dm_robot *rb, const dm_analysis *an,
+                              const dm_pose_result *res)
+{
+    const dm_pose *p = &res->pose;
+    const dm_modes *mo = res->modes;
+    printf("robot   %s (%s)\n", rb->name, rb->source);
+    printf("pose    P = (%g, %g, %g) m   arm angles (%.3f, %.3f, %.3f) deg   cond(J) %.3g%s\n",
+           p->P[0], p->P[1], p->P[2], p->alpha[0] * 180 / M_PI, p->alpha[1] * 180 / M_PI,
+           p->alpha[2] * 180 / M_PI, p->cond, res->near_singular ? "  NEAR-SINGULAR" : "");
+    printf("model   mesh %d,%d: %d DOF\n\n", an->model->na, an->model->nb, an->model->n);
+    printf(" mode   freq (Hz)   platform share   direction\n");
+    for (int j = 0; j < mo->k; j++)
+        printf(" %4d %11.4f %14.1f %%   %s\n", j + 1, mo->freq_hz[j],
+               100.0 * mo->platform_share[j], dm_direction_name(mo->direction[j]));
+    const double *u = res->static_error;
+    printf("\nstatic elastic error under gravity (platform centre)\n");
+    printf("  dx %+.5e m   dy %+.5e m   dz %+.5e m\n", u[0], u[1], u[2]);
+    printf("  ex %+.5e rad ey %+.5e rad ez %+.5e rad\n", u[3], u[4], u[5]);
+    printf("\nplatform compliance (translation)\n");
+    printf("  worst direction (%.4f, %.4f, %.4f): %.5e m/N  -> stiffness %.5e N/m\n",
+           res->compliance_dir[0], res->compliance_dir[1], res->compliance_dir[2],
+           res->compliance_max_m_per_n, res->stiffness_min_n_per_m);
+    printf("  diagonal: cxx %.5e  cyy %.5e  czz %.5e m/N\n", res->compliance[0],
+           res->compliance[7], res->compliance[14]);
+}
+
+static json_t *json_array_of(const double *v, int n)
+{
+    json_t *a = json_array();
+    for (int i = 0; i < n; i++)
+        json_array_append_new(a, json_real(v[i]));
+    return a;
+}
+
+static int print_modes_json(const dm_robot *rb, const dm_analysis *an,
+                            const dm_pose_result *res)
+{
+    const dm_modes *mo = res->modes;
+    json_t *o = json_object(), *modes = json_array(), *C = json_array();
+    json_object_set_new(o, "robot", json_string(rb->name));
+    json_object_set_new(o, "source", json_string(rb->source));
+    json_object_set_new(o, "pose_m", json_array_of(res->pose.P, 3));
+    json_object_set_new(o, "arm_angles_rad", json_array_of(res->pose.alpha, 3));
+    json_object_set_new(o, "condition_number", json_real(res->pose.cond));
+    json_object_set_new(o, "near_singular", json_boolean(res->near_singular));
+    json_object_set_new(o, "mesh", json_pack("[ii]", an->model->na, an->model->nb));
+    json_object_set_new(o, "dof", json_integer(an->model->n));
+    json_object_set_new(o, "frequencies_hz", json_array_of(mo->freq_hz, mo->k));
+    for (int j = 0; j < mo->k; j++)
+        json_array_append_new(modes, json_pack("{s:i, s:f, s:f, s:s}", "mode", j + 1,
+                                               "freq_hz", mo->freq_hz[j], "platform_share",
+                                               mo->platform_share[j], "direction",
+                                               dm_direction_name(mo->direction[j])));
+    json_object_set_new(o, "modes", modes);
+    json_object_set_new(o, "static_error", json_array_of(res->static_error, 6));
+    for (int r = 0; r < 6; r++) {
+        double row[6];
+        for (int c = 0; c < 6; c++)
+            row[c] = res->compliance[6 * c + r];
+        json_array_append_new(C, json_array_of(row, 6));
+    }
+    json_object_set_new(o, "compliance", C);
+    json_object_set_new(o, "compliance_max_m_per_n", json_real(res->compliance_max_m_per_n));
+    json_object_set_new(o, "compliance_max_direction", json_array_of(res->compliance_dir, 3));
+    json_object_set_new(o, "stiffness_min_n_per_m", json_real(res->stiffness_min_n_per_m));
+    int rc = json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(17));
+    putchar('\n');
+    json_decref(o);
+    return rc ? DM_EIO : 0;
+}
+
+static int cmd_modes(int argc, char **argv)
+{
+    modes_opts o;
+    int rc = parse_modes_opts(argc, argv, &o);
+    if (rc)
+        return rc;
+    dm_robot rb;
+    dm_error err;
+    if (dm_robot_load(o.robot, &rb, &err))
+        return report(&err);
+    int na = o.na ? o.na : rb.na, nb = o.nb ? o.nb : rb.nb;
+    dm_analysis *an = dm_analysis_alloc(&rb, na, nb, o.k, o.method, &err);
+    if (!an)
+        return report(&err);
+    if (o.k > an->model->n) {
+        dm_analysis_free(an);
+        fprintf(stderr, "deltamap modes: --modes %d exceeds the model's %d DOF\n", o.k,
+                an->model->n);
+        return DM_EINVAL;
+    }
+    dm_pose_result res;
+    rc = dm_analysis_run(an, o.have_at ? o.at : rb.home_m, o.k, &res, &err);
+    if (!rc)
+        rc = o.json ? print_modes_json(&rb, an, &res) : (print_modes_table(&rb, an, &res), 0);
+    else
+        report(&err);
+    dm_analysis_free(an);
+    return rc;
+}
+
+/* ---- robot, presets ------------------------------------------------------ */
+
+static int cmd_robot(int argc, char **argv)
+{
+    if (argc == 2 && !strcmp(argv[1], "--help")) {
+        fputs(ROBOT_HELP, stdout);
+        return 0;
+    }
+    if (argc != 2)
+        return usage_error("robot", "expects one robot file or preset name", NULL);
+    dm_robot rb;
+    dm_error err;
+    if (dm_robot_load(argv[1], &rb, &err))
+        return report(&err);
+    printf("# %s: valid; every default filled in\n", rb.source);
+    return dm_robot_write(&rb, stdout);
+}
+
+static int cmd_presets(void)
+{
+    for (const char *const *n = dm_robot_preset_names(); *n; n++) {
+        dm_robot rb;
+        dm_error err;
+        if (dm_robot_load(*n, &rb, &err))
+            return report(&err);
+        printf("%-10s R %.3f m, r %.3f m, la %.3f m, lb %.3f m, home (%g, %g, %g) m\n", *n,
+               rb.base_radius_m, rb.platform_radius_m, rb.arm_length_m, rb.rod_length_m,
+               rb.home_m[0], rb.home_m[1], rb.home_m[2]);
+    }
+    return 0;
+}
+
+int dm_cli_main(int argc, char **argv)
+{
+    if (argc < 2) {
+        fputs(MAIN_HELP, stderr);
+        return EXIT_USAGE;
+    }
+    const char *cmd = argv[1];
+    if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
+        fputs(MAIN_HELP, stdout);
+        return 0;
+    }
+    if (!strcmp(cmd, "--version")) {
+        printf("deltamap %s\n", DM_VERSION);
+        return 0;
+    }
+    if (!strcmp(cmd, "modes"))
+        return cmd_modes(argc - 1, argv + 1);
+    if (!strcmp(cmd, "robot"))
+        return cmd_robot(argc - 1, argv + 1);
+    if (!strcmp(cmd, "presets"))
+        return cmd_presets();
+    fprintf(stderr, "deltamap: unknown command '%s' (see `deltamap --help`)\n", cmd);
+    return EXIT_USAGE;
+}

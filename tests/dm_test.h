@@ -1,0 +1,40 @@
+/* Shared helpers for deltamap's cmocka tests. */
+#ifndef DM_TEST_H
+#define DM_TEST_H
+
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+/* |value - expected| <= tol * |expected|, with a description of what is
+ * being checked (after gsl_test_rel). */
+#define assert_rel(value, expected, tol, ...)                                              \
+    do {                                                                                   \
+        double v_ = (value), e_ = (expected), t_ = (tol);                                  \
+        if (!(fabs(v_ - e_) <= t_ * fabs(e_))) {                                           \
+            print_error("%s:%d: ", __FILE__, __LINE__);                                    \
+            print_error(__VA_ARGS__);                                                      \
+            print_error(": got %.12g, expected %.12g (rel err %.3g > %.3g)\n", v_, e_,     \
+                        fabs(v_ - e_) / fabs(e_), t_);                                     \
+            fail();                                                                        \
+        }                                                                                  \
+    } while (0)
+
+#define assert_abs(value, expected, tol, ...)                                              \
+    do {                                                                                   \
+        double v_ = (value), e_ = (expected), t_ = (tol);                                  \
+        if (!(fabs(v_ - e_) <= t_)) {                                                      \
+            print_error("%s:%d: ", __FILE__, __LINE__);                                    \
+            print_error(__VA_ARGS__);                                                      \
+            print_error(": got %.12g, expected %.12g (abs err %.3g > %.3g)\n", v_, e_,     \
+                        fabs(v_ - e_), t_);                                                \
+            fail();                                                                        \
+        }                                                                                  \
+    } while (0)
+
+#endif

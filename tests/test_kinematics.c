@@ -1,0 +1,185 @@
+/* Kinematics: IK/FK round trip, analytic rates and accelerations against
+ * central finite differences, unreachable poses, elbow branch. */
+#include "dm_test.h"
+
+#include "dm_kinematics.h"
+#include "dm_vec3.h"
+
+static const char *const PRESETS[] = {"chen2018", "zheng2017", "han2011"};
+
+/* A few poses around each robot's home, inside its workspace. */
+static void sample_pose(const dm_robot *rb, int k, double P[3])
+{
+    double s = 0.15 * rb->arm_length_m;
+    const double off[5][3] = {{0, 0, 0}, {1, 0, 0}, {-0.3, 0.8, 0.5}, {0.5, -0.6, -0.4}, {0, 1, 0.2}};
+    for (int d = 0; d < 3; d++)
+        P[d] = rb->home_m[d] + s * off[k][d];
+}
+
+static void ik_fk_round_trip(void **state)
+{
+    (void)state;
+    for (int r = 0; r < 3; r++) {
+        dm_robot rb;
+        assert_int_equal(dm_robot_load(PRESETS[r], &rb, NULL), 0);
+        for (int k = 0; k < 5; k++) {
+            double P[3], sol[2][3];
+            dm_pose pose;
+            sample_pose(&rb, k, P);
+            assert_int_equal(dm_kin_inverse(&rb, P, &pose, NULL), 0);
+            for (int i = 0; i < 3; i++) { /* every rod closes at length lb */
+                double L[3];
+                dm_sub3(pose.B[i], pose.C[i], L);
+                assert_rel(dm_norm3(L), rb.rod_length_m, 1e-12, "%s rod %d length", PRESETS[r], i);
+            }
+            int n = dm_kin_forward(&rb, pose.alpha, sol);
+            assert_true(n >= 1);
+            double best = INFINITY;
+            for (int s = 0; s < n; s++) {
+                double d[3];
+                dm_sub3(sol[s], P, d);
+                best = fmin(best, dm_norm3(d));
+            }
+            assert_abs(best, 0.0, 1e-10, "%s pose %d: FK(IK(P)) == P (m)", PRESETS[r], k);
+        }
+    }
+}
+
+static void elbow_out_is_outer_root(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_pose out, in;
+    assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
+    assert_int_equal(dm_kin_inverse(&rb, rb.home_m, &out, NULL), 0);
+    rb.elbow_in = 1;
+    assert_int_equal(dm_kin_inverse(&rb, rb.home_m, &in, NULL), 0);
+    for (int i = 0; i < 3; i++)
+        assert_true(dm_dot3(out.B[i], out.e[i]) > dm_dot3(in.B[i], in.e[i]));
+    /* chen2018 at its centre: alpha = 22.185 deg (hand computation in docs/model-choices.md) */
+    assert_rel(out.alpha[0] * 180 / M_PI, 22.1846, 1e-4, "chen2018 home arm angle");
+}
+
+static void rates_match_finite_differences(void **state)
+{
+    (void)state;
+    for (int r = 0; r < 3; r++) {
+        dm_robot rb;
+        assert_int_equal(dm_robot_load(PRESETS[r], &rb, NULL), 0);
+        const double v[3] = {0.7, -0.4, 0.3}, a[3] = {-5.0, 8.0, 3.0};
+        double P[3], ad[3], add[3], h = 1e-5;
+        dm_pose p0, pp, pm;
+        sample_pose(&rb, 2, P);
+        assert_int_equal(dm_kin_inverse(&rb, P, &p0, NULL), 0);
+        assert_int_equal(dm_kin_rates(&rb, &p0, v, ad, NULL), 0);
+        assert_int_equal(dm_kin_accelerations(&rb, &p0, v, a, add, NULL), 0);
+        /* P(t) = P + v t + a t^2/2: central differences in t */
+        double Pp[3], Pm[3];
+        for (int d = 0; d < 3; d++) {
+            Pp[d] = P[d] + v[d] * h + 0.5 * a[d] * h * h;
+            Pm[d] = P[d] - v[d] * h + 0.5 * a[d] * h * h;
+        }
+        assert_int_equal(dm_kin_inverse(&rb, Pp, &pp, NULL), 0);
+        assert_int_equal(dm_kin_inverse(&rb, Pm, &pm, NULL), 0);
+        for (int i = 0; i < 3; i++) {
+            double fd1 = (pp.alpha[i] - pm.alpha[i]) / (2 * h);
+            double fd2 = (pp.alpha[i] - 2 * p0.alpha[i] + pm.alpha[i]) / (h * h);
+            /* O(h^2) truncation ~1e-9 relative; second differences lose ~1e-16/h^2 = 1e-6 */
+            assert_rel(ad[i], fd1, 1e-7, "%s alpha_dot[%d]", PRESETS[r], i);
+            assert_rel(add[i], fd2, 1e-4, "%s alpha_ddot[%d]", PRESETS[r], i);
+        }
+    }
+}
+
+static void link_motion_is_rigid(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_pose p0, pp, pm;
+    dm_link_motion m;
+    assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
+    double P[3], h = 1e-5;
+    const double v[3] = {0.3, 0.5, -0.2}, a[3] = {4.0, -2.0, 6.0};
+    sample_pose(&rb, 3, P);
+    assert_int_equal(dm_kin_inverse(&rb, P, &p0, NULL), 0);
+    assert_int_equal(dm_kin_link_motion(&rb, &p0, v, a, &m, NULL), 0);
+    double Pp[3], Pm[3];
+    for (int d = 0; d < 3; d++) {
+        Pp[d] = P[d] + v[d] * h + 0.5 * a[d] * h * h;
+        Pm[d] = P[d] - v[d] * h + 0.5 * a[d] * h * h;
+    }
+    assert_int_equal(dm_kin_inverse(&rb, Pp, &pp, NULL), 0);
+    assert_int_equal(dm_kin_inverse(&rb, Pm, &pm, NULL), 0);
+    for (int i = 0; i < 3; i++)
+        for (int d = 0; d < 3; d++) {
+            double vB = (pp.B[i][d] - pm.B[i][d]) / (2 * h);
+            double aB = (pp.B[i][d] - 2 * p0.B[i][d] + pm.B[i][d]) / (h * h);
+            assert_abs(m.vB[i][d], vB, 1e-8, "elbow velocity chain %d comp %d (m/s)", i, d);
+            assert_abs(m.aB[i][d], aB, 1e-4, "elbow acceleration chain %d comp %d (m/s^2)", i, d);
+        }
+    /* Rod angular velocity: dL/dt == omega x L for the rod vector L = C - B. */
+    for (int i = 0; i < 3; i++) {
+        double Lp[3], Lm[3], L[3], oxL[3];
+        dm_sub3(pp.C[i], pp.B[i], Lp);
+        dm_sub3(pm.C[i], pm.B[i], Lm);
+        dm_sub3(p0.C[i], p0.B[i], L);
+        dm_cross3(m.rod_omega[i], L, oxL);
+        for (int d = 0; d < 3; d++)
+            assert_abs(oxL[d], (Lp[d] - Lm[d]) / (2 * h), 1e-8, "rod %d dL/dt", i);
+        assert_abs(dm_dot3(m.rod_omega[i], L), 0.0, 1e-12, "rod %d has no spin", i);
+    }
+}
+
+static void unreachable_is_detected(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_pose pose;
+    dm_error err;
+    assert_int_equal(dm_robot_load("han2011", &rb, NULL), 0);
+    const double above[3] = {0, 0, 1.2}, ok[3] = {0, 0, 1.0}, far[3] = {3.0, 0, 0.9};
+    assert_int_equal(dm_kin_inverse(&rb, ok, &pose, NULL), 0);
+    assert_int_equal(dm_kin_inverse(&rb, above, &pose, &err), DM_EUNREACHABLE);
+    assert_non_null(strstr(err.msg, "unreachable"));
+    assert_int_equal(dm_kin_inverse(&rb, far, &pose, &err), DM_EUNREACHABLE);
+}
+
+static void condition_number_symmetric_centre(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_pose pose;
+    double J[9];
+    assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
+    assert_int_equal(dm_kin_inverse(&rb, rb.home_m, &pose, NULL), 0);
+    assert_int_equal(dm_kin_jacobian(&rb, &pose, J, NULL), 0);
+    assert_true(pose.cond >= 1.0 && pose.cond < 10.0);
+    /* Near the side boundary one chain's arm and rod align first, its row of J
+     * grows without bound and so does cond(J). (At the symmetric bottom point
+     * all rows grow alike and cond(J) stays finite.) */
+    double in = 0.0, out = 1.5; /* bisect along x at the home height */
+    for (int it = 0; it < 60; it++) {
+        double mid[3] = {0.5 * (in + out), 0, rb.home_m[2]};
+        if (dm_kin_inverse(&rb, mid, &pose, NULL) == DM_OK)
+            in = mid[0];
+        else
+            out = mid[0];
+    }
+    double edge[3] = {in - 1e-7, 0, rb.home_m[2]};
+    assert_int_equal(dm_kin_inverse(&rb, edge, &pose, NULL), 0);
+    assert_true(pose.cond > 50.0);
+    assert_true(pose.cond > rb.singular_cond); /* flagged near-singular */
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(ik_fk_round_trip),
+        cmocka_unit_test(elbow_out_is_outer_root),
+        cmocka_unit_test(rates_match_finite_differences),
+        cmocka_unit_test(link_motion_is_rigid),
+        cmocka_unit_test(unreachable_is_detected),
+        cmocka_unit_test(condition_number_symmetric_centre),
+    };
+    return cmocka_run_group_tests_name("kinematics", tests, NULL, NULL);
+}

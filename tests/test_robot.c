@@ -1,0 +1,208 @@
+/* Robot files: presets load, write/parse round trip, and every error path
+ * of the parser names the file, the line and the key. */
+#include "dm_test.h"
+
+#include <stdlib.h>
+#include <unistd.h>
+
+#include "dm_robot.h"
+
+/* A valid file; line numbers below refer to it. */
+static const char BASE[] =
+    "[robot]\n"                    /* 1 */
+    "name = test\n"                /* 2 */
+    "[geometry]\n"                 /* 3 */
+    "base_radius = 0.1\n"          /* 4 */
+    "platform_radius = 0.05\n"     /* 5 */
+    "arm_length = 0.5\n"           /* 6 */
+    "rod_length = 0.6\n"           /* 7 */
+    "rod_half_spacing = 0.025\n"   /* 8 */
+    "[arm]\n"                      /* 9 */
+    "shape = square\n"             /* 10 */
+    "side = 0.02\n"                /* 11 */
+    "youngs_modulus = 210e9\n"     /* 12 */
+    "poisson_ratio = 0.3\n"        /* 13 */
+    "density = 7850\n"             /* 14 */
+    "[rod]\n"                      /* 15 */
+    "shape = tube\n"               /* 16 */
+    "diameter = 0.016\n"           /* 17 */
+    "inner_diameter = 0.014\n"     /* 18 */
+    "youngs_modulus = 70e9\n"      /* 19 */
+    "shear_modulus = 26.5e9\n"     /* 20 */
+    "density = 2700\n"             /* 21 */
+    "[platform]\n"                 /* 22 */
+    "mass = 0.2\n";                /* 23 */
+
+/* BASE with line `line` replaced by `repl` (NULL: deleted); `extra` appended. */
+static char *edited(int line, const char *repl, const char *extra)
+{
+    static char buf[4096];
+    buf[0] = '\0';
+    const char *p = BASE;
+    for (int n = 1; *p; n++) {
+        const char *nl = strchr(p, '\n');
+        size_t len = (size_t)(nl - p) + 1;
+        if (n != line)
+            strncat(buf, p, len);
+        else if (repl) {
+            strcat(buf, repl);
+            strcat(buf, "\n");
+        }
+        p += len;
+    }
+    if (extra)
+        strcat(buf, extra);
+    return buf;
+}
+
+static void expect_error(const char *text, const char *where, const char *what)
+{
+    dm_robot rb;
+    dm_error err;
+    int rc = dm_robot_parse_string(text, "bad.ini", &rb, &err);
+    if (rc != DM_EINVAL || !strstr(err.msg, where) || (what && !strstr(err.msg, what))) {
+        print_error("expected error containing '%s' and '%s', got rc %d: %s\n", where,
+                    what ? what : "", rc, err.msg);
+        fail();
+    }
+}
+
+static void base_text_is_valid(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_error err;
+    assert_int_equal(dm_robot_parse_string(BASE, "ok.ini", &rb, &err), 0);
+    assert_string_equal(rb.name, "test");
+    assert_int_equal(rb.na, 4); /* documented default mesh */
+    assert_int_equal(rb.nb, 4);
+    assert_rel(rb.gravity_ms2[2], -9.80665, 0, "default gravity");
+    assert_rel(rb.arm.shear_pa, 210e9 / 2.6, 1e-15, "G from nu");
+    assert_rel(rb.platform_inertia_kgm2[2], 0.2 * 0.05 * 0.05 / 2, 1e-15, "thin-disc Izz");
+}
+
+static void presets_load_and_round_trip(void **state)
+{
+    (void)state;
+    for (const char *const *n = dm_robot_preset_names(); *n; n++) {
+        dm_robot rb, back;
+        dm_error err;
+        assert_int_equal(dm_robot_load(*n, &rb, &err), 0);
+        assert_string_equal(rb.name, *n);
+        char path[] = "/tmp/dm_robot_XXXXXX";
+        int fd = mkstemp(path);
+        assert_true(fd >= 0);
+        FILE *f = fdopen(fd, "w");
+        assert_int_equal(dm_robot_write(&rb, f), 0);
+        fclose(f);
+        assert_int_equal(dm_robot_parse_file(path, &back, &err), 0);
+        unlink(path);
+        assert_memory_equal(&rb.arm, &back.arm, sizeof rb.arm);
+        assert_memory_equal(&rb.rod, &back.rod, sizeof rb.rod);
+        assert_rel(back.rod_length_m, rb.rod_length_m, 0, "rod length round trip");
+        assert_rel(back.platform_inertia_kgm2[0], rb.platform_inertia_kgm2[0], 0, "inertia");
+        assert_memory_equal(rb.home_m, back.home_m, sizeof rb.home_m);
+    }
+    assert_int_equal(dm_robot_preset_names()[3], NULL);
+}
+
+static void unknown_section_and_key(void **state)
+{
+    (void)state;
+    expect_error(edited(0, NULL, "[gearbox]\nratio = 3\n"), "bad.ini:25: [gearbox] ratio",
+                 "unknown section");
+    expect_error(edited(5, "platform_radiuss = 0.05", NULL), "bad.ini:5: [geometry] platform_radiuss",
+                 "unknown key");
+    expect_error(edited(0, NULL, "[effects]\nwobble = 1\n"), "bad.ini:25: [effects] wobble",
+                 "model extension");
+}
+
+static void missing_required_keys(void **state)
+{
+    (void)state;
+    expect_error(edited(7, NULL, NULL), "[geometry] rod_length", "required key missing");
+    expect_error(edited(23, NULL, NULL), "[platform] mass", "required key missing");
+    expect_error(edited(16, NULL, NULL), "[rod] shape", "required key missing");
+    expect_error(edited(14, NULL, NULL), "[arm] density", "required key missing");
+    expect_error(edited(11, NULL, NULL), "bad.ini:10: [arm] side", "missing");
+    expect_error(edited(13, NULL, NULL), "[arm] poisson_ratio", "shear_modulus");
+}
+
+static void non_physical_values(void **state)
+{
+    (void)state;
+    expect_error(edited(6, "arm_length = -0.5", NULL), "bad.ini:6: [geometry] arm_length", "> 0");
+    expect_error(edited(6, "arm_length = 0", NULL), "bad.ini:6: [geometry] arm_length", "> 0");
+    expect_error(edited(6, "arm_length = fast", NULL), "bad.ini:6: [geometry] arm_length",
+                 "not a number");
+    expect_error(edited(6, "arm_length = 0.5 m", NULL), "bad.ini:6:", "not a number");
+    expect_error(edited(6, "arm_length = nan", NULL), "bad.ini:6:", "not a number");
+    expect_error(edited(13, "poisson_ratio = 0.7", NULL), "bad.ini:13: [arm] poisson_ratio",
+                 "(-1, 0.5)");
+    expect_error(edited(18, "inner_diameter = 0.02", NULL), "bad.ini:18: [rod] inner_diameter",
+                 "smaller than diameter");
+    expect_error(edited(23, "mass = -1", NULL), "bad.ini:23: [platform] mass", "> 0");
+    /* |R - r| beyond la + lb: the robot can reach nothing */
+    expect_error(edited(4, "base_radius = 2.0", NULL), "bad.ini:7: [geometry] rod_length",
+                 "reach nothing");
+}
+
+static void malformed_values(void **state)
+{
+    (void)state;
+    expect_error(edited(10, "shape = hexagon", NULL), "bad.ini:10: [arm] shape",
+                 "not a section shape");
+    expect_error(edited(0, NULL, "[mesh]\nna = 0\n"), "bad.ini:25: [mesh] na", "whole number");
+    expect_error(edited(0, NULL, "[mesh]\nnb = 2.5\n"), "bad.ini:25: [mesh] nb", "whole number");
+    expect_error(edited(0, NULL, "[environment]\ngravity = 0, -9.8\n"),
+                 "bad.ini:25: [environment] gravity", "three numbers");
+    expect_error(edited(0, NULL, "[platform]\ninertia = 1, -1, 1\n"), "[platform] inertia",
+                 "negative");
+    expect_error(edited(0, NULL, "[geometry]\nelbow = sideways\n"), "[geometry] elbow",
+                 "elbow branch");
+    expect_error(edited(0, NULL, "[damping]\nbeta = -1e-4\n"), "[damping] beta", ">= 0");
+    expect_error(edited(2, "name = ", NULL), "bad.ini:2: [robot] name", "1 to 63");
+}
+
+static void inconsistent_keys(void **state)
+{
+    (void)state;
+    expect_error(edited(0, NULL, "[arm]\nside = 0.03\n"), "bad.ini:25: [arm] side",
+                 "given twice (first on line 11)");
+    expect_error(edited(11, "diameter = 0.02", NULL), "bad.ini:11: [arm] diameter",
+                 "does not apply");
+    expect_error(edited(20, "poisson_ratio = 0.33", "[rod]\nshear_modulus = 26e9\n"),
+                 "[rod] poisson_ratio", "not both");
+}
+
+static void syntax_and_files(void **state)
+{
+    (void)state;
+    expect_error(edited(8, "rod_half_spacing 0.025", NULL), "bad.ini:8", "not an INI line");
+    dm_robot rb;
+    dm_error err;
+    assert_int_equal(dm_robot_load("/nonexistent/robot.ini", &rb, &err), DM_EIO);
+    assert_non_null(strstr(err.msg, "/nonexistent/robot.ini"));
+    assert_int_equal(dm_robot_load("chen2019", &rb, &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "neither a preset"));
+    assert_non_null(strstr(err.msg, "chen2018"));
+    /* comments and inline comments are fine */
+    assert_int_equal(dm_robot_parse_string(edited(6, "# c\narm_length = 0.5 ; la", NULL), "c.ini",
+                                           &rb, &err), 0);
+    assert_rel(rb.arm_length_m, 0.5, 0, "inline comment");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(base_text_is_valid),
+        cmocka_unit_test(presets_load_and_round_trip),
+        cmocka_unit_test(unknown_section_and_key),
+        cmocka_unit_test(missing_required_keys),
+        cmocka_unit_test(non_physical_values),
+        cmocka_unit_test(malformed_values),
+        cmocka_unit_test(inconsistent_keys),
+        cmocka_unit_test(syntax_and_files),
+    };
+    return cmocka_run_group_tests_name("robot", tests, NULL, NULL);
+}
