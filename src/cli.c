@@ -241,9 +241,9 @@ static int cmd_modes(int argc, char **argv)
     if (!an)
         return report(&err);
     if (o.k > an->model->n) {
-        dm_analysis_free(an);
         fprintf(stderr, "deltamap modes: --modes %d exceeds the model's %d DOF\n", o.k,
                 an->model->n);
+        dm_analysis_free(an);
         return DM_EINVAL;
     }
     dm_pose_result res;

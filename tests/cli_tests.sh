@@ -1,0 +1,89 @@
+#!/bin/sh
+# End-to-end tests of the deltamap command line: exit codes, messages,
+# JSON for scripts. Run by `make test` with DELTAMAP set to the binary.
+set -u
+DM=${DELTAMAP:-build/deltamap}
+TMP=$(mktemp -d)
+trap 'rm -rf "$TMP"' EXIT
+pass=0
+fail=0
+
+ok() { pass=$((pass + 1)); }
+bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+
+# expect CODE "description" command...  (stdout -> $TMP/out, stderr -> $TMP/err)
+expect() {
+    code=$1; what=$2; shift 2
+    "$@" >"$TMP/out" 2>"$TMP/err"
+    rc=$?
+    if [ "$rc" -eq "$code" ]; then ok; else bad "$what: exit $rc, expected $code"; cat "$TMP/err"; fi
+}
+# stderr/stdout must contain a string
+contains() {
+    if grep -qF -- "$2" "$TMP/$1"; then ok; else bad "$1 lacks '$2'"; cat "$TMP/$1"; fi
+}
+# a python expression over the JSON in $TMP/out must hold
+json_true() {
+    if python3 -c "import json,sys; d=json.load(open('$TMP/out')); sys.exit(0 if ($1) else 1)"; then
+        ok
+    else
+        bad "json: $1"
+    fi
+}
+
+expect 0 "help" "$DM" --help
+contains out "exit codes"
+expect 0 "modes help" "$DM" modes --help
+contains out "--mesh NA,NB"
+expect 1 "no command" "$DM"
+expect 1 "unknown command" "$DM" frobnicate
+contains err "unknown command"
+
+expect 0 "modes table" "$DM" modes --robot chen2018 --at 0,0,-0.5 --modes 6
+contains out "27.7747"
+contains out "static elastic error"
+
+expect 0 "modes json 48 dof" "$DM" modes --robot chen2018 --at 0,0,-0.5 --mesh 1,1 --json
+json_true "d['dof'] == 48"
+json_true "abs(d['frequencies_hz'][0] - 27.9643) < 1e-4"
+json_true "len(d['static_error']) == 6 and abs(d['static_error'][2] + 4.10144e-4) < 1e-9"
+json_true "len(d['compliance']) == 6 and all(len(r) == 6 for r in d['compliance'])"
+json_true "all(m['direction'] in ('x','y','z','rx','ry','rz') and 0 <= m['platform_share'] <= 1 for m in d['modes'])"
+json_true "d['frequencies_hz'] == sorted(d['frequencies_hz']) and len(d['frequencies_hz']) == 10"
+
+expect 0 "default pose is the robot's home" "$DM" modes --robot han2011 --json --modes 3
+json_true "d['pose_m'] == [0, 0, 0.96] and d['dof'] == 210"
+
+expect 3 "unreachable pose" "$DM" modes --robot chen2018 --at 0,0,-2
+contains err "unreachable"
+contains err "(0, 0, -2)"
+
+expect 1 "bad --at" "$DM" modes --robot chen2018 --at 0,0
+contains err "--at"
+expect 1 "bad --mesh" "$DM" modes --robot chen2018 --mesh 0,4
+expect 1 "missing --robot" "$DM" modes --at 0,0,-0.5
+expect 1 "unknown option" "$DM" modes --robot chen2018 --color
+expect 2 "too many modes" "$DM" modes --robot chen2018 --mesh 1,1 --modes 49
+
+cat >"$TMP/bad.ini" <<'INI'
+[geometry]
+base_radius = 0.1
+platform_radius = -0.05
+INI
+expect 2 "bad robot file" "$DM" modes --robot "$TMP/bad.ini"
+contains err "bad.ini:3: [geometry] platform_radius"
+expect 2 "unknown preset" "$DM" modes --robot chen2019
+contains err "neither a preset"
+
+# a robot printed by `deltamap robot` is a valid robot file with the same physics
+expect 0 "robot print" "$DM" robot zheng2017
+cp "$TMP/out" "$TMP/z.ini"
+expect 0 "printed robot" "$DM" modes --robot "$TMP/z.ini" --json --modes 4
+cp "$TMP/out" "$TMP/a.json"
+expect 0 "preset robot" "$DM" modes --robot zheng2017 --json --modes 4
+json_true "json.load(open('$TMP/a.json'))['frequencies_hz'] == d['frequencies_hz']"
+expect 0 "presets" "$DM" presets
+contains out "han2011"
+
+echo "cli: $pass passed, $fail failed"
+[ "$fail" -eq 0 ]
