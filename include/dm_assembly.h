@@ -37,6 +37,7 @@ typedef struct dm_element {
     dm_member_kind member;
     int chain;
     double x1[3], x2[3];    /* node positions, m */
+    double s1, s2;          /* node positions as fractions of the member (0 at its top) */
     double length_m;
     double lambda[9];       /* local axes (rows) */
     dm_nodemap node[2];

@@ -148,6 +148,8 @@ static int build_arm(dm_model *md, int i, dm_element *e, dm_error *err)
         lerp3(p->A[i], p->B[i], (double)k / md->na, x1);
         lerp3(p->A[i], p->B[i], (double)(k + 1) / md->na, x2);
         int rc = set_geometry(e, DM_MEMBER_ARM, i, x1, x2, p->t[i], err);
+        e->s1 = (double)k / md->na;
+        e->s2 = (double)(k + 1) / md->na;
         if (rc)
             return rc;
         if (k == 0)
@@ -175,6 +177,8 @@ static int build_rod(dm_model *md, int i, int s, dm_element *e, dm_error *err)
         lerp3(top, bottom, (double)k / nb, x1);
         lerp3(top, bottom, (double)(k + 1) / nb, x2);
         int rc = set_geometry(e, DM_MEMBER_ROD, i, x1, x2, p->t[i], err);
+        e->s1 = (double)k / nb;
+        e->s2 = (double)(k + 1) / nb;
         if (rc)
             return rc;
         if (k == 0)

@@ -1,0 +1,69 @@
+/* Inertial loads of the nominal rigid motion (MODEL.md §3). */
+#include "dm_loads.h"
+
+#include "dm_vec3.h"
+
+/* Acceleration of the elbow of chain i: the arm rotates about t_i through A_i. */
+static void elbow_acceleration(const dm_model *md, int i, const dm_rigid_motion *mo,
+                               double aB[3])
+{
+    const dm_pose *p = &md->pose;
+    double r[3], txr[3], txtxr[3];
+    dm_sub3(p->B[i], p->A[i], r);
+    dm_cross3(p->t[i], r, txr);
+    dm_cross3(p->t[i], txr, txtxr);
+    double w = mo->alpha_dot[i], wd = mo->alpha_ddot[i];
+    for (int k = 0; k < 3; k++)
+        aB[k] = wd * txr[k] + w * w * txtxr[k];
+}
+
+/* Rigid accelerations are affine along a straight link: interpolate its end
+ * accelerations. Arms: 0 at A, aB at B; rods: aB at the top (the short bar
+ * turns with the arm about t_i, so it adds nothing), aP at the bottom. */
+static void node_acceleration(const dm_element *e, double s, const double aB[3],
+                              const double aP[3], double a[3])
+{
+    for (int k = 0; k < 3; k++)
+        a[k] = e->member == DM_MEMBER_ARM ? s * aB[k] : (1 - s) * aB[k] + s * aP[k];
+}
+
+void dm_loads_add_inertial(const dm_model *md, const dm_rigid_motion *mo, double *F)
+{
+    const dm_pose *p = &md->pose;
+    double aB[3][3], ang[2][3][3]; /* [arm|rod][chain] angular accelerations */
+    for (int i = 0; i < 3; i++) {
+        double L[3], da[3];
+        elbow_acceleration(md, i, mo, aB[i]);
+        dm_scale3(mo->alpha_ddot[i], p->t[i], ang[DM_MEMBER_ARM][i]);
+        /* rod: omega_dot = L x (aC - aB) / |L|^2, L = C - B (no spin) */
+        dm_sub3(p->C[i], p->B[i], L);
+        dm_sub3(mo->aP, aB[i], da);
+        dm_cross3(L, da, ang[DM_MEMBER_ROD][i]);
+        dm_scale3(1.0 / dm_dot3(L, L), ang[DM_MEMBER_ROD][i], ang[DM_MEMBER_ROD][i]);
+    }
+    for (int k = 0; k < md->nelem; k++) {
+        const dm_element *e = &md->elem[k];
+        double a12[12];
+        node_acceleration(e, e->s1, aB[e->chain], mo->aP, a12);
+        node_acceleration(e, e->s2, aB[e->chain], mo->aP, a12 + 6);
+        for (int c = 0; c < 3; c++) {
+            a12[3 + c] = a12[9 + c] = ang[e->member][e->chain][c];
+        }
+        for (int c = 0; c < 12; c++)
+            a12[c] = -a12[c]; /* G_e = -M_e a_e */
+        dm_model_add_element_load(md, e, a12, F);
+    }
+    int pd = md->platform_dof;
+    for (int r = 0; r < 6; r++)
+        for (int c = 0; c < 3; c++)
+            F[pd + r] -= md->platform_mass[6 * c + r] * mo->aP[c];
+}
+
+void dm_loads_add_platform_wrench(const dm_model *md, const double force[3],
+                                  const double torque[3], double *F)
+{
+    for (int k = 0; k < 3; k++) {
+        F[md->platform_dof + k] += force[k];
+        F[md->platform_dof + 3 + k] += torque[k];
+    }
+}
