@@ -70,7 +70,7 @@ $(BUILD)/obj $(BUILD)/tests:
 
 # Tests run single-threaded BLAS inside, OpenMP as the test chooses.
 unit-tests: $(TEST_BIN)
-	@set -e; for t in $(TEST_BIN); do echo "== $$t"; OPENBLAS_NUM_THREADS=1 $$t; done
+	@set -e; for t in $(TEST_BIN); do echo "== $$t"; OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $$t; done
 
 cli-tests: $(BIN)
 	@DELTAMAP=$(BIN) tests/cli_tests.sh

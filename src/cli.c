@@ -1,6 +1,7 @@
 /* The deltamap command line (see dm_cli.h). */
 #include "dm_cli.h"
 
+#include <cblas.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
@@ -9,9 +10,8 @@
 #include <string.h>
 
 #include "dm_analysis.h"
+#include "cli_impl.h"
 
-#define DM_VERSION "0.1.0"
-#define EXIT_USAGE 1
 
 static const char MAIN_HELP[] =
     "usage: deltamap COMMAND [options]\n"
@@ -19,10 +19,11 @@ static const char MAIN_HELP[] =
     "Elastodynamics of Delta parallel robots (see README.md, docs/).\n"
     "\n"
     "commands:\n"
-    "  modes     natural frequencies, mode shapes, static gravity error and\n"
-    "            platform stiffness at one pose\n"
-    "  robot     check a robot file or preset and print it in full\n"
-    "  presets   list the built-in robots\n"
+    "  modes       natural frequencies, mode shapes, static gravity error and\n"
+    "              platform stiffness at one pose\n"
+    "  trajectory  6-D elastic error of the platform along a trajectory\n"
+    "  robot       check a robot file or preset and print it in full\n"
+    "  presets     list the built-in robots\n"
     "\n"
     "`deltamap COMMAND --help` describes a command's options.\n"
     "\n"
@@ -51,48 +52,6 @@ static const char ROBOT_HELP[] =
     "Parse robot file or preset R, check it, and print it with every default\n"
     "filled in (the format of docs/robot-file.md).\n";
 
-static int report(const dm_error *err)
-{
-    fprintf(stderr, "deltamap: %s\n", err->msg);
-    return err->code;
-}
-
-static int usage_error(const char *cmd, const char *msg, const char *arg)
-{
-    fprintf(stderr, "deltamap %s: %s%s%s\n(see `deltamap %s --help`)\n", cmd, msg,
-            arg ? ": " : "", arg ? arg : "", cmd);
-    return EXIT_USAGE;
-}
-
-/* "a,b,c" with exactly n finite numbers */
-static int parse_list(const char *s, double *out, int n)
-{
-    const char *p = s;
-    for (int i = 0; i < n; i++) {
-        char *end;
-        out[i] = strtod(p, &end);
-        if (end == p || !isfinite(out[i]))
-            return -1;
-        p = end;
-        if (i < n - 1) {
-            if (*p != ',')
-                return -1;
-            p++;
-        }
-    }
-    return *p ? -1 : 0;
-}
-
-static int parse_int(const char *s, int lo, int hi, int *out)
-{
-    char *end;
-    long v = strtol(s, &end, 10);
-    if (end == s || *end || v < lo || v > hi)
-        return -1;
-    *out = (int)v;
-    return 0;
-}
-
 /* ---- modes ------------------------------------------------------------- */
 
 typedef struct {
@@ -119,19 +78,19 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
         switch (c) {
         case 'r': o->robot = optarg; break;
         case 'a':
-            if (parse_list(optarg, o->at, 3))
-                return usage_error("modes", "--at takes X,Y,Z in m", optarg);
+            if (dm_cli_parse_list(optarg, o->at, 3))
+                return dm_cli_usage("modes", "--at takes X,Y,Z in m", optarg);
             o->have_at = 1;
             break;
         case 'k':
-            if (parse_int(optarg, 1, 100000, &o->k))
-                return usage_error("modes", "--modes takes a whole number >= 1", optarg);
+            if (dm_cli_parse_int(optarg, 1, 100000, &o->k))
+                return dm_cli_usage("modes", "--modes takes a whole number >= 1", optarg);
             break;
         case 'm':
-            if (parse_list(optarg, mesh, 2) || mesh[0] != floor(mesh[0]) ||
+            if (dm_cli_parse_list(optarg, mesh, 2) || mesh[0] != floor(mesh[0]) ||
                 mesh[1] != floor(mesh[1]) || mesh[0] < 1 || mesh[1] < 1 || mesh[0] > 64 ||
                 mesh[1] > 64)
-                return usage_error("modes", "--mesh takes NA,NB, whole numbers 1..64", optarg);
+                return dm_cli_usage("modes", "--mesh takes NA,NB, whole numbers 1..64", optarg);
             o->na = (int)mesh[0];
             o->nb = (int)mesh[1];
             break;
@@ -141,17 +100,17 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
             else if (!strcmp(optarg, "all"))
                 o->method = DM_EIGEN_ALL;
             else
-                return usage_error("modes", "--method is partial or all", optarg);
+                return dm_cli_usage("modes", "--method is partial or all", optarg);
             break;
         case 'j': o->json = 1; break;
         case 'h': fputs(MODES_HELP, stdout); exit(0);
-        default: return usage_error("modes", "unknown or incomplete option", argv[optind - 1]);
+        default: return dm_cli_usage("modes", "unknown or incomplete option", argv[optind - 1]);
         }
     }
     if (optind < argc)
-        return usage_error("modes", "unexpected argument", argv[optind]);
+        return dm_cli_usage("modes", "unexpected argument", argv[optind]);
     if (!o->robot)
-        return usage_error("modes", "--robot is required", NULL);
+        return dm_cli_usage("modes", "--robot is required", NULL);
     return 0;
 }
 
@@ -235,11 +194,11 @@ static int cmd_modes(int argc, char **argv)
     dm_robot rb;
     dm_error err;
     if (dm_robot_load(o.robot, &rb, &err))
-        return report(&err);
+        return dm_cli_report(&err);
     int na = o.na ? o.na : rb.na, nb = o.nb ? o.nb : rb.nb;
     dm_analysis *an = dm_analysis_alloc(&rb, na, nb, o.k, o.method, &err);
     if (!an)
-        return report(&err);
+        return dm_cli_report(&err);
     if (o.k > an->model->n) {
         fprintf(stderr, "deltamap modes: --modes %d exceeds the model's %d DOF\n", o.k,
                 an->model->n);
@@ -251,7 +210,7 @@ static int cmd_modes(int argc, char **argv)
     if (!rc)
         rc = o.json ? print_modes_json(&rb, an, &res) : (print_modes_table(&rb, an, &res), 0);
     else
-        report(&err);
+        dm_cli_report(&err);
     dm_analysis_free(an);
     return rc;
 }
@@ -265,11 +224,11 @@ static int cmd_robot(int argc, char **argv)
         return 0;
     }
     if (argc != 2)
-        return usage_error("robot", "expects one robot file or preset name", NULL);
+        return dm_cli_usage("robot", "expects one robot file or preset name", NULL);
     dm_robot rb;
     dm_error err;
     if (dm_robot_load(argv[1], &rb, &err))
-        return report(&err);
+        return dm_cli_report(&err);
     printf("# %s: valid; every default filled in\n", rb.source);
     return dm_robot_write(&rb, stdout);
 }
@@ -280,7 +239,7 @@ static int cmd_presets(void)
         dm_robot rb;
         dm_error err;
         if (dm_robot_load(*n, &rb, &err))
-            return report(&err);
+            return dm_cli_report(&err);
         printf("%-10s R %.3f m, r %.3f m, la %.3f m, lb %.3f m, home (%g, %g, %g) m\n", *n,
                rb.base_radius_m, rb.platform_radius_m, rb.arm_length_m, rb.rod_length_m,
                rb.home_m[0], rb.home_m[1], rb.home_m[2]);
@@ -290,6 +249,10 @@ static int cmd_presets(void)
 
 int dm_cli_main(int argc, char **argv)
 {
+    /* Our matrices are small (48-900): one BLAS thread per caller is fastest,
+     * and parallel work (sweeps) uses OpenMP over poses instead. */
+    if (!getenv("OPENBLAS_NUM_THREADS"))
+        openblas_set_num_threads(1);
     if (argc < 2) {
         fputs(MAIN_HELP, stderr);
         return EXIT_USAGE;
@@ -305,6 +268,8 @@ int dm_cli_main(int argc, char **argv)
     }
     if (!strcmp(cmd, "modes"))
         return cmd_modes(argc - 1, argv + 1);
+    if (!strcmp(cmd, "trajectory"))
+        return dm_cli_trajectory(argc - 1, argv + 1);
     if (!strcmp(cmd, "robot"))
         return cmd_robot(argc - 1, argv + 1);
     if (!strcmp(cmd, "presets"))

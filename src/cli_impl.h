@@ -1,0 +1,35 @@
+/* Private to the command line: helpers shared by the command files. */
+#ifndef DM_CLI_IMPL_H
+#define DM_CLI_IMPL_H
+
+#include "dm_error.h"
+
+#define DM_VERSION "0.2.0"
+#define EXIT_USAGE 1
+
+/* Print "deltamap: MESSAGE" and return the error's code (the exit code). */
+int dm_cli_report(const dm_error *err);
+
+/* Print a usage error for `cmd` and return EXIT_USAGE. */
+int dm_cli_usage(const char *cmd, const char *msg, const char *arg);
+
+/* "a,b,c": exactly n finite numbers. */
+int dm_cli_parse_list(const char *s, double *out, int n);
+
+int dm_cli_parse_int(const char *s, int lo, int hi, int *out);
+
+/* Output files appear whole or not at all: write to PATH.tmp.PID, then
+ * rename over PATH on success, remove on failure. */
+#include <stdio.h>
+typedef struct dm_cli_out {
+    FILE *f;
+    char path[1024], tmp[1100];
+} dm_cli_out;
+int dm_cli_out_open(dm_cli_out *out, const char *path, dm_error *err);
+int dm_cli_out_commit(dm_cli_out *out, dm_error *err);
+void dm_cli_out_abort(dm_cli_out *out);
+
+/* Commands. */
+int dm_cli_trajectory(int argc, char **argv);
+
+#endif

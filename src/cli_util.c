@@ -1,0 +1,83 @@
+/* Helpers shared by the deltamap commands. */
+#include "cli_impl.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <errno.h>
+#include <string.h>
+#include <unistd.h>
+
+int dm_cli_report(const dm_error *err)
+{
+    fprintf(stderr, "deltamap: %s\n", err->msg);
+    return err->code;
+}
+
+int dm_cli_usage(const char *cmd, const char *msg, const char *arg)
+{
+    fprintf(stderr, "deltamap %s: %s%s%s\n(see `deltamap %s --help`)\n", cmd, msg,
+            arg ? ": " : "", arg ? arg : "", cmd);
+    return EXIT_USAGE;
+}
+
+/* "a,b,c" with exactly n finite numbers */
+int dm_cli_parse_list(const char *s, double *out, int n)
+{
+    const char *p = s;
+    for (int i = 0; i < n; i++) {
+        char *end;
+        out[i] = strtod(p, &end);
+        if (end == p || !isfinite(out[i]))
+            return -1;
+        p = end;
+        if (i < n - 1) {
+            if (*p != ',')
+                return -1;
+            p++;
+        }
+    }
+    return *p ? -1 : 0;
+}
+
+int dm_cli_parse_int(const char *s, int lo, int hi, int *out)
+{
+    char *end;
+    long v = strtol(s, &end, 10);
+    if (end == s || *end || v < lo || v > hi)
+        return -1;
+    *out = (int)v;
+    return 0;
+}
+
+
+int dm_cli_out_open(dm_cli_out *out, const char *path, dm_error *err)
+{
+    snprintf(out->path, sizeof out->path, "%s", path);
+    snprintf(out->tmp, sizeof out->tmp, "%s.tmp.%ld", path, (long)getpid());
+    out->f = fopen(out->tmp, "w");
+    if (!out->f)
+        return dm_fail(err, DM_EIO, "%s: cannot write: %s", out->tmp, strerror(errno));
+    return DM_OK;
+}
+
+int dm_cli_out_commit(dm_cli_out *out, dm_error *err)
+{
+    int bad = ferror(out->f) | fflush(out->f) | fsync(fileno(out->f));
+    bad |= fclose(out->f);
+    out->f = NULL;
+    if (bad || rename(out->tmp, out->path)) {
+        int e = errno;
+        remove(out->tmp);
+        return dm_fail(err, DM_EIO, "%s: write failed: %s", out->path, strerror(e));
+    }
+    return DM_OK;
+}
+
+void dm_cli_out_abort(dm_cli_out *out)
+{
+    if (out->f)
+        fclose(out->f);
+    out->f = NULL;
+    remove(out->tmp);
+}

@@ -1,0 +1,253 @@
+/* Integration along a trajectory: frozen configuration per step, state
+ * carried by projection, optional all-modes reference (MODEL.md §4). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dm_integrate.h"
+#include "dm_kinematics.h"
+#include "dm_loads.h"
+#include "dm_static.h"
+#include "dm_vec3.h"
+
+void dm_integ_opts_default(dm_integ_opts *o)
+{
+    memset(o, 0, sizeof *o);
+    o->k = 10;
+    o->dt_s = 1e-3;
+    o->method = DM_ODE_CVODE;
+    o->rtol = 1e-8;
+    o->atol = 1e-14;
+    o->reference = 1;
+    o->nfreq = 3;
+}
+
+typedef struct {
+    const dm_robot *rb;
+    const dm_trajectory *tr;
+    dm_integ_opts o;
+    int n, k, ksolve; /* ksolve: modes solved per step (retained or reported) */
+    dm_model *md;
+    dm_modal *modal, *modal_all;
+    dm_static *statics;
+    dm_stepper *stepper, *ref_stepper;
+    double *x, *xd, *xr, *xrd, *F0, *F1, *xout;
+} run_ws;
+
+static void free_ws(run_ws *w)
+{
+    dm_model_free(w->md);
+    dm_modal_free(w->modal);
+    dm_modal_free(w->modal_all);
+    dm_static_free(w->statics);
+    dm_stepper_free(w->stepper);
+    dm_stepper_free(w->ref_stepper);
+    free(w->x);
+    free(w->xd);
+    free(w->xr);
+    free(w->xrd);
+    free(w->F0);
+    free(w->F1);
+    free(w->xout);
+}
+
+static int alloc_ws(run_ws *w, dm_error *err)
+{
+    const dm_integ_opts *o = &w->o;
+    w->md = dm_model_alloc(w->rb, o->na ? o->na : w->rb->na, o->nb ? o->nb : w->rb->nb, err);
+    if (!w->md)
+        return err ? err->code : DM_ENOMEM;
+    int n = w->n = w->md->n;
+    w->k = (o->k <= 0 || o->k > n) ? n : o->k;
+    w->ksolve = w->k > o->nfreq ? w->k : (o->nfreq < n ? o->nfreq : n);
+    w->modal = dm_modal_alloc(n, w->ksolve, DM_EIGEN_PARTIAL, err);
+    w->statics = w->modal ? dm_static_alloc(n, err) : NULL;
+    w->stepper = w->statics ? dm_stepper_alloc(n, w->k, o->method, o->rtol, o->atol, err) : NULL;
+    if (!w->stepper)
+        return err ? err->code : DM_ENOMEM;
+    if (o->reference) {
+        w->modal_all = dm_modal_alloc(n, n, DM_EIGEN_ALL, err);
+        w->ref_stepper = w->modal_all ? dm_stepper_alloc(n, n, DM_ODE_CLOSED_FORM, 0, 0, err) : NULL;
+        if (!w->ref_stepper)
+            return err ? err->code : DM_ENOMEM;
+    }
+    size_t sz = sizeof(double) * n;
+    w->x = calloc(1, sz);
+    w->xd = calloc(1, sz);
+    w->xr = calloc(1, sz);
+    w->xrd = calloc(1, sz);
+    w->F0 = malloc(sz);
+    w->F1 = malloc(sz);
+    w->xout = malloc(sz);
+    if (!w->x || !w->xd || !w->xr || !w->xrd || !w->F0 || !w->F1 || !w->xout)
+        return dm_fail(err, DM_ENOMEM, "out of memory for the trajectory run");
+    return DM_OK;
+}
+
+/* Load at time t on the model frozen at the current step's pose: gravity +
+ * inertia of the nominal motion at t (rates from the kinematics at P(t)). */
+static int load_at(const run_ws *w, double t, double *F, dm_error *err)
+{
+    double P[3], v[3], a[3];
+    dm_pose pose;
+    dm_rigid_motion mo;
+    dm_traj_eval(w->tr, t, P, v, a);
+    int rc = dm_kin_inverse(w->rb, P, &pose, err);
+    if (!rc)
+        rc = dm_kin_rates(w->rb, &pose, v, mo.alpha_dot, err);
+    if (!rc)
+        rc = dm_kin_accelerations(w->rb, &pose, v, a, mo.alpha_ddot, err);
+    if (rc)
+        return rc;
+    dm_copy3(a, mo.aP);
+    memcpy(F, w->md->F_gravity, sizeof(double) * w->n);
+    dm_loads_add_inertial(w->md, &mo, F);
+    return DM_OK;
+}
+
+/* Output displacement: the state, plus with quasi_static the static part of
+ * the dropped modes, K^-1 F - sum_j phi_j phi_j' F / omega_j^2. */
+static int output_state(run_ws *w, const dm_modes *mo, const double *F, dm_error *err)
+{
+    int n = w->n;
+    memcpy(w->xout, w->x, sizeof(double) * n);
+    if (!w->o.quasi_static || w->k == n)
+        return DM_OK;
+    double *s = w->F0 == F ? w->F1 : w->F0; /* scratch that is not F */
+    memcpy(s, F, sizeof(double) * n);
+    int rc = dm_static_factor(w->statics, w->md->K, err);
+    if (!rc)
+        rc = dm_static_solve(w->statics, s, 1, err);
+    if (rc)
+        return rc;
+    for (int j = 0; j < w->k; j++) {
+        const double *ph = mo->phi + (size_t)j * n;
+        double f = 0, w2 = mo->omega_rad_s[j] * mo->omega_rad_s[j];
+        for (int i = 0; i < n; i++)
+            f += ph[i] * F[i];
+        for (int i = 0; i < n; i++)
+            s[i] -= ph[i] * f / w2;
+    }
+    for (int i = 0; i < n; i++)
+        w->xout[i] += s[i];
+    return DM_OK;
+}
+
+static void fill_sample(const run_ws *w, double t, const double *x, const dm_modes *mo,
+                        dm_integ_sample *s)
+{
+    double v[3], a[3], exr[3];
+    const double *u = x + w->md->platform_dof;
+    s->t_s = t;
+    dm_traj_eval(w->tr, t, s->P_m, v, a);
+    memcpy(s->error, u, 6 * sizeof(double));
+    dm_cross3(u + 3, w->o.tool_m, exr);
+    for (int k = 0; k < 3; k++)
+        s->tool_error_m[k] = u[k] + exr[k];
+    s->nfreq = w->o.nfreq < mo->k ? w->o.nfreq : mo->k;
+    if (s->nfreq > DM_INTEG_MAXFREQ)
+        s->nfreq = DM_INTEG_MAXFREQ;
+    for (int j = 0; j < s->nfreq; j++)
+        s->freq_hz[j] = mo->freq_hz[j];
+}
+
+static double platform_diff(const run_ws *w, const double *a, const double *b)
+{
+    const double *pa = a + w->md->platform_dof, *pb = b + w->md->platform_dof;
+    double d[3] = {pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]};
+    return dm_norm3(d);
+}
+
+static int initial_state(run_ws *w, dm_error *err)
+{
+    if (w->o.from_rest)
+        return DM_OK;
+    memcpy(w->x, w->md->F_gravity, sizeof(double) * w->n);
+    int rc = dm_static_factor(w->statics, w->md->K, err);
+    if (!rc)
+        rc = dm_static_solve(w->statics, w->x, 1, err);
+    memcpy(w->xr, w->x, sizeof(double) * w->n);
+    return rc;
+}
+
+typedef struct {
+    double mean, peak, ref_mean, ref_sq, diff_sq; /* time integrals and maxima */
+} run_stats;
+
+static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, run_stats *rs,
+                dm_error *err)
+{
+    const dm_trajectory *tr = w->tr;
+    double t0 = j * w->o.dt_s, t1 = j + 1 == nsteps ? tr->duration_s : (j + 1) * w->o.dt_s;
+    double h = t1 - t0, P[3], v[3], a[3];
+    dm_pose pose;
+    const dm_modes *mo, *mo_all = NULL;
+    dm_integ_sample s;
+    dm_traj_eval(tr, t0, P, v, a);
+    int rc = dm_kin_inverse(w->rb, P, &pose, err);
+    if (!rc) rc = dm_model_build(w->md, &pose, err);
+    if (!rc) rc = dm_modal_solve(w->modal, w->md->K, w->md->M, w->ksolve, &mo, err);
+    if (!rc && j == 0) {
+        rc = initial_state(w, err);
+        if (!rc) {
+            fill_sample(w, 0.0, w->x, mo, &s);
+            rc = sink && sink(user, &s) ? DM_EINTERRUPT : DM_OK;
+            rs->peak = dm_norm3(w->x + w->md->platform_dof);
+        }
+    }
+    if (!rc) rc = load_at(w, t0, w->F0, err);
+    if (!rc) rc = load_at(w, t1, w->F1, err);
+    if (!rc && w->ref_stepper) {
+        rc = dm_modal_solve(w->modal_all, w->md->K, w->md->M, w->n, &mo_all, err);
+        if (!rc)
+            rc = dm_stepper_advance(w->ref_stepper, w->md, mo_all, w->n, w->F0, w->F1, h, w->xr,
+                                    w->xrd, err);
+    }
+    if (!rc) rc = dm_stepper_advance(w->stepper, w->md, mo, w->k, w->F0, w->F1, h, w->x, w->xd, err);
+    if (!rc) rc = output_state(w, mo, w->F1, err);
+    if (rc)
+        return rc;
+    fill_sample(w, t1, w->xout, mo, &s);
+    double e = dm_norm3(s.error);
+    rs->mean += h * e;
+    rs->peak = fmax(rs->peak, e);
+    if (w->ref_stepper) {
+        double er = dm_norm3(w->xr + w->md->platform_dof);
+        double d = platform_diff(w, w->xout, w->xr);
+        rs->ref_mean += h * er;
+        rs->ref_sq += h * er * er;
+        rs->diff_sq += h * d * d;
+    }
+    return sink && sink(user, &s) ? DM_EINTERRUPT : DM_OK;
+}
+
+int dm_integrate_trajectory(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
+                            dm_integ_sink sink, void *user, dm_integ_summary *sum, dm_error *err)
+{
+    if (!(o->dt_s > 0) || !(tr->duration_s > 0))
+        return dm_fail(err, DM_EINVAL, "time step and duration must be > 0");
+    int rc = dm_traj_check_reachable(tr, rb, o->dt_s, err);
+    if (rc)
+        return rc;
+    run_ws w = {.rb = rb, .tr = tr, .o = *o};
+    run_stats rs = {0};
+    long nsteps = (long)ceil(tr->duration_s / o->dt_s - 1e-9);
+    rc = alloc_ws(&w, err);
+    for (long j = 0; !rc && j < nsteps; j++)
+        rc = step(&w, j, nsteps, sink, user, &rs, err);
+    if (!rc) {
+        memset(sum, 0, sizeof *sum);
+        sum->n = w.n;
+        sum->k = w.k;
+        sum->steps = nsteps;
+        sum->duration_s = tr->duration_s;
+        sum->mean_error_m = rs.mean / tr->duration_s;
+        sum->peak_error_m = rs.peak;
+        sum->truncation_error = o->reference ? sqrt(rs.diff_sq / rs.ref_sq) : NAN;
+        sum->reference_mean_error_m = o->reference ? rs.ref_mean / tr->duration_s : NAN;
+        int undamped = rb->rayleigh_alpha == 0 && rb->rayleigh_beta == 0;
+        sum->aliasing_risk = undamped && o->dt_s > 1.25e-4 && (w.k > 20 || o->reference);
+    }
+    free_ws(&w);
+    return rc;
+}

@@ -1,0 +1,339 @@
+/* Normal-coordinate integration: SUNDIALS vs closed form, all modes vs the
+ * full model, the quasi-static limit, modal decay, inertial loads settling
+ * to their static solution, and the truncation figure of docs. */
+#include "dm_test.h"
+
+#include <stdlib.h>
+
+#include "dm_analysis.h"
+#include "dm_integrate.h"
+#include "dm_loads.h"
+
+#define MAXS 40000
+
+typedef struct {
+    int n;
+    double t[MAXS], e[MAXS][6];
+} history;
+
+static int record(void *user, const dm_integ_sample *s)
+{
+    history *h = user;
+    if (h->n >= MAXS)
+        return 1;
+    h->t[h->n] = s->t_s;
+    memcpy(h->e[h->n], s->error, sizeof h->e[0]);
+    h->n++;
+    return 0;
+}
+
+static void run_robot(const dm_robot *rb, const char *path, const dm_integ_opts *o,
+                      history *h, dm_integ_summary *sum)
+{
+    dm_trajectory tr;
+    dm_error err;
+    assert_int_equal(dm_traj_make(path, rb, &tr, &err), 0);
+    h->n = 0;
+    int rc = dm_integrate_trajectory(rb, &tr, o, record, h, sum, &err);
+    if (rc)
+        print_error("%s\n", err.msg);
+    assert_int_equal(rc, 0);
+    dm_traj_free(&tr);
+}
+
+static void run(const char *preset, const char *path, const dm_integ_opts *o, history *h,
+                dm_integ_summary *sum)
+{
+    dm_robot rb;
+    assert_int_equal(dm_robot_load(preset, &rb, NULL), 0);
+    run_robot(&rb, path, o, h, sum);
+}
+
+/* max over samples of |a - b| (translations) relative to max |b| */
+static double history_diff(const history *a, const history *b)
+{
+    double dmax = 0, bmax = 0;
+    assert_int_equal(a->n, b->n);
+    for (int i = 0; i < a->n; i++) {
+        double d = 0, m = 0;
+        for (int k = 0; k < 3; k++) {
+            d += (a->e[i][k] - b->e[i][k]) * (a->e[i][k] - b->e[i][k]);
+            m += b->e[i][k] * b->e[i][k];
+        }
+        dmax = fmax(dmax, sqrt(d));
+        bmax = fmax(bmax, sqrt(m));
+    }
+    return dmax / bmax;
+}
+
+static history H1, H2;
+
+#define FROZEN_ZHENG "p2p:from=0.02,-0.01,-0.42;to=0.02,-0.01,-0.42;duration=0.05"
+#define MOVING_ZHENG "circle:centre=0,0,-0.4;radius=0.05;rate=6.283185307179586;duration=0.08"
+
+static void sundials_matches_closed_form(void **state)
+{
+    (void)state;
+    dm_integ_opts o;
+    dm_integ_summary s;
+    dm_integ_opts_default(&o);
+    o.na = o.nb = 1;
+    o.k = 10;
+    o.rtol = 1e-11;
+    o.atol = 1e-18;
+    o.reference = 0;
+    o.from_rest = 1; /* gravity applied suddenly: a rich free vibration */
+    const char *paths[2] = {FROZEN_ZHENG, MOVING_ZHENG};
+    for (int p = 0; p < 2; p++) {
+        o.method = DM_ODE_CVODE;
+        run("zheng2017", paths[p], &o, &H1, &s);
+        o.method = DM_ODE_CLOSED_FORM;
+        run("zheng2017", paths[p], &o, &H2, &s);
+        /* CVODE at rtol 1e-11 vs the exact per-step solution */
+        assert_true(history_diff(&H1, &H2) < 1e-6);
+    }
+}
+
+static void all_modes_equal_full_model(void **state)
+{
+    (void)state;
+    dm_integ_opts o;
+    dm_integ_summary s;
+    dm_integ_opts_default(&o);
+    o.na = o.nb = 1;
+    o.k = 0; /* all */
+    o.reference = 0;
+    o.method = DM_ODE_CLOSED_FORM;
+    run("zheng2017", MOVING_ZHENG, &o, &H1, &s);
+    assert_int_equal(s.k, 48);
+    o.method = DM_ODE_FULL;
+    o.rtol = 1e-11;
+    o.atol = 1e-16;
+    run("zheng2017", MOVING_ZHENG, &o, &H2, &s);
+    assert_true(history_diff(&H1, &H2) < 1e-6);
+    /* and the built-in reference agrees: truncation error of all modes is 0 */
+    o.method = DM_ODE_CLOSED_FORM;
+    o.reference = 1;
+    run("zheng2017", MOVING_ZHENG, &o, &H1, &s);
+    assert_true(s.truncation_error < 1e-10);
+}
+
+/* A very slow move stays at the static gravity error of each pose. */
+static void quasi_static_limit(void **state)
+{
+    (void)state;
+    dm_integ_opts o;
+    dm_integ_summary s;
+    dm_integ_opts_default(&o);
+    o.na = o.nb = 1;
+    o.k = 12;
+    o.quasi_static = 1;
+    o.reference = 0;
+    o.dt_s = 5e-2; /* 2000 steps; peak acceleration 6e-4 m/s^2 */
+    o.method = DM_ODE_CLOSED_FORM;
+    run("zheng2017", "p2p:from=-0.05,0.02,-0.38;to=0.05,-0.03,-0.45;duration=100", &o, &H1, &s);
+    dm_robot rb;
+    assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
+    dm_analysis *an = dm_analysis_alloc(&rb, 1, 1, 1, DM_EIGEN_PARTIAL, NULL);
+    dm_trajectory tr;
+    assert_int_equal(dm_traj_make("p2p:from=-0.05,0.02,-0.38;to=0.05,-0.03,-0.45;duration=100",
+                                  &rb, &tr, NULL), 0);
+    for (int i = 0; i < H1.n; i += 50) {
+        double P[3], v[3], a[3];
+        dm_pose_result res;
+        /* the step ending at t was frozen at t - dt: compare with that pose */
+        dm_traj_eval(&tr, i ? H1.t[i] - o.dt_s : 0.0, P, v, a);
+        assert_int_equal(dm_analysis_run(an, P, 1, &res, NULL), 0);
+        double ref = sqrt(res.static_error[0] * res.static_error[0] +
+                          res.static_error[2] * res.static_error[2]);
+        for (int k = 0; k < 3; k++) /* inertia ~1e-4 g, step transients damped */
+            assert_abs(H1.e[i][k], res.static_error[k], 1e-3 * ref, "t = %g s, comp %d", H1.t[i], k);
+    }
+    dm_analysis_free(an);
+}
+
+/* Gravity applied suddenly at the centre of chen2018 (given Rayleigh
+ * damping here) loads its first mode, the vertical one: successive maxima
+ * of dz decay by exp(-zeta omega T_d). */
+static void free_vibration_decays_at_modal_rate(void **state)
+{
+    (void)state;
+    dm_integ_opts o;
+    dm_integ_summary s;
+    dm_robot rb;
+    assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
+    rb.rayleigh_alpha = 1.0;
+    rb.rayleigh_beta = 1e-3;
+    dm_integ_opts_default(&o);
+    o.na = o.nb = 1;
+    o.k = 1;
+    o.from_rest = 1;
+    o.reference = 0;
+    o.dt_s = 2e-5;
+    o.rtol = 1e-10;
+    o.atol = 1e-18;
+    run_robot(&rb, "p2p:from=0,0,-0.5;to=0,0,-0.5;duration=0.12", &o, &H1, &s);
+    dm_analysis *an = dm_analysis_alloc(&rb, 1, 1, 1, DM_EIGEN_PARTIAL, NULL);
+    dm_pose_result res;
+    assert_int_equal(dm_analysis_run(an, rb.home_m, 1, &res, NULL), 0);
+    assert_int_equal(res.modes->direction[0], DM_DIR_Z);
+    double w = res.modes->omega_rad_s[0];
+    double zeta = rb.rayleigh_alpha / (2 * w) + rb.rayleigh_beta * w / 2;
+    const double *ph = res.modes->phi;
+    double f = 0;
+    for (int i = 0; i < an->model->n; i++)
+        f += ph[i] * an->model->F_gravity[i];
+    double dz_inf = ph[an->model->platform_dof + 2] * f / (w * w); /* the mode's static part */
+    double peaks[8];
+    int np = 0;
+    for (int i = 1; i + 1 < H1.n && np < 8; i++) {
+        double a = H1.e[i - 1][2] - dz_inf, b = H1.e[i][2] - dz_inf, c = H1.e[i + 1][2] - dz_inf;
+        if (fabs(b) > fabs(a) && fabs(b) >= fabs(c) && b * dz_inf < 0) /* overshoots */
+            peaks[np++] = fabs(b);
+    }
+    assert_true(np >= 3);
+    double Td = 2 * M_PI / (w * sqrt(1 - zeta * zeta));
+    for (int j = 0; j + 1 < np; j++) /* sampled maxima: 1e-4 of the amplitude */
+        assert_rel(log(peaks[j] / peaks[j + 1]) / Td, zeta * w, 1e-3, "decay rate, peaks %d-%d",
+                   j, j + 1);
+    dm_analysis_free(an);
+}
+
+/* A constant nominal acceleration held long enough, with damping, settles
+ * to K^-1 (F_gravity + F_inertial) on the frozen pose. */
+static void inertial_load_settles_to_static(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_error err;
+    dm_pose_result res;
+    assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
+    dm_analysis *an = dm_analysis_alloc(&rb, 2, 2, 12, DM_EIGEN_PARTIAL, NULL);
+    const double P[3] = {0.03, 0.04, -0.43}, v0[3] = {0, 0, 0}, acc[3] = {3.0, -2.0, 5.0};
+    assert_int_equal(dm_analysis_run(an, P, 12, &res, NULL), 0);
+    dm_model *md = an->model;
+    int n = md->n;
+    dm_rigid_motion mo = {{0}, {0}, {acc[0], acc[1], acc[2]}};
+    assert_int_equal(dm_kin_accelerations(&rb, &res.pose, v0, acc, mo.alpha_ddot, NULL), 0);
+    double *F = malloc(sizeof(double) * n), *x = malloc(sizeof(double) * n);
+    double *xd = calloc((size_t)n, sizeof(double)), *xs = malloc(sizeof(double) * n);
+    memcpy(F, md->F_gravity, sizeof(double) * n);
+    memcpy(x, md->F_gravity, sizeof(double) * n);
+    dm_loads_add_inertial(md, &mo, F);
+    memcpy(xs, F, sizeof(double) * n);
+    assert_int_equal(dm_static_solve(an->statics, x, 1, NULL), 0);  /* start: gravity only */
+    assert_int_equal(dm_static_solve(an->statics, xs, 1, NULL), 0); /* expected end */
+    double change = 0;
+    for (int i = 0; i < 3; i++)
+        change = fmax(change, fabs(xs[md->platform_dof + i] - x[md->platform_dof + i]));
+    assert_true(change > 1e-8); /* the acceleration really loads the robot */
+    /* 12 modes, CVODE: settles to the 12-mode static solution Phi W^-2 Phi' F */
+    dm_stepper *st = dm_stepper_alloc(n, 12, DM_ODE_CVODE, 1e-10, 1e-18, &err);
+    assert_non_null(st);
+    for (int s = 0; s < 300; s++) /* 3 s, slowest decay e^-42t */
+        assert_int_equal(dm_stepper_advance(st, md, res.modes, 12, F, F, 1e-2, x, xd, &err), 0);
+    for (int i = 0; i < 3; i++) {
+        double expect = 0;
+        for (int j = 0; j < 12; j++) {
+            const double *ph = res.modes->phi + (size_t)j * n;
+            double f = 0, w = res.modes->omega_rad_s[j];
+            for (int r = 0; r < n; r++)
+                f += ph[r] * F[r];
+            expect += ph[md->platform_dof + i] * f / (w * w);
+        }
+        assert_abs(x[md->platform_dof + i], expect, 1e-6 * change, "settled platform comp %d", i);
+    }
+    dm_stepper_free(st);
+    /* all modes, closed form: exactly the static solution */
+    dm_modal *all = dm_modal_alloc(n, n, DM_EIGEN_ALL, NULL);
+    const dm_modes *mall;
+    assert_int_equal(dm_modal_solve(all, md->K, md->M, n, &mall, NULL), 0);
+    st = dm_stepper_alloc(n, n, DM_ODE_CLOSED_FORM, 0, 0, NULL);
+    memcpy(x, md->F_gravity, sizeof(double) * n);
+    assert_int_equal(dm_static_solve(an->statics, x, 1, NULL), 0);
+    memset(xd, 0, sizeof(double) * n);
+    for (int s = 0; s < 300; s++)
+        assert_int_equal(dm_stepper_advance(st, md, mall, n, F, F, 1e-2, x, xd, NULL), 0);
+    for (int i = 0; i < 6; i++)
+        assert_abs(x[md->platform_dof + i], xs[md->platform_dof + i], 1e-9 * change,
+                   "all modes settle exactly, comp %d", i);
+    dm_stepper_free(st);
+    dm_modal_free(all);
+    free(F);
+    free(x);
+    free(xd);
+    free(xs);
+    dm_analysis_free(an);
+}
+
+static void sdof_closed_form_cases(void **state)
+{
+    (void)state;
+    /* constant load from rest: q = f/w^2 (1 - e^-zwt (cos wd t + z/sqrt(1-z^2) sin wd t)) */
+    double w = 30.0, z = 0.05, f = 2.0, h = 0.37, q = 0, qd = 0;
+    dm_sdof_step(w, z, f, f, h, &q, &qd);
+    double wd = w * sqrt(1 - z * z);
+    double expect = f / (w * w) * (1 - exp(-z * w * h) * (cos(wd * h) + z / sqrt(1 - z * z) * sin(wd * h)));
+    assert_rel(q, expect, 1e-12, "underdamped step response");
+    /* over- and critically damped: compare two half steps with one full step
+     * (a linear load splits exactly) */
+    const double zs[3] = {1.0, 1.0 + 1e-7, 3.0};
+    for (int c = 0; c < 3; c++) {
+        double q1 = 1e-3, v1 = -0.2, q2 = 1e-3, v2 = -0.2, fm = 1.0 + 0.5 * (4.0 - 1.0);
+        dm_sdof_step(w, zs[c], 1.0, 4.0, 0.2, &q1, &v1);
+        dm_sdof_step(w, zs[c], 1.0, fm, 0.1, &q2, &v2);
+        dm_sdof_step(w, zs[c], fm, 4.0, 0.1, &q2, &v2);
+        assert_rel(q2, q1, 1e-10, "zeta %g: split steps agree (q)", zs[c]);
+        assert_rel(v2, v1, 1e-9, "zeta %g: split steps agree (qd)", zs[c]);
+    }
+}
+
+/* docs/reproductions.md: on chen2018's trajectory (mesh 1,1, dt 1.25e-4 s,
+ * undamped) 6 modes keep the truncation error within 1 %, 3 do not. */
+static void chen2018_truncation_figure(void **state)
+{
+    (void)state;
+    dm_integ_opts o;
+    dm_integ_summary s;
+    dm_integ_opts_default(&o);
+    o.na = o.nb = 1;
+    o.dt_s = 1.25e-4;
+    o.method = DM_ODE_CLOSED_FORM;
+    o.k = 6;
+    run("chen2018", "chen2018", &o, &H1, &s);
+    assert_true(s.truncation_error < 0.01);
+    assert_false(s.aliasing_risk);
+    o.k = 3;
+    run("chen2018", "chen2018", &o, &H1, &s);
+    assert_true(s.truncation_error > 0.01);
+}
+
+static void unreachable_path_named_time(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_trajectory tr;
+    dm_error err;
+    dm_integ_opts o;
+    dm_integ_summary s;
+    dm_integ_opts_default(&o);
+    assert_int_equal(dm_robot_load("han2011", &rb, NULL), 0);
+    assert_int_equal(dm_traj_make("han2011-vertical-printed", &rb, &tr, NULL), 0);
+    assert_int_equal(dm_integrate_trajectory(&rb, &tr, &o, NULL, NULL, &s, &err), DM_EUNREACHABLE);
+    assert_non_null(strstr(err.msg, "first unreachable at t = 0 s"));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(sdof_closed_form_cases),
+        cmocka_unit_test(sundials_matches_closed_form),
+        cmocka_unit_test(all_modes_equal_full_model),
+        cmocka_unit_test(quasi_static_limit),
+        cmocka_unit_test(free_vibration_decays_at_modal_rate),
+        cmocka_unit_test(inertial_load_settles_to_static),
+        cmocka_unit_test(unreachable_path_named_time),
+        cmocka_unit_test(chen2018_truncation_figure),
+    };
+    return cmocka_run_group_tests_name("integrate", tests, NULL, NULL);
+}
