@@ -102,6 +102,12 @@ int dm_robot_parse_file(const char *path, dm_robot *robot, dm_error *err);
  * (numbers with 17 significant digits). */
 int dm_robot_write(const dm_robot *robot, FILE *out);
 
+/* Change one value, "SECTION.KEY=VALUE" with the keys of the robot file
+ * (e.g. "arm.side=0.025", "damping.beta=1e-4"), validated like a file;
+ * derived values (sections, shear modulus) follow. On error the robot is
+ * unchanged and the message names the assignment and key. */
+int dm_robot_set(dm_robot *robot, const char *assignment, dm_error *err);
+
 /* Section properties of a member (MODEL.md §2). */
 int dm_section_compute(const dm_member *member, dm_section *out, dm_error *err);
 

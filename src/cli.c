@@ -1,7 +1,6 @@
 /* The deltamap command line (see dm_cli.h). */
 #include "dm_cli.h"
 
-#include <cblas.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
@@ -22,6 +21,7 @@ static const char MAIN_HELP[] =
     "  modes       natural frequencies, mode shapes, static gravity error and\n"
     "              platform stiffness at one pose\n"
     "  trajectory  6-D elastic error of the platform along a trajectory\n"
+    "  study       mean trajectory error over one or two robot parameters\n"
     "  robot       check a robot file or preset and print it in full\n"
     "  presets     list the built-in robots\n"
     "\n"
@@ -187,6 +187,7 @@ static int print_modes_json(const dm_robot *rb, const dm_analysis *an,
 
 static int cmd_modes(int argc, char **argv)
 {
+    dm_cli_serial_blas();
     modes_opts o;
     int rc = parse_modes_opts(argc, argv, &o);
     if (rc)
@@ -249,10 +250,6 @@ static int cmd_presets(void)
 
 int dm_cli_main(int argc, char **argv)
 {
-    /* Our matrices are small (48-900): one BLAS thread per caller is fastest,
-     * and parallel work (sweeps) uses OpenMP over poses instead. */
-    if (!getenv("OPENBLAS_NUM_THREADS"))
-        openblas_set_num_threads(1);
     if (argc < 2) {
         fputs(MAIN_HELP, stderr);
         return EXIT_USAGE;
@@ -270,6 +267,8 @@ int dm_cli_main(int argc, char **argv)
         return cmd_modes(argc - 1, argv + 1);
     if (!strcmp(cmd, "trajectory"))
         return dm_cli_trajectory(argc - 1, argv + 1);
+    if (!strcmp(cmd, "study"))
+        return dm_cli_study(argc - 1, argv + 1);
     if (!strcmp(cmd, "robot"))
         return cmd_robot(argc - 1, argv + 1);
     if (!strcmp(cmd, "presets"))

@@ -29,7 +29,14 @@ int dm_cli_out_open(dm_cli_out *out, const char *path, dm_error *err);
 int dm_cli_out_commit(dm_cli_out *out, dm_error *err);
 void dm_cli_out_abort(dm_cli_out *out);
 
+/* Serial commands: one BLAS thread. Our matrices are small (48-900 DOF),
+ * where threaded BLAS only adds overhead. (In OpenBLAS's OpenMP build this
+ * also sets OpenMP's thread count, so parallel commands do not call it:
+ * BLAS inside their parallel regions runs serially by itself.) */
+void dm_cli_serial_blas(void);
+
 /* Commands. */
 int dm_cli_trajectory(int argc, char **argv);
+int dm_cli_study(int argc, char **argv);
 
 #endif

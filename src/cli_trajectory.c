@@ -174,6 +174,7 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
 
 int dm_cli_trajectory(int argc, char **argv)
 {
+    dm_cli_serial_blas();
     traj_opts t;
     int rc = parse(argc, argv, &t);
     if (rc)

@@ -1,6 +1,8 @@
 /* Helpers shared by the deltamap commands. */
 #include "cli_impl.h"
 
+#include <cblas.h>
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -80,4 +82,10 @@ void dm_cli_out_abort(dm_cli_out *out)
         fclose(out->f);
     out->f = NULL;
     remove(out->tmp);
+}
+
+void dm_cli_serial_blas(void)
+{
+    if (!getenv("OPENBLAS_NUM_THREADS"))
+        openblas_set_num_threads(1);
 }

@@ -533,3 +533,78 @@ int dm_robot_write(const dm_robot *rb, FILE *out)
             h[0], h[1], h[2], rb->singular_cond);
     return ferror(out) ? DM_EIO : DM_OK;
 }
+
+/* ---- overrides ------------------------------------------------------------ */
+
+/* Rewrite the robot's INI text with `key = value` in [section] (replacing
+ * the key if present, else adding it) and parse the result, so an override
+ * is validated exactly like a file. */
+static int edit_text(const char *text, const char *section, const char *key, const char *value,
+                     char **out)
+{
+    size_t cap = strlen(text) + strlen(section) + strlen(key) + strlen(value) + 64;
+    char *res = malloc(cap), cur[64] = "";
+    if (!res)
+        return DM_ENOMEM;
+    res[0] = '\0';
+    int placed = 0, drop_g = !strcmp(key, "poisson_ratio"), drop_nu = !strcmp(key, "shear_modulus");
+    for (const char *p = text; *p;) {
+        const char *nl = strchr(p, '\n');
+        size_t len = nl ? (size_t)(nl - p + 1) : strlen(p);
+        char line[512];
+        snprintf(line, sizeof line, "%.*s", (int)(len < 511 ? len : 511), p);
+        if (line[0] == '[') {
+            if (!placed && !strcmp(cur, section)) {
+                sprintf(res + strlen(res), "%s = %s\n", key, value);
+                placed = 1;
+            }
+            sscanf(line, "[%63[^]]", cur);
+        }
+        size_t kl = strcspn(line, " =");
+        int in_sec = !strcmp(cur, section);
+        int same = in_sec && kl == strlen(key) && !strncmp(line, key, kl);
+        int dropped = in_sec && ((drop_g && !strncmp(line, "shear_modulus", 13)) ||
+                                 (drop_nu && !strncmp(line, "poisson_ratio", 13)));
+        if (same && !placed) {
+            sprintf(res + strlen(res), "%s = %s\n", key, value);
+            placed = 1;
+        } else if (!same && !dropped) {
+            strncat(res, p, len);
+        }
+        p += len;
+    }
+    if (!placed)
+        sprintf(res + strlen(res), "%s[%s]\n%s = %s\n", strcmp(cur, section) ? "\n" : "", section,
+                key, value);
+    *out = res;
+    return DM_OK;
+}
+
+int dm_robot_set(dm_robot *robot, const char *assignment, dm_error *err)
+{
+    char section[64], key[64], value[256];
+    if (sscanf(assignment, "%63[^.=].%63[^=]=%255s", section, key, value) != 3)
+        return dm_fail(err, DM_EINVAL, "'%s' is not SECTION.KEY=VALUE (e.g. arm.side=0.025)",
+                       assignment);
+    char *text = NULL, *edited = NULL;
+    size_t len = 0;
+    FILE *mem = open_memstream(&text, &len);
+    if (!mem)
+        return dm_fail(err, DM_ENOMEM, "out of memory");
+    dm_robot_write(robot, mem);
+    fclose(mem);
+    int rc = edit_text(text, section, key, value, &edited);
+    free(text);
+    if (rc)
+        return dm_fail(err, rc, "out of memory");
+    char source[DM_SOURCE_LEN];
+    snprintf(source, sizeof source, "%.400s with %.100s", robot->source, assignment);
+    dm_robot changed;
+    rc = dm_robot_parse_string(edited, source, &changed, err);
+    free(edited);
+    if (!rc) {
+        snprintf(changed.source, DM_SOURCE_LEN, "%s", robot->source);
+        *robot = changed;
+    }
+    return rc;
+}

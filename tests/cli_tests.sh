@@ -85,5 +85,43 @@ json_true "json.load(open('$TMP/a.json'))['frequencies_hz'] == d['frequencies_hz
 expect 0 "presets" "$DM" presets
 contains out "han2011"
 
+# ---- trajectory ----
+SHORT="circle:centre=0,0,-0.4;radius=0.05;rate=6.283185307179586;duration=0.05"
+expect 0 "trajectory json" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --modes 6 --json
+json_true "d['mean_error_m'] > 0 and d['peak_error_m'] >= d['mean_error_m'] and 0 <= d['truncation_error'] < 1"
+json_true "d['steps'] == 50 and d['modes'] == 6 and d['dof'] == 48"
+expect 0 "trajectory csv" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --out "$TMP/run.csv"
+contains out "written"
+if [ "$(wc -l <"$TMP/run.csv")" -eq 52 ] && head -1 "$TMP/run.csv" | grep -q "^t_s,x_m,y_m,z_m,dx_m"; then ok; else bad "run.csv shape"; fi
+if ls "$TMP"/run.csv.tmp.* >/dev/null 2>&1; then bad "temporary file left"; else ok; fi
+expect 3 "han vertical circle leaves the workspace" "$DM" trajectory --robot han2011 --path han2011-vertical-printed --out "$TMP/none.csv"
+contains err "first unreachable at t = 0 s"
+if [ -e "$TMP/none.csv" ] || ls "$TMP"/none.csv.tmp.* >/dev/null 2>&1; then bad "half-written output"; else ok; fi
+expect 2 "bad path spec" "$DM" trajectory --robot zheng2017 --path "circle:centre=0,0;radius=1;rate=1;duration=1"
+contains err "centre needs 3 numbers"
+expect 2 "bad law" "$DM" trajectory --robot zheng2017 --path "p2p:from=0,0,-0.4;to=0.1,0,-0.4;duration=1;law=smooth"
+printf 't,x,y,z\n0,0,0,-0.4\n0.01,0,0,oops\n' >"$TMP/bad.csv"
+expect 2 "bad csv" "$DM" trajectory --robot zheng2017 --path "$TMP/bad.csv"
+contains err "bad.csv:3: column 4 (z)"
+expect 0 "undamped all modes warns" "$DM" trajectory --robot chen2018 --path "p2p:from=0,0,-0.5;to=0.01,0,-0.5;duration=0.01" --mesh 1,1 --modes all
+contains err "alias"
+
+# ---- study ----
+expect 0 "study json" "$DM" study --robot chen2018 --path "p2p:from=0,0,-0.5;to=0.05,0,-0.5;duration=0.02" --mesh 1,1 --vary arm.side=0.02:0.03:2 --vary rod.side=0.006:0.01:2 --json --out "$TMP/study.csv"
+json_true "len(d['mean_error_m']) == 2 and len(d['mean_error_m'][0]) == 2 and d['parameters'] == ['arm.side', 'rod.side']"
+json_true "d['mean_error_m'][1][0] < d['mean_error_m'][0][0]"
+expect 2 "study bad key" "$DM" study --robot chen2018 --path chen2018 --vary arm.colour=1:2:2
+contains err "unknown key"
+
+# ---- plots (the project's Python environment) ----
+if [ -x .venv/bin/python ]; then
+    expect 0 "plot trajectory" .venv/bin/python tools/plot_trajectory.py "$TMP/run.csv" -o "$TMP/run.png"
+    if [ -s "$TMP/run.png" ]; then ok; else bad "no trajectory plot"; fi
+    expect 0 "plot study" .venv/bin/python tools/plot_study.py "$TMP/study.csv" -o "$TMP/study.png"
+    if [ -s "$TMP/study.png" ]; then ok; else bad "no study plot"; fi
+else
+    bad ".venv missing: run make deps"
+fi
+
 echo "cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -192,6 +192,34 @@ static void syntax_and_files(void **state)
     assert_rel(rb.arm_length_m, 0.5, 0, "inline comment");
 }
 
+static void overrides_are_validated(void **state)
+{
+    (void)state;
+    dm_robot rb, before;
+    dm_error err;
+    assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
+    double A0 = rb.arm.section.area_m2;
+    assert_int_equal(dm_robot_set(&rb, "arm.side=0.025", &err), 0);
+    assert_rel(rb.arm.section.area_m2, 0.025 * 0.025, 1e-15, "section follows the override");
+    assert_true(rb.arm.section.area_m2 > A0);
+    assert_string_equal(rb.source, "robots/chen2018.ini (built-in preset)");
+    assert_int_equal(dm_robot_set(&rb, "rod.poisson_ratio=0.25", &err), 0);
+    assert_rel(rb.rod.shear_pa, 210e9 / 2.5, 1e-15, "G from the new nu");
+    assert_int_equal(dm_robot_set(&rb, "damping.beta=1e-4", &err), 0);
+    assert_rel(rb.rayleigh_beta, 1e-4, 0, "new section key");
+    before = rb;
+    assert_int_equal(dm_robot_set(&rb, "arm.side=-1", &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "[arm] side: must be > 0"));
+    assert_non_null(strstr(err.msg, "with arm.side=-1"));
+    assert_memory_equal(&rb, &before, sizeof rb);
+    assert_int_equal(dm_robot_set(&rb, "arm.sidee=1", &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "unknown key"));
+    assert_int_equal(dm_robot_set(&rb, "arm.diameter=0.02", &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "does not apply"));
+    assert_int_equal(dm_robot_set(&rb, "nonsense", &err), DM_EINVAL);
+    assert_memory_equal(&rb, &before, sizeof rb);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -203,6 +231,7 @@ int main(void)
         cmocka_unit_test(malformed_values),
         cmocka_unit_test(inconsistent_keys),
         cmocka_unit_test(syntax_and_files),
+        cmocka_unit_test(overrides_are_validated),
     };
     return cmocka_run_group_tests_name("robot", tests, NULL, NULL);
 }

@@ -1,0 +1,263 @@
+/* deltamap study: mean trajectory error over one or two robot parameters
+ * (Chen's cross-section studies, figures 5-7). */
+#include <getopt.h>
+#include <jansson.h>
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli_impl.h"
+#include "dm_integrate.h"
+
+static const char HELP[] =
+    "usage: deltamap study --robot R --path P --vary SECTION.KEY=FROM:TO:N [--vary ...]\n"
+    "                      [--modes K] [--dt S] [--mesh NA,NB] [--set SECTION.KEY=V]...\n"
+    "                      [--threads N] [--out FILE.csv] [--json]\n"
+    "\n"
+    "Runs `deltamap trajectory` for every value (or pair of values) of one or two\n"
+    "robot-file keys and tabulates Chen's mean error (eq. 27) and the peak error.\n"
+    "Example, Chen fig. 7: --vary arm.side=0.020:0.030:6 --vary rod.side=0.005:0.010:6\n"
+    "\n"
+    "  --vary K=A:B:N  N evenly spaced values of robot key K from A to B (SI units)\n"
+    "  --modes K       retained modes (default 10), --dt step (default 1e-3 s)\n"
+    "  --set K=V       fixed override of a robot key (repeatable)\n"
+    "  --threads N     parallel runs (default: OpenMP's, i.e. all cores)\n"
+    "  --out FILE      CSV: one row per combination\n";
+
+typedef struct {
+    char key[64];
+    double from, to;
+    int count;
+} axis;
+
+typedef struct {
+    const char *robot, *path, *out;
+    const char *sets[16];
+    int nset, naxis, json, threads;
+    axis ax[2];
+    dm_integ_opts o;
+} study_opts;
+
+typedef struct {
+    double mean, peak;
+    int status;
+    char msg[256];
+} cell;
+
+static int parse_axis(const char *s, axis *a)
+{
+    const char *eq = strchr(s, '=');
+    if (!eq || eq - s >= (long)sizeof a->key)
+        return -1;
+    snprintf(a->key, sizeof a->key, "%.*s", (int)(eq - s), s);
+    char tail;
+    if (sscanf(eq + 1, "%lf:%lf:%d%c", &a->from, &a->to, &a->count, &tail) != 3 ||
+        a->count < 1 || a->count > 1000 || !isfinite(a->from) || !isfinite(a->to))
+        return -1;
+    return 0;
+}
+
+static int parse(int argc, char **argv, study_opts *t)
+{
+    static const struct option lo[] = {
+        {"robot", 1, 0, 'r'}, {"path", 1, 0, 'p'}, {"vary", 1, 0, 'v'}, {"modes", 1, 0, 'k'},
+        {"dt", 1, 0, 'd'}, {"mesh", 1, 0, 'm'}, {"set", 1, 0, 's'}, {"threads", 1, 0, 'T'},
+        {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    int c;
+    double v[2];
+    memset(t, 0, sizeof *t);
+    dm_integ_opts_default(&t->o);
+    t->o.reference = 0;
+    optind = 1;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+        switch (c) {
+        case 'r': t->robot = optarg; break;
+        case 'p': t->path = optarg; break;
+        case 'o': t->out = optarg; break;
+        case 'j': t->json = 1; break;
+        case 'v':
+            if (t->naxis == 2 || parse_axis(optarg, &t->ax[t->naxis]))
+                return dm_cli_usage("study", "--vary takes SECTION.KEY=FROM:TO:N, at most twice", optarg);
+            t->naxis++;
+            break;
+        case 's':
+            if (t->nset == 16)
+                return dm_cli_usage("study", "at most 16 --set options", optarg);
+            t->sets[t->nset++] = optarg;
+            break;
+        case 'k':
+            if (dm_cli_parse_int(optarg, 1, 100000, &t->o.k))
+                return dm_cli_usage("study", "--modes takes a whole number >= 1", optarg);
+            break;
+        case 'T':
+            if (dm_cli_parse_int(optarg, 1, 1024, &t->threads))
+                return dm_cli_usage("study", "--threads takes a whole number >= 1", optarg);
+            break;
+        case 'd':
+            if (dm_cli_parse_list(optarg, &t->o.dt_s, 1) || !(t->o.dt_s > 0))
+                return dm_cli_usage("study", "--dt takes a time step > 0 in s", optarg);
+            break;
+        case 'm':
+            if (dm_cli_parse_list(optarg, v, 2) || v[0] != floor(v[0]) || v[1] != floor(v[1]) ||
+                v[0] < 1 || v[1] < 1 || v[0] > 64 || v[1] > 64)
+                return dm_cli_usage("study", "--mesh takes NA,NB, whole numbers 1..64", optarg);
+            t->o.na = (int)v[0];
+            t->o.nb = (int)v[1];
+            break;
+        case 'h': fputs(HELP, stdout); exit(0);
+        default: return dm_cli_usage("study", "unknown or incomplete option", argv[optind - 1]);
+        }
+    }
+    if (optind < argc)
+        return dm_cli_usage("study", "unexpected argument", argv[optind]);
+    if (!t->robot || !t->path || !t->naxis)
+        return dm_cli_usage("study", "--robot, --path and --vary are required", NULL);
+    return 0;
+}
+
+static double axis_value(const axis *a, int i)
+{
+    return a->count == 1 ? a->from : a->from + (a->to - a->from) * i / (a->count - 1);
+}
+
+static void run_cell(const study_opts *t, const dm_robot *base, int i, int j, cell *out)
+{
+    dm_robot rb = *base;
+    dm_trajectory tr;
+    dm_integ_summary sum;
+    dm_error err = {0};
+    char assign[128];
+    int rc = DM_OK;
+    for (int a = 0; a < t->naxis && !rc; a++) {
+        snprintf(assign, sizeof assign, "%s=%.17g", t->ax[a].key, axis_value(&t->ax[a], a ? j : i));
+        rc = dm_robot_set(&rb, assign, &err);
+    }
+    if (!rc)
+        rc = dm_traj_make(t->path, &rb, &tr, &err);
+    if (!rc) {
+        rc = dm_integrate_trajectory(&rb, &tr, &t->o, NULL, NULL, &sum, &err);
+        dm_traj_free(&tr);
+    }
+    out->status = rc;
+    snprintf(out->msg, sizeof out->msg, "%.255s", rc ? err.msg : "ok");
+    out->mean = rc ? NAN : sum.mean_error_m;
+    out->peak = rc ? NAN : sum.peak_error_m;
+}
+
+static void print_table(const study_opts *t, const cell *cells, int n1, int n2)
+{
+    const axis *a = &t->ax[0], *b = &t->ax[1];
+    printf("mean error (mm, Chen eq. 27) on path %s\n\n", t->path);
+    if (t->naxis == 1) {
+        printf("%14s  %12s  %12s\n", a->key, "mean (mm)", "peak (mm)");
+        for (int i = 0; i < n1; i++)
+            printf("%14.6g  %12.6f  %12.6f\n", axis_value(a, i), 1e3 * cells[i].mean,
+                   1e3 * cells[i].peak);
+    } else {
+        printf("%14s |", "rows: cols:");
+        printf(" %s\n%14s |", b->key, a->key);
+        for (int j = 0; j < n2; j++)
+            printf(" %10.6g", axis_value(b, j));
+        printf("\n");
+        for (int i = 0; i < n1; i++) {
+            printf("%14.6g |", axis_value(a, i));
+            for (int j = 0; j < n2; j++)
+                printf(" %10.6f", 1e3 * cells[i * n2 + j].mean);
+            printf("\n");
+        }
+    }
+    for (int c = 0; c < n1 * n2; c++)
+        if (cells[c].status)
+            fprintf(stderr, "deltamap study: combination %d: %s\n", c + 1, cells[c].msg);
+}
+
+static json_t *json_num(double v) { return isnan(v) ? json_null() : json_real(v); }
+
+static int write_outputs(const study_opts *t, const cell *cells, int n1, int n2)
+{
+    if (t->json) {
+        json_t *o = json_object(), *params = json_array(), *vals = json_array(),
+               *mean = json_array(), *peak = json_array();
+        for (int a = 0; a < t->naxis; a++) {
+            json_t *v = json_array();
+            json_array_append_new(params, json_string(t->ax[a].key));
+            for (int i = 0; i < t->ax[a].count; i++)
+                json_array_append_new(v, json_real(axis_value(&t->ax[a], i)));
+            json_array_append_new(vals, v);
+        }
+        for (int i = 0; i < n1; i++) {
+            json_t *rm = json_array(), *rp = json_array();
+            for (int j = 0; j < n2; j++) {
+                json_array_append_new(rm, json_num(cells[i * n2 + j].mean));
+                json_array_append_new(rp, json_num(cells[i * n2 + j].peak));
+            }
+            json_array_append_new(mean, rm);
+            json_array_append_new(peak, rp);
+        }
+        json_object_set_new(o, "path", json_string(t->path));
+        json_object_set_new(o, "parameters", params);
+        json_object_set_new(o, "values", vals);
+        json_object_set_new(o, "mean_error_m", mean);
+        json_object_set_new(o, "peak_error_m", peak);
+        json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(17));
+        putchar('\n');
+        json_decref(o);
+    } else {
+        print_table(t, cells, n1, n2);
+    }
+    if (!t->out)
+        return 0;
+    dm_cli_out out;
+    dm_error err;
+    if (dm_cli_out_open(&out, t->out, &err))
+        return dm_cli_report(&err);
+    fprintf(out.f, "%s,%s,mean_error_m,peak_error_m,status\n", t->ax[0].key,
+            t->naxis > 1 ? t->ax[1].key : "-");
+    for (int i = 0; i < n1; i++)
+        for (int j = 0; j < n2; j++) {
+            const cell *c = &cells[i * n2 + j];
+            fprintf(out.f, "%.9g,%.9g,%.9e,%.9e,%s\n", axis_value(&t->ax[0], i),
+                    t->naxis > 1 ? axis_value(&t->ax[1], j) : 0.0, c->mean, c->peak,
+                    dm_status_name(c->status));
+        }
+    if (dm_cli_out_commit(&out, &err))
+        return dm_cli_report(&err);
+    return 0;
+}
+
+int dm_cli_study(int argc, char **argv)
+{
+    study_opts t;
+    int rc = parse(argc, argv, &t);
+    if (rc)
+        return rc;
+    dm_robot rb;
+    dm_error err;
+    if (dm_robot_load(t.robot, &rb, &err))
+        return dm_cli_report(&err);
+    for (int s = 0; s < t.nset; s++)
+        if (dm_robot_set(&rb, t.sets[s], &err))
+            return dm_cli_report(&err);
+    for (int a = 0; a < t.naxis; a++) { /* validate each key once, up front */
+        dm_robot probe = rb;
+        char assign[128];
+        snprintf(assign, sizeof assign, "%s=%.17g", t.ax[a].key, t.ax[a].from);
+        if (dm_robot_set(&probe, assign, &err))
+            return dm_cli_report(&err);
+    }
+    int n1 = t.ax[0].count, n2 = t.naxis > 1 ? t.ax[1].count : 1;
+    cell *cells = calloc((size_t)n1 * n2, sizeof *cells);
+    if (!cells)
+        return DM_ENOMEM;
+    if (t.threads)
+        omp_set_num_threads(t.threads);
+#pragma omp parallel for schedule(dynamic)
+    for (int c = 0; c < n1 * n2; c++)
+        run_cell(&t, &rb, c / n2, c % n2, &cells[c]);
+    rc = write_outputs(&t, cells, n1, n2);
+    free(cells);
+    return rc;
+}

@@ -1,0 +1,61 @@
+#!/usr/bin/env python3
+"""Plot a trajectory run written by `deltamap trajectory --out FILE.csv`.
+
+    .venv/bin/python tools/plot_trajectory.py RUN.csv [-o RUN.png] [--title T]
+
+Three panels over time: the platform's translational error components and
+its magnitude (mm), the rotational components (mrad), and the first
+frequencies of the frozen configuration (Hz).
+"""
+import argparse
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+
+def load(path):
+    data = np.genfromtxt(path, delimiter=",", names=True, comments="#")
+    if data.size < 2:
+        raise SystemExit(f"{path}: no samples")
+    return data
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("csv")
+    ap.add_argument("-o", "--output")
+    ap.add_argument("--title")
+    a = ap.parse_args()
+    d = load(a.csv)
+    t = d["t_s"]
+    fig, ax = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
+    for name, label in (("dx_m", "Δx"), ("dy_m", "Δy"), ("dz_m", "Δz"), ("error_m", "|Δ|")):
+        ax[0].plot(t, 1e3 * d[name], label=label, lw=1.8 if name == "error_m" else 1.0)
+    ax[0].set_ylabel("platform error (mm)")
+    mean = np.sum(np.diff(t) * d["error_m"][1:]) / (t[-1] - t[0])
+    ax[0].set_title(a.title or f"{a.csv}: mean error {1e3 * mean:.4f} mm (Chen eq. 27)")
+    ax[0].legend(ncol=4, fontsize=8)
+    for name, label in (("ex_rad", "εx"), ("ey_rad", "εy"), ("ez_rad", "εz")):
+        ax[1].plot(t, 1e3 * d[name], label=label, lw=1.0)
+    ax[1].set_ylabel("platform rotation (mrad)")
+    ax[1].legend(ncol=3, fontsize=8)
+    for k in (1, 2, 3):
+        col = f"f{k}_hz"
+        if col in d.dtype.names and not np.all(np.isnan(d[col])):
+            ax[2].plot(t, d[col], label=f"f{k}")
+    ax[2].set_ylabel("frequency (Hz)")
+    ax[2].set_xlabel("time (s)")
+    ax[2].legend(ncol=3, fontsize=8)
+    for x in ax:
+        x.grid(alpha=0.3)
+    fig.tight_layout()
+    out = a.output or a.csv.rsplit(".", 1)[0] + ".png"
+    fig.savefig(out, dpi=110)
+    print(out)
+
+
+if __name__ == "__main__":
+    main()
