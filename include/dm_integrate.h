@@ -23,6 +23,7 @@
 #include "dm_assembly.h"
 #include "dm_modal.h"
 #include "dm_robot.h"
+#include "dm_static.h"
 #include "dm_trajectory.h"
 
 typedef enum {
@@ -50,6 +51,40 @@ int dm_stepper_advance(dm_stepper *st, const dm_model *model, const dm_modes *mo
  * advanced from (q, qd) over h. Any damping ratio z >= 0. */
 void dm_sdof_step(double omega, double zeta, double f0, double f1, double h, double *q,
                   double *qd);
+
+/* ---- the standard move (MODEL.md §5) ------------------------------------ */
+
+/* A rest-to-rest bang-bang move starting at the pose: +amax for tau/2, then
+ * -amax for tau/2, configuration frozen at the start pose, load = inertia of
+ * the nominal accelerations at zero velocity, starting from the static
+ * equilibrium. Outputs use |Delta - Delta_static| (platform translation). */
+typedef struct dm_move_opts {
+    double amax_ms2;     /* 50 */
+    double tau_s;        /* 0.05 */
+    double tol_m;        /* settling band, 10e-6 */
+    double window_s;     /* residual window after the move, 1.0 */
+    int quasi_static;    /* add the dropped modes' static response (default on) */
+} dm_move_opts;
+
+void dm_move_opts_default(dm_move_opts *opts);
+
+typedef struct dm_move_result {
+    double peak_m;       /* max over 0 <= t <= tau */
+    double residual_m;   /* max over tau < t <= tau + window */
+    double settling_s;   /* time after tau until within tol for good; INFINITY when
+                            undamped or not settled within the window */
+} dm_move_result;
+
+typedef struct dm_move_ws dm_move_ws;
+
+dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err);
+void dm_move_free(dm_move_ws *ws);
+
+/* The move along unit direction dir with the model built at the pose, its
+ * first k modes and the Cholesky factor of K in `statics`. */
+int dm_standard_move(dm_move_ws *ws, const dm_model *model, const dm_modes *modes, int k,
+                     const dm_static *statics, const double dir[3],
+                     const dm_move_opts *opts, dm_move_result *res, dm_error *err);
 
 /* ---- trajectories -------------------------------------------------------- */
 

@@ -47,4 +47,14 @@ void dm_modal_platform_share(dm_modal *ws, const dm_model *model);
 
 const char *dm_direction_name(int direction);
 
+/* Mode tracking by the modal assurance criterion. For each of the kr
+ * reference shapes ref (n x kr, from a nearby pose, same DOF numbering)
+ * find the mode of `modes` (its first kc) that matches best, each mode used
+ * at most once, greedily by decreasing MAC:
+ *   MAC(a, b) = (a' M b)^2 / ((a' M a)(b' M b)), M = this pose's mass matrix.
+ * assign[i] = index of the mode for reference i, mac[i] its MAC. work needs
+ * n*kc + kr*kc doubles. */
+void dm_modal_mac_match(const double *ref, int kr, const dm_modes *modes, int kc,
+                        const double *M, int n, int *assign, double *mac, double *work);
+
 #endif

@@ -21,6 +21,8 @@ static const char MAIN_HELP[] =
     "  modes       natural frequencies, mode shapes, static gravity error and\n"
     "              platform stiffness at one pose\n"
     "  trajectory  6-D elastic error of the platform along a trajectory\n"
+    "  sweep       workspace maps (frequencies, errors, stiffness) into a store\n"
+    "  info        what a map store holds, its completeness and checksums\n"
     "  study       mean trajectory error over one or two robot parameters\n"
     "  robot       check a robot file or preset and print it in full\n"
     "  presets     list the built-in robots\n"
@@ -267,6 +269,10 @@ int dm_cli_main(int argc, char **argv)
         return cmd_modes(argc - 1, argv + 1);
     if (!strcmp(cmd, "trajectory"))
         return dm_cli_trajectory(argc - 1, argv + 1);
+    if (!strcmp(cmd, "sweep"))
+        return dm_cli_sweep(argc - 1, argv + 1);
+    if (!strcmp(cmd, "info"))
+        return dm_cli_info(argc - 1, argv + 1);
     if (!strcmp(cmd, "study"))
         return dm_cli_study(argc - 1, argv + 1);
     if (!strcmp(cmd, "robot"))

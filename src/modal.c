@@ -1,6 +1,7 @@
 /* Generalized symmetric-definite eigenproblem with LAPACK (MODEL.md §4). */
 #include "dm_modal.h"
 
+#include <cblas.h>
 #include <lapacke.h>
 #include <math.h>
 #include <stdlib.h>
@@ -179,4 +180,42 @@ const char *dm_direction_name(int d)
 {
     static const char *const names[] = {"x", "y", "z", "rx", "ry", "rz"};
     return d >= 0 && d < 6 ? names[d] : "?";
+}
+
+void dm_modal_mac_match(const double *ref, int kr, const dm_modes *mo, int kc, const double *M,
+                        int n, int *assign, double *mac, double *work)
+{
+    double *MPhi = work, *W = work + (size_t)n * kc; /* W[i + kr j] = ref_i' M phi_j */
+    cblas_dsymm(CblasColMajor, CblasLeft, CblasUpper, n, kc, 1.0, M, n, mo->phi, n, 0.0, MPhi, n);
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, kr, kc, n, 1.0, ref, n, MPhi, n, 0.0, W, kr);
+    for (int i = 0; i < kr; i++) { /* normalise: phi' M phi = 1 already */
+        const double *a = ref + (size_t)i * n;
+        double aMa = 0;
+        for (int r = 0; r < n; r++) {
+            double s = 0;
+            for (int c = 0; c < n; c++)
+                s += M[(size_t)c * n + r] * a[c];
+            aMa += a[r] * s;
+        }
+        for (int j = 0; j < kc; j++)
+            W[i + (size_t)kr * j] = W[i + (size_t)kr * j] * W[i + (size_t)kr * j] / aMa;
+        assign[i] = -1;
+    }
+    for (int round = 0; round < kr; round++) {
+        int bi = -1, bj = -1;
+        double best = -1;
+        for (int i = 0; i < kr; i++)
+            for (int j = 0; j < kc && assign[i] < 0; j++)
+                if (W[i + (size_t)kr * j] > best) {
+                    best = W[i + (size_t)kr * j];
+                    bi = i;
+                    bj = j;
+                }
+        if (bi < 0)
+            break;
+        assign[bi] = bj;
+        mac[bi] = best;
+        for (int i = 0; i < kr; i++) /* mode bj is taken */
+            W[i + (size_t)kr * bj] = -2;
+    }
 }

@@ -1,0 +1,80 @@
+/* dm_store — the map store: a Zarr v3 group on disk (docs/store.md).
+ *
+ * One array per quantity, each with `dimension_names`, `units` and a
+ * regular chunk grid; chunks are files `NAME/c/i/j/k...` encoded with the
+ * `bytes` codec (little-endian) followed by `crc32c` (4-byte checksum of
+ * the bytes, appended little-endian). Metadata (`zarr.json`) is written
+ * with jansson. Every file is written to a temporary name and renamed, so
+ * a killed writer leaves either the old file or the new one, never half.
+ *
+ * A dm_store handle is shared read-only by threads after creation; chunk
+ * writes to distinct chunks are independent (no shared mutable state). */
+#ifndef DM_STORE_H
+#define DM_STORE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include <jansson.h>
+
+#include "dm_error.h"
+
+#define DM_STORE_MAXDIM 5
+#define DM_STORE_MAXARR 32
+
+typedef enum { DM_DTYPE_FLOAT64 = 0, DM_DTYPE_UINT8, DM_DTYPE_INT32 } dm_dtype;
+
+typedef struct dm_array_spec {
+    char name[48];
+    dm_dtype dtype;
+    int ndim;
+    int64_t shape[DM_STORE_MAXDIM];
+    int chunk[DM_STORE_MAXDIM];
+    char dims[DM_STORE_MAXDIM][16];
+    json_t *attributes;   /* owned by the spec list; units, long_name, ... */
+} dm_array_spec;
+
+typedef struct dm_store {
+    char path[1024];
+    int narr;
+    dm_array_spec arr[DM_STORE_MAXARR];
+    json_t *group_attributes;
+} dm_store;
+
+/* CRC-32C (Castagnoli), as the Zarr crc32c codec uses. */
+uint32_t dm_crc32c(const void *data, size_t n);
+
+size_t dm_dtype_size(dm_dtype t);
+
+/* Write the group and array metadata (replacing what is there). */
+int dm_store_write_metadata(const dm_store *store, dm_error *err);
+
+/* Read a store's metadata (for info/resume). Caller frees with
+ * dm_store_release. */
+int dm_store_read_metadata(const char *path, dm_store *store, dm_error *err);
+void dm_store_release(dm_store *store);
+
+/* Chunk file of array a at chunk coordinates c[]. */
+void dm_store_chunk_path(const dm_store *store, int a, const int64_t *c, char *out, size_t len);
+
+/* Number of elements in one (full-size) chunk of array a. */
+size_t dm_store_chunk_elems(const dm_store *store, int a);
+
+/* Write one chunk atomically: data holds dm_store_chunk_elems() elements
+ * in C order, native little-endian. */
+int dm_store_write_chunk(const dm_store *store, int a, const int64_t *c, const void *data,
+                         dm_error *err);
+
+/* Read and verify one chunk. Returns DM_OK, or DM_EIO with a message when
+ * the file is missing, has the wrong size or fails its checksum; *missing
+ * tells the first case apart. */
+int dm_store_read_chunk(const dm_store *store, int a, const int64_t *c, void *data,
+                        int *missing, dm_error *err);
+
+/* Write any small file atomically (tmp + rename). */
+int dm_write_file_atomic(const char *path, const void *data, size_t n, dm_error *err);
+
+/* mkdir -p */
+int dm_mkdirs(const char *path, dm_error *err);
+
+#endif

@@ -1,0 +1,86 @@
+/* dm_sweep — workspace maps: the frozen-configuration analysis (and the
+ * standard move) on a grid of poses, in parallel, into a dm_store.
+ *
+ * Grids: Cartesian "x=A:B:N,y=A:B:N,z=A:B:N" or cylindrical
+ * "r=A:B:N,phi=A:B:N,z=A:B:N" (phi in degrees); an axis given as one value
+ * "z=-0.5" is fixed. Units m. Tiles are chunks of the spatial grid; each
+ * tile is computed by one thread with its own workspaces, so results do
+ * not depend on the number of threads. An interrupted sweep keeps every
+ * finished tile and resumes where it stopped. */
+#ifndef DM_SWEEP_H
+#define DM_SWEEP_H
+
+#include <signal.h>
+
+#include "dm_analysis.h"
+#include "dm_integrate.h"
+#include "dm_robot.h"
+
+typedef enum { DM_GRID_CARTESIAN = 0, DM_GRID_CYLINDRICAL = 1 } dm_grid_kind;
+
+typedef struct dm_grid_axis {
+    char name[8];
+    double from, to;
+    int count;
+} dm_grid_axis;
+
+typedef struct dm_grid {
+    dm_grid_kind kind;
+    dm_grid_axis axis[3]; /* x, y, z or r, phi, z */
+} dm_grid;
+
+#define DM_GRID_MAX_POINTS 100000000L
+
+int dm_grid_parse(const char *spec, dm_grid *grid, dm_error *err);
+double dm_grid_value(const dm_grid_axis *axis, int i);
+void dm_grid_position(const dm_grid *grid, const int idx[3], double P[3]);
+long dm_grid_points(const dm_grid *grid);
+/* Canonical text of a grid (round-trips through dm_grid_parse). */
+void dm_grid_format(const dm_grid *grid, char *out, size_t len);
+
+enum dm_point_status {
+    DM_POINT_OK = 0,
+    DM_POINT_UNREACHABLE = 1,
+    DM_POINT_NEAR_SINGULAR = 2, /* computed; cond(J) above the robot's threshold */
+    DM_POINT_FAILED = 3,        /* singular structure or solver failure */
+    DM_POINT_NOT_COMPUTED = 255
+};
+
+typedef struct dm_sweep_opts {
+    int k;              /* frequencies per point (default 10) */
+    int na, nb;         /* mesh (0: the robot's) */
+    int tile[3];        /* tile shape (0: automatic) */
+    int threads;        /* 0: OpenMP default */
+    int dynamic;        /* standard moves along X, Y, Z (default 1) */
+    dm_move_opts move;
+    int force;          /* overwrite a store of another robot/grid */
+    int progress;       /* 0 none, 1 bar, 2 periodic lines */
+} dm_sweep_opts;
+
+void dm_sweep_opts_default(dm_sweep_opts *opts);
+
+typedef struct dm_sweep_stats {
+    long tiles_total, tiles_present, tiles_computed;
+    long points_total, points_ok, points_unreachable, points_near_singular, points_failed;
+    double seconds;
+    int interrupted;
+} dm_sweep_stats;
+
+/* Run (or resume) a sweep into the store at `out`. `stop` is polled
+ * between tiles: when it becomes non-zero the tiles in flight finish and
+ * DM_EINTERRUPT is returned. */
+int dm_sweep_run(const dm_robot *robot, const dm_grid *grid, const dm_sweep_opts *opts,
+                 const char *out, volatile sig_atomic_t *stop, dm_sweep_stats *stats,
+                 dm_error *err);
+
+/* ---- one point (exposed for tests and `deltamap modes` cross-checks) ---- */
+
+typedef struct dm_point_result {
+    int status;
+    double freq_hz[64], tracked_hz[64];
+    double static_error[6];
+    double compliance_max, compliance_dir[3], stiffness_min, singularity;
+    double move_peak[3], move_residual[3], move_settling[3];
+} dm_point_result;
+
+#endif
