@@ -17,7 +17,7 @@
 
 #define DM_SWEEP_VERSION "deltamap 0.3.0"
 #define EXTRA_MODES 4   /* candidates beyond k for mode tracking */
-#define ANCHORS_PER_AXIS 8
+#define ANCHORS_PER_AXIS 16
 
 void dm_sweep_opts_default(dm_sweep_opts *o)
 {
@@ -278,6 +278,8 @@ typedef struct {
     dm_move_ws *move;
     double *mac_work, *mac;
     int *assign;
+    double *prev;       /* families' shapes at the previous point (n x k) */
+    int have_prev;
     void *buf[N_DATA];
 } worker;
 
@@ -288,6 +290,7 @@ static void worker_free(worker *w)
     free(w->mac_work);
     free(w->mac);
     free(w->assign);
+    free(w->prev);
     for (int a = 0; a < N_DATA; a++)
         free(w->buf[a]);
 }
@@ -302,7 +305,8 @@ static int worker_alloc(const sweep_ctx *c, worker *w, dm_error *err)
     w->mac_work = malloc(sizeof(double) * ((size_t)c->n * c->kc + (size_t)c->k * c->kc));
     w->mac = malloc(sizeof(double) * c->k);
     w->assign = malloc(sizeof(int) * c->k);
-    int ok = w->move && w->mac_work && w->mac && w->assign;
+    w->prev = malloc(sizeof(double) * c->n * c->k);
+    int ok = w->move && w->mac_work && w->mac && w->assign && w->prev;
     for (int a = 0; a < N_DATA && ok; a++)
         ok = (w->buf[a] = malloc(dm_store_chunk_elems(&c->store, a) * dm_dtype_size(DATA[a].dtype))) != NULL;
     if (!ok) {
@@ -320,10 +324,26 @@ static int anchor_index(const sweep_ctx *c, const int m[3], const int a[3])
     return (a[0] * m[1] + a[1]) * m[2] + a[2];
 }
 
-/* A coarse lattice (at most 8 per axis) of reference poses. Families are
+/* Families at anchor `to`, continued from anchor `from` by MAC. */
+static int follow(sweep_ctx *c, worker *w, int from, int to)
+{
+    int n = c->n, k = c->k;
+    dm_pose_result res;
+    if (dm_analysis_run(w->an, c->anchor_P[to], c->kc, &res, NULL))
+        return 0;
+    dm_modal_mac_match(c->anchor_phi + (size_t)from * n * k, k, res.modes, c->kc, w->an->model->M,
+                       n, w->assign, w->mac, w->mac_work);
+    for (int f = 0; f < k; f++)
+        memcpy(c->anchor_phi + ((size_t)to * k + f) * n, res.modes->phi + (size_t)w->assign[f] * n,
+               sizeof(double) * n);
+    c->anchor_ok[to] = 1;
+    return 1;
+}
+
+/* A coarse lattice (at most 16 per axis) of reference poses. Families are
  * the k lowest modes at the root (the anchor nearest the robot's home),
- * followed to every other reachable anchor by MAC, breadth first, serially:
- * the result is fixed before any tile runs. Memory: at most 512 anchors. */
+ * followed to every other reachable anchor by MAC, serially:
+ * the result is fixed before any tile runs. Memory: at most 4096 anchors. */
 static int build_anchors(sweep_ctx *c, worker *w, dm_error *err)
 {
     int m[3], n = c->n, k = c->k;
@@ -358,6 +378,9 @@ static int build_anchors(sweep_ctx *c, worker *w, dm_error *err)
                     root = id;
                 }
             }
+    /* Continuation tree: up and down the root's column first (one height
+     * step at a time), then breadth first within each horizontal layer from
+     * that column, so families cross between heights in one place only. */
     int head = 0, tail = 0;
     if (root >= 0) {
         dm_pose_result res;
@@ -367,26 +390,26 @@ static int build_anchors(sweep_ctx *c, worker *w, dm_error *err)
             queue[tail++] = root;
         }
     }
+    int r0 = root / (m[1] * m[2]), r1 = (root / m[2]) % m[1], r2 = root % m[2];
+    for (int dir = -1; dir <= 1 && root >= 0; dir += 2)
+        for (int a2 = r2 + dir, from = root; a2 >= 0 && a2 < m[2]; a2 += dir) {
+            int b[3] = {r0, r1, a2}, nb = anchor_index(c, m, b);
+            if (!reach[nb] || !follow(c, w, from, nb))
+                break;
+            queue[tail++] = nb;
+            from = nb;
+        }
     while (head < tail) {
         int id = queue[head++], a[3] = {id / (m[1] * m[2]), (id / m[2]) % m[1], id % m[2]};
-        for (int d = 0; d < 3; d++)
+        for (int d = 0; d < 2; d++)
             for (int s = -1; s <= 1; s += 2) {
                 int b[3] = {a[0], a[1], a[2]};
                 b[d] += s;
                 if (b[d] < 0 || b[d] >= m[d])
                     continue;
                 int nb = anchor_index(c, m, b);
-                dm_pose_result res;
-                if (!reach[nb] || c->anchor_ok[nb] ||
-                    dm_analysis_run(w->an, c->anchor_P[nb], c->kc, &res, NULL))
-                    continue;
-                dm_modal_mac_match(c->anchor_phi + (size_t)id * n * k, k, res.modes, c->kc,
-                                   w->an->model->M, n, w->assign, w->mac, w->mac_work);
-                for (int f = 0; f < k; f++)
-                    memcpy(c->anchor_phi + ((size_t)nb * k + f) * n,
-                           res.modes->phi + (size_t)w->assign[f] * n, sizeof(double) * n);
-                c->anchor_ok[nb] = 1;
-                queue[tail++] = nb;
+                if (reach[nb] && !c->anchor_ok[nb] && follow(c, w, id, nb))
+                    queue[tail++] = nb;
             }
     }
     free(queue);
@@ -432,6 +455,7 @@ static void compute_point(const sweep_ctx *c, worker *w, const double P[3], dm_p
     point_nan(r, DM_POINT_OK);
     int rc = dm_analysis_run(w->an, P, c->kc, &res, NULL);
     if (rc) {
+        w->have_prev = 0; /* the path is broken: restart from an anchor */
         int unreachable = rc == DM_EUNREACHABLE;
         point_nan(r, unreachable ? DM_POINT_UNREACHABLE : DM_POINT_FAILED);
         if (!unreachable)
@@ -445,12 +469,21 @@ static void compute_point(const sweep_ctx *c, worker *w, const double P[3], dm_p
     memcpy(r->compliance_dir, res.compliance_dir, sizeof r->compliance_dir);
     r->stiffness_min = res.stiffness_min_n_per_m;
     r->singularity = res.pose.cond;
-    int an = nearest_anchor(c, P);
-    if (an >= 0) {
-        dm_modal_mac_match(c->anchor_phi + (size_t)an * c->n * c->k, c->k, res.modes, c->kc,
-                           w->an->model->M, c->n, w->assign, w->mac, w->mac_work);
-        for (int f = 0; f < c->k; f++)
+    /* families: continue from the previous point of this tile's path, or
+     * start from the nearest anchor */
+    const double *ref = w->have_prev ? w->prev : NULL;
+    int an = ref ? -1 : nearest_anchor(c, P);
+    if (an >= 0)
+        ref = c->anchor_phi + (size_t)an * c->n * c->k;
+    if (ref) {
+        dm_modal_mac_match(ref, c->k, res.modes, c->kc, w->an->model->M, c->n, w->assign,
+                           w->mac, w->mac_work);
+        for (int f = 0; f < c->k; f++) {
             r->tracked_hz[f] = res.modes->freq_hz[w->assign[f]];
+            memcpy(w->prev + (size_t)f * c->n, res.modes->phi + (size_t)w->assign[f] * c->n,
+                   sizeof(double) * c->n);
+        }
+        w->have_prev = 1;
     }
     for (int d = 0; d < 3 && c->o.dynamic; d++) {
         double dir[3] = {d == 0, d == 1, d == 2};
@@ -526,14 +559,20 @@ static int compute_tile(const sweep_ctx *c, worker *w, long t, long counts[4], d
     int64_t tc[4];
     tile_coords(c, t, tc);
     fill_buffers(c, w);
+    w->have_prev = 0;
+    /* serpentine path through the tile, so each point follows a neighbour */
     for (int i0 = 0; i0 < c->tile[0]; i0++)
-        for (int i1 = 0; i1 < c->tile[1]; i1++)
-            for (int i2 = 0; i2 < c->tile[2]; i2++) {
+        for (int j1 = 0; j1 < c->tile[1]; j1++)
+            for (int j2 = 0; j2 < c->tile[2]; j2++) {
+                int i1 = i0 % 2 ? c->tile[1] - 1 - j1 : j1;
+                int i2 = (i0 * c->tile[1] + j1) % 2 ? c->tile[2] - 1 - j2 : j2;
                 int idx[3] = {(int)tc[0] * c->tile[0] + i0, (int)tc[1] * c->tile[1] + i1,
                               (int)tc[2] * c->tile[2] + i2};
                 if (idx[0] >= c->grid->axis[0].count || idx[1] >= c->grid->axis[1].count ||
-                    idx[2] >= c->grid->axis[2].count)
-                    continue; /* padding of an edge tile: stays fill value */
+                    idx[2] >= c->grid->axis[2].count) {
+                    w->have_prev = 0; /* padding of an edge tile: stays fill value */
+                    continue;
+                }
                 double P[3];
                 dm_point_result r;
                 dm_grid_position(c->grid, idx, P);

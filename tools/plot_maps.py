@@ -1,0 +1,124 @@
+#!/usr/bin/env python3
+"""Draw the maps of a deltamap store as PNG files.
+
+    .venv/bin/python tools/plot_maps.py maps/NAME [--out DIR] [--z Z]
+
+Writes into DIR (default maps/NAME-plots): f1 over the X-Y slice, the
+static gravity error, the smallest stiffness, the standard-move peak error,
+the status mask, and (for grids with several heights) the first
+frequencies against height at the point nearest the Z axis. Unreachable and
+failed points are blank.
+"""
+import argparse
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import deltamap_store  # noqa: E402
+
+STATUS = ["ok", "unreachable", "near-singular", "solver failure"]
+
+
+def slice_xy(st, name, iz, extra=None):
+    a = np.asarray(st[name])[:, :, iz]
+    return a if extra is None else a[..., extra]
+
+
+def plane_coords(st):
+    kind = st.group_attrs["deltamap"]["grid_kind"]
+    if kind == "cartesian":
+        x, y = np.asarray(st["x"]), np.asarray(st["y"])
+        X, Y = np.meshgrid(x, y, indexing="ij")
+    else:
+        r, phi = np.asarray(st["r"]), np.deg2rad(np.asarray(st["phi"]))
+        R, PH = np.meshgrid(r, phi, indexing="ij")
+        X, Y = R * np.cos(PH), R * np.sin(PH)
+    return 1e3 * X, 1e3 * Y
+
+
+def draw(X, Y, V, title, label, path, cmap="viridis"):
+    fig, ax = plt.subplots(figsize=(6.2, 5))
+    im = ax.pcolormesh(X, Y, np.ma.masked_invalid(V), shading="nearest", cmap=cmap)
+    fig.colorbar(im, ax=ax, label=label)
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_aspect("equal")
+    ax.set_title(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    print(path)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("store")
+    ap.add_argument("--out")
+    ap.add_argument("--z", type=float, help="height of the X-Y slice (m); default the first")
+    a = ap.parse_args()
+    st = deltamap_store.open_store(a.store, engine="numpy")
+    out = a.out or a.store.rstrip("/") + "-plots"
+    os.makedirs(out, exist_ok=True)
+    z = np.asarray(st["z"])
+    iz = 0 if a.z is None else int(np.argmin(abs(z - a.z)))
+    robot = st.group_attrs["deltamap"]["robot"]
+    where = f"{robot}, z = {1e3 * z[iz]:.0f} mm"
+    X, Y = plane_coords(st)
+    draw(X, Y, slice_xy(st, "frequencies_hz", iz, 0), f"first natural frequency ({where})",
+         "f1 (Hz)", os.path.join(out, "f1.png"))
+    draw(X, Y, slice_xy(st, "frequencies_tracked_hz", iz, 0),
+         f"frequency of mode family 1, tracked by MAC ({where})", "Hz",
+         os.path.join(out, "f1_tracked.png"))
+    e = slice_xy(st, "static_error", iz)
+    draw(X, Y, 1e6 * np.linalg.norm(e[..., :3], axis=-1), f"static gravity error |Δ| ({where})",
+         "|Δ| (µm)", os.path.join(out, "static_error.png"), cmap="magma")
+    draw(X, Y, 1e-6 * slice_xy(st, "stiffness_min", iz), f"smallest platform stiffness ({where})",
+         "k_min (N/µm)", os.path.join(out, "stiffness.png"), cmap="cividis")
+    peak = slice_xy(st, "move_peak_m", iz)
+    if np.isfinite(peak).any():
+        draw(X, Y, 1e6 * np.nanmax(peak, axis=-1),
+             f"standard move: worst peak error of X, Y, Z moves ({where})", "peak (µm)",
+             os.path.join(out, "move_peak.png"), cmap="magma")
+    s = slice_xy(st, "status", iz).astype(float)
+    s[s == 255] = np.nan
+    fig, ax = plt.subplots(figsize=(6.2, 5))
+    cmap = matplotlib.colors.ListedColormap(["#4caf50", "#9e9e9e", "#ff9800", "#d32f2f"])
+    im = ax.pcolormesh(X, Y, np.ma.masked_invalid(s), shading="nearest", cmap=cmap, vmin=-0.5, vmax=3.5)
+    cb = fig.colorbar(im, ax=ax, ticks=range(4))
+    cb.ax.set_yticklabels(STATUS)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_title(f"status ({where})")
+    fig.tight_layout()
+    p = os.path.join(out, "status.png")
+    fig.savefig(p, dpi=110)
+    plt.close(fig)
+    print(p)
+    if len(z) > 1:
+        d = np.hypot(X, Y)
+        i, j = np.unravel_index(np.argmin(d), d.shape)
+        f = np.asarray(st["frequencies_hz"])[i, j, :, :3]
+        fig, ax = plt.subplots(figsize=(6, 4))
+        for m in range(f.shape[1]):
+            ax.plot(1e3 * z, f[:, m], "o-", label=f"f{m + 1}")
+        ax.set_xlabel("z (mm)")
+        ax.set_ylabel("frequency (Hz)")
+        ax.set_title(f"frequencies against height at ({X[i, j]:.0f}, {Y[i, j]:.0f}) mm, {robot}")
+        ax.grid(alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        p = os.path.join(out, "f_vs_height.png")
+        fig.savefig(p, dpi=110)
+        plt.close(fig)
+        print(p)
+
+
+if __name__ == "__main__":
+    main()
