@@ -33,6 +33,9 @@ static int parse_axis(const char *text, dm_grid_axis *ax, const char *spec, dm_e
     if (*end)
         return dm_fail(err, DM_EINVAL, "grid '%s': axis %s: '%s' is not A:B:N or one value", spec,
                        ax->name, eq + 1);
+    if (nv == 2)
+        return dm_fail(err, DM_EINVAL, "grid '%s': axis %s: '%s' is not A:B:N or one value", spec,
+                       ax->name, eq + 1);
     if (nv == 1) {
         ax->from = ax->to = v[0];
         ax->count = 1;
@@ -58,6 +61,7 @@ int dm_grid_parse(const char *spec, dm_grid *g, dm_error *err)
     static const char *const names[2][3] = {{"x", "y", "z"}, {"r", "phi", "z"}};
     dm_grid_axis parsed[3];
     int n = 0;
+    memset(parsed, 0, sizeof parsed);
     char buf[512];
     memset(g, 0, sizeof *g);
     if (strlen(spec) >= sizeof buf)
@@ -78,6 +82,14 @@ int dm_grid_parse(const char *spec, dm_grid *g, dm_error *err)
         return dm_fail(err, DM_EINVAL,
                        "grid '%s': give x=,y=,z= (Cartesian) or r=,phi=,z= (cylindrical)", spec);
     g->kind = (dm_grid_kind)kind;
+    for (int i = 0; i < n; i++) {
+        int ok = 0;
+        for (int a = 0; a < 3; a++)
+            ok |= !strcmp(parsed[i].name, names[kind][a]);
+        if (!ok)
+            return dm_fail(err, DM_EINVAL, "grid '%s': axis %s does not belong to a %s grid", spec,
+                           parsed[i].name, kind ? "cylindrical" : "Cartesian");
+    }
     for (int a = 0; a < 3; a++) {
         int found = 0;
         for (int i = 0; i < n; i++) {
@@ -91,14 +103,6 @@ int dm_grid_parse(const char *spec, dm_grid *g, dm_error *err)
             return dm_fail(err, DM_EINVAL, "grid '%s': axis %s missing (%s grids need %s, %s, %s)",
                            spec, names[kind][a], kind ? "cylindrical" : "Cartesian",
                            names[kind][0], names[kind][1], names[kind][2]);
-    }
-    for (int i = 0; i < n; i++) {
-        int ok = 0;
-        for (int a = 0; a < 3; a++)
-            ok |= !strcmp(parsed[i].name, names[kind][a]);
-        if (!ok)
-            return dm_fail(err, DM_EINVAL, "grid '%s': axis %s does not belong to a %s grid", spec,
-                           parsed[i].name, kind ? "cylindrical" : "Cartesian");
     }
     if (kind == 1 && (g->axis[0].from < 0 || g->axis[0].to < 0))
         return dm_fail(err, DM_EINVAL, "grid '%s': radius r must be >= 0", spec);

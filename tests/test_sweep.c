@@ -1,0 +1,247 @@
+/* Sweeps: grid specs, values equal the single-pose analysis, unreachable
+ * points masked, thread-count independence, resume and refusal. */
+#include "dm_test.h"
+
+#include <stdlib.h>
+#include <unistd.h>
+
+#include "dm_store.h"
+#include "dm_sweep.h"
+
+static void expect_grid_error(const char *spec, const char *what)
+{
+    dm_grid g;
+    dm_error err;
+    int rc = dm_grid_parse(spec, &g, &err);
+    if (rc != DM_EINVAL || !strstr(err.msg, what)) {
+        print_error("grid '%s': expected an error with '%s', got %d: %s\n", spec, what, rc, err.msg);
+        fail();
+    }
+}
+
+static void grid_specs(void **state)
+{
+    (void)state;
+    dm_grid g, back;
+    char text[512];
+    assert_int_equal(dm_grid_parse("x=-0.3:0.3:61,y=-0.2:0.2:5,z=-0.5", &g, NULL), 0);
+    assert_int_equal(g.kind, DM_GRID_CARTESIAN);
+    assert_int_equal(dm_grid_points(&g), 61 * 5);
+    assert_rel(dm_grid_value(&g.axis[0], 30), 0.0 + 1e-300, 1, "centre of x");
+    dm_grid_format(&g, text, sizeof text);
+    assert_string_equal(text, "x=-0.3:0.3:61,y=-0.2:0.2:5,z=-0.5");
+    assert_int_equal(dm_grid_parse(text, &back, NULL), 0);
+    assert_memory_equal(&g, &back, sizeof g);
+    assert_int_equal(dm_grid_parse("z=-0.6:-0.4:3,phi=0:90:4,r=0.1", &g, NULL), 0);
+    assert_int_equal(g.kind, DM_GRID_CYLINDRICAL);
+    int idx[3] = {0, 3, 2};
+    double P[3];
+    dm_grid_position(&g, idx, P);
+    assert_abs(P[0], 0.0, 1e-15, "r cos 90");
+    assert_rel(P[1], 0.1, 1e-15, "r sin 90");
+    assert_rel(P[2], -0.4, 1e-15, "z");
+    expect_grid_error("x=-0.3:0.3:61,y=0", "axis z missing");
+    expect_grid_error("x=1,y=2,z=3,x=4", "more than three");
+    expect_grid_error("x=1,x=2,z=3", "given twice");
+    expect_grid_error("x=-0.3:0.3:0,y=0,z=0", "N must be");
+    expect_grid_error("x=-0.3:0.3:2.5,y=0,z=0", "N must be");
+    expect_grid_error("x=0:0:5,y=0,z=0", "empty range");
+    expect_grid_error("x=0:1,y=0,z=0", "not A:B:N");
+    expect_grid_error("x=a:b:3,y=0,z=0", "not A:B:N");
+    expect_grid_error("r=-0.1:0.2:3,phi=0,z=0", "r must be >= 0");
+    expect_grid_error("x=0,phi=0,z=0", "does not belong");
+    expect_grid_error("w=0,q=0,z=0", "give x=,y=,z=");
+    expect_grid_error("x=0:1:100000,y=0:1:100000,z=0:1:100", "more than");
+}
+
+static char *tmpdir(void)
+{
+    static char dirs[4][64];
+    static int next;
+    char *d = dirs[next++ % 4];
+    snprintf(d, 64, "/tmp/dm_sweep_XXXXXX");
+    assert_non_null(mkdtemp(d));
+    return d;
+}
+
+static void rmtree(const char *d)
+{
+    char cmd[200];
+    snprintf(cmd, sizeof cmd, "rm -rf %s", d);
+    assert_int_equal(system(cmd), 0);
+}
+
+static volatile sig_atomic_t no_stop;
+
+static void run_sweep(const dm_robot *rb, const char *spec, dm_sweep_opts *o, const char *out)
+{
+    dm_grid g;
+    dm_sweep_stats st;
+    dm_error err;
+    assert_int_equal(dm_grid_parse(spec, &g, NULL), 0);
+    int rc = dm_sweep_run(rb, &g, o, out, &no_stop, &st, &err);
+    if (rc)
+        print_error("%s\n", err.msg);
+    assert_int_equal(rc, 0);
+}
+
+static void read_all(const char *dir, const char *name, void *out, size_t elem_bytes)
+{
+    dm_store st;
+    assert_int_equal(dm_store_read_metadata(dir, &st, NULL), 0);
+    int a = 0;
+    while (strcmp(st.arr[a].name, name))
+        a++;
+    const dm_array_spec *s = &st.arr[a];
+    size_t E = s->ndim > 3 ? (size_t)s->shape[3] : 1, ce = dm_store_chunk_elems(&st, a);
+    unsigned char *buf = malloc(ce * elem_bytes);
+    for (int64_t c0 = 0; c0 * s->chunk[0] < s->shape[0]; c0++)
+        for (int64_t c1 = 0; c1 * s->chunk[1] < s->shape[1]; c1++)
+            for (int64_t c2 = 0; c2 * s->chunk[2] < s->shape[2]; c2++) {
+                int64_t c[4] = {c0, c1, c2, 0};
+                int missing;
+                assert_int_equal(dm_store_read_chunk(&st, a, c, buf, &missing, NULL), 0);
+                for (int i = 0; i < s->chunk[0]; i++)
+                    for (int j = 0; j < s->chunk[1]; j++)
+                        for (int k = 0; k < s->chunk[2]; k++) {
+                            int64_t g[3] = {c0 * s->chunk[0] + i, c1 * s->chunk[1] + j, c2 * s->chunk[2] + k};
+                            if (g[0] >= s->shape[0] || g[1] >= s->shape[1] || g[2] >= s->shape[2])
+                                continue;
+                            size_t src = (((size_t)i * s->chunk[1] + j) * s->chunk[2] + k) * E;
+                            size_t dst = (((size_t)g[0] * s->shape[1] + g[1]) * s->shape[2] + g[2]) * E;
+                            memcpy((unsigned char *)out + dst * elem_bytes, buf + src * elem_bytes,
+                                   E * elem_bytes);
+                        }
+            }
+    free(buf);
+    dm_store_release(&st);
+}
+
+/* 7 x 5 x 2 grid that runs past the workspace edge at one end */
+#define SPEC "x=-0.3:1.2:7,y=-0.2:0.2:5,z=-0.6:-0.45:2"
+#define NPTS (7 * 5 * 2)
+
+static void values_equal_single_pose_analysis(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
+    dm_sweep_opts o;
+    dm_sweep_opts_default(&o);
+    o.na = o.nb = 2;
+    o.k = 6;
+    o.tile[0] = 3, o.tile[1] = 2, o.tile[2] = 1; /* edge tiles are partial */
+    char *dir = tmpdir();
+    run_sweep(&rb, SPEC, &o, dir);
+    static double f[NPTS * 6], e[NPTS * 6], cm[NPTS], tr[NPTS * 6];
+    static unsigned char status[NPTS];
+    read_all(dir, "frequencies_hz", f, 8);
+    read_all(dir, "frequencies_tracked_hz", tr, 8);
+    read_all(dir, "static_error", e, 8);
+    read_all(dir, "compliance_max", cm, 8);
+    read_all(dir, "status", status, 1);
+    dm_grid g;
+    assert_int_equal(dm_grid_parse(SPEC, &g, NULL), 0);
+    /* 10 modes: the 6 reported and the 4 extra candidates of mode tracking */
+    dm_analysis *an = dm_analysis_alloc(&rb, 2, 2, 10, DM_EIGEN_PARTIAL, NULL);
+    int unreachable = 0;
+    for (int p = 0; p < NPTS; p++) {
+        int idx[3] = {p / 10, (p / 2) % 5, p % 2};
+        double P[3];
+        dm_pose_result res;
+        dm_grid_position(&g, idx, P);
+        int rc = dm_analysis_run(an, P, 10, &res, NULL);
+        if (rc == DM_EUNREACHABLE) {
+            unreachable++;
+            assert_int_equal(status[p], DM_POINT_UNREACHABLE);
+            assert_true(isnan(f[6 * p]) && isnan(cm[p]) && isnan(e[6 * p + 2]));
+            continue;
+        }
+        assert_int_equal(rc, 0);
+        assert_int_equal(status[p], res.near_singular ? DM_POINT_NEAR_SINGULAR : DM_POINT_OK);
+        for (int j = 0; j < 6; j++) {
+            /* eigenvalues agree to eps * lambda_max: 1e-8 relative for f1 near the edge */
+            assert_rel(f[6 * p + j], res.modes->freq_hz[j], 1e-8, "point %d f%d", p, j + 1);
+            assert_abs(e[6 * p + j], res.static_error[j], 1e-9 * fabs(res.static_error[2]),
+                       "point %d error %d", p, j);
+        }
+        for (int j = 0; j < 6; j++) { /* each tracked value is one of the point's frequencies */
+            int found = 0;
+            for (int i = 0; i < 10; i++)
+                found |= fabs(tr[6 * p + j] - res.modes->freq_hz[i]) < 1e-8 * res.modes->freq_hz[i];
+            assert_true(found);
+        }
+        assert_rel(cm[p], res.compliance_max_m_per_n, 1e-10, "point %d compliance", p);
+    }
+    assert_true(unreachable > 0 && unreachable < NPTS);
+    dm_analysis_free(an);
+    rmtree(dir);
+}
+
+static int same_tree(const char *a, const char *b)
+{
+    char cmd[300];
+    snprintf(cmd, sizeof cmd, "diff -r %s %s > /dev/null", a, b);
+    return system(cmd) == 0;
+}
+
+static void threads_resume_and_refusal(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
+    dm_sweep_opts o;
+    dm_sweep_opts_default(&o);
+    o.na = o.nb = 1;
+    o.k = 5;
+    o.tile[0] = 2, o.tile[1] = 2, o.tile[2] = 1;
+    char *one = tmpdir(), *two = tmpdir();
+    o.threads = 1;
+    run_sweep(&rb, SPEC, &o, one);
+    o.threads = 2;
+    run_sweep(&rb, SPEC, &o, two);
+    assert_true(same_tree(one, two)); /* bit-identical for 1 and 2 threads */
+    /* delete a tile's chunk and corrupt another's: both are recomputed */
+    char cmd[400];
+    snprintf(cmd, sizeof cmd, "rm %s/frequencies_hz/c/1/1/0/0 && printf X | dd of=%s/status/c/2/0/1 bs=1 seek=1 conv=notrunc 2>/dev/null", two, two);
+    assert_int_equal(system(cmd), 0);
+    assert_false(same_tree(one, two));
+    dm_grid g;
+    dm_sweep_stats st;
+    dm_error err;
+    assert_int_equal(dm_grid_parse(SPEC, &g, NULL), 0);
+    assert_int_equal(dm_sweep_run(&rb, &g, &o, two, &no_stop, &st, &err), 0);
+    assert_int_equal(st.tiles_computed, 2);
+    assert_true(same_tree(one, two));
+    /* another grid or robot is refused; --force overwrites */
+    assert_int_equal(dm_grid_parse("x=-0.3:1.2:8,y=-0.2:0.2:5,z=-0.6:-0.45:2", &g, NULL), 0);
+    assert_int_equal(dm_sweep_run(&rb, &g, &o, two, &no_stop, &st, &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "another grid"));
+    dm_robot other = rb;
+    assert_int_equal(dm_robot_set(&other, "platform.mass=2", NULL), 0);
+    assert_int_equal(dm_grid_parse(SPEC, &g, NULL), 0);
+    assert_int_equal(dm_sweep_run(&other, &g, &o, two, &no_stop, &st, &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "another robot"));
+    o.force = 1;
+    assert_int_equal(dm_sweep_run(&other, &g, &o, two, &no_stop, &st, &err), 0);
+    assert_int_equal(st.tiles_present, 0);
+    /* a stop request before any tile: nothing computed, DM_EINTERRUPT */
+    volatile sig_atomic_t stop = 1;
+    char *three = tmpdir();
+    o.force = 0;
+    assert_int_equal(dm_sweep_run(&rb, &g, &o, three, &stop, &st, &err), DM_EINTERRUPT);
+    assert_non_null(strstr(err.msg, "resume"));
+    rmtree(one);
+    rmtree(two);
+    rmtree(three);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(grid_specs),
+        cmocka_unit_test(values_equal_single_pose_analysis),
+        cmocka_unit_test(threads_resume_and_refusal),
+    };
+    return cmocka_run_group_tests_name("sweep", tests, NULL, NULL);
+}
