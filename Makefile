@@ -34,7 +34,7 @@ TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 TEST_BIN:= $(addprefix $(BUILD)/tests/,$(TESTS))
 BIN     := $(BUILD)/deltamap
 
-.PHONY: all deps test unit-tests cli-tests demo bench install clean help
+.PHONY: all deps test unit-tests cli-tests store-tests demo bench install clean help
 .DELETE_ON_ERROR:
 
 all: $(BIN)
@@ -75,13 +75,21 @@ unit-tests: $(TEST_BIN)
 cli-tests: $(BIN)
 	@DELTAMAP=$(BIN) tests/cli_tests.sh
 
+store-tests: $(BIN)
+	@DELTAMAP=$(BIN) tests/store_tests.sh
+
 test: deps
-	@$(MAKE) --no-print-directory unit-tests cli-tests
+	@$(MAKE) --no-print-directory unit-tests cli-tests store-tests
 	@echo "all tests passed"
 
+# The main job on a built-in robot: the mode table at the centre, then a
+# workspace sweep into maps/demo (resumable) and its maps as PNG.
 demo: deps
 	@$(MAKE) --no-print-directory $(BIN)
 	$(BIN) modes --robot chen2018 --at 0,0,-0.5 --modes 10
+	$(BIN) sweep --robot chen2018 --grid "x=-0.4:0.4:41,y=-0.4:0.4:41,z=-0.7:-0.4:2" --out maps/demo
+	$(BIN) info maps/demo
+	.venv/bin/python tools/plot_maps.py maps/demo --out maps/demo-plots
 
 bench: deps
 	@$(MAKE) --no-print-directory $(BUILD)/tests/bench_modal

@@ -7,6 +7,7 @@
 
 #include "dm_analysis.h"
 #include "dm_integrate.h"
+#include "dm_kinematics.h"
 #include "dm_loads.h"
 
 #define MAXS 40000
@@ -323,6 +324,93 @@ static void unreachable_path_named_time(void **state)
     assert_non_null(strstr(err.msg, "first unreachable at t = 0 s"));
 }
 
+/* The standard move against an independent integration: CVODE on the same
+ * modes with piecewise-constant loads, sampled on the same time grid. */
+static void standard_move_matches_cvode(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_pose_result res;
+    dm_error err;
+    assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
+    const int k = 20;
+    dm_analysis *an = dm_analysis_alloc(&rb, 1, 1, k, DM_EIGEN_PARTIAL, NULL);
+    const double P[3] = {0.04, -0.03, -0.42}, dir[3] = {0.0, 1.0, 0.0};
+    assert_int_equal(dm_analysis_run(an, P, k, &res, NULL), 0);
+    dm_move_opts mo;
+    dm_move_opts_default(&mo);
+    mo.quasi_static = 0;
+    mo.window_s = 0.2;
+    dm_move_ws *mw = dm_move_alloc(an->model->n, k, NULL);
+    dm_move_result mr;
+    assert_int_equal(dm_standard_move(mw, an->model, res.modes, k, an->statics, dir, &mo, &mr, &err), 0);
+    /* the same load history through the CVODE modal stepper */
+    dm_model *md = an->model;
+    int n = md->n;
+    double *G = calloc((size_t)n, sizeof(double)), *F = malloc(sizeof(double) * n);
+    double *x = calloc((size_t)n, sizeof(double)), *xd = calloc((size_t)n, sizeof(double));
+    dm_rigid_motion m = {{0}, {0}, {0, 1, 0}};
+    const double v0[3] = {0, 0, 0};
+    assert_int_equal(dm_kin_accelerations(&rb, &md->pose, v0, dir, m.alpha_ddot, NULL), 0);
+    dm_loads_add_inertial(md, &m, G);
+    double hmax = fmin(mo.tau_s / 200, 1.0 / (20 * res.modes->freq_hz[k - 1]));
+    long nhalf = (long)ceil(0.5 * mo.tau_s / hmax), nwin = (long)ceil(mo.window_s / (0.5 * mo.tau_s / nhalf));
+    double h = 0.5 * mo.tau_s / nhalf, peak = 0, resid = 0;
+    dm_stepper *st = dm_stepper_alloc(n, k, DM_ODE_CVODE, 1e-11, 1e-20, NULL);
+    for (long s2 = 0; s2 < 2 * nhalf + nwin; s2++) {
+        double a = s2 < nhalf ? mo.amax_ms2 : s2 < 2 * nhalf ? -mo.amax_ms2 : 0.0;
+        for (int i = 0; i < n; i++)
+            F[i] = a * G[i];
+        assert_int_equal(dm_stepper_advance(st, md, res.modes, k, F, F, h, x, xd, NULL), 0);
+        double y = sqrt(x[md->platform_dof] * x[md->platform_dof] +
+                        x[md->platform_dof + 1] * x[md->platform_dof + 1] +
+                        x[md->platform_dof + 2] * x[md->platform_dof + 2]);
+        if (s2 < 2 * nhalf)
+            peak = fmax(peak, y);
+        else
+            resid = fmax(resid, y);
+    }
+    assert_rel(mr.peak_m, peak, 1e-6, "peak vs CVODE");
+    assert_rel(mr.residual_m, resid, 1e-6, "residual vs CVODE");
+    assert_true(isfinite(mr.settling_s) && mr.settling_s > 0); /* damped robot settles */
+    dm_stepper_free(st);
+    free(G);
+    free(F);
+    free(x);
+    free(xd);
+    dm_move_free(mw);
+    dm_analysis_free(an);
+}
+
+static void standard_move_undamped_and_quasi_static(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_pose_result res;
+    assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
+    dm_analysis *an = dm_analysis_alloc(&rb, 1, 1, 48, DM_EIGEN_PARTIAL, NULL);
+    const double P[3] = {0.05, 0.05, -0.55}, dir[3] = {1, 0, 0};
+    assert_int_equal(dm_analysis_run(an, P, 48, &res, NULL), 0);
+    dm_move_opts mo;
+    dm_move_opts_default(&mo);
+    mo.window_s = 0.3;
+    dm_move_ws *mw = dm_move_alloc(48, 48, NULL);
+    dm_move_result all, qs, trunc;
+    assert_int_equal(dm_standard_move(mw, an->model, res.modes, 48, an->statics, dir, &mo, &all, NULL), 0);
+    assert_true(isinf(all.settling_s)); /* undamped: never settles */
+    assert_true(all.residual_m > 10e-6);
+    assert_int_equal(dm_standard_move(mw, an->model, res.modes, 3, an->statics, dir, &mo, &qs, NULL), 0);
+    mo.quasi_static = 0;
+    assert_int_equal(dm_standard_move(mw, an->model, res.modes, 3, an->statics, dir, &mo, &trunc, NULL), 0);
+    /* the quasi-static correction brings 3 modes closer to all 48 (the
+     * sampling step follows the highest retained mode, so peaks of different
+     * k differ by ~0.1 % on top of truncation) */
+    assert_true(fabs(qs.peak_m - all.peak_m) < fabs(trunc.peak_m - all.peak_m));
+    assert_rel(qs.peak_m, all.peak_m, 0.03, "3 modes + quasi-static vs all modes");
+    dm_move_free(mw);
+    dm_analysis_free(an);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -333,6 +421,8 @@ int main(void)
         cmocka_unit_test(free_vibration_decays_at_modal_rate),
         cmocka_unit_test(inertial_load_settles_to_static),
         cmocka_unit_test(unreachable_path_named_time),
+        cmocka_unit_test(standard_move_matches_cvode),
+        cmocka_unit_test(standard_move_undamped_and_quasi_static),
         cmocka_unit_test(chen2018_truncation_figure),
     };
     return cmocka_run_group_tests_name("integrate", tests, NULL, NULL);

@@ -42,9 +42,17 @@ def plane_coords(st):
     return 1e3 * X, 1e3 * Y
 
 
+def mesh(ax, X, Y, V, **kw):
+    """Cells for Cartesian grids; coloured points for polar (r, phi) grids."""
+    if np.all(np.diff(X[:, 0]) > 0) and np.all(np.diff(Y[0, :]) > 0):
+        return ax.pcolormesh(X, Y, np.ma.masked_invalid(V), shading="nearest", **kw)
+    good = np.isfinite(V)
+    return ax.scatter(X[good], Y[good], c=V[good], s=40, **kw)
+
+
 def draw(X, Y, V, title, label, path, cmap="viridis"):
     fig, ax = plt.subplots(figsize=(6.2, 5))
-    im = ax.pcolormesh(X, Y, np.ma.masked_invalid(V), shading="nearest", cmap=cmap)
+    im = mesh(ax, X, Y, V, cmap=cmap)
     fig.colorbar(im, ax=ax, label=label)
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
@@ -89,7 +97,7 @@ def main():
     s[s == 255] = np.nan
     fig, ax = plt.subplots(figsize=(6.2, 5))
     cmap = matplotlib.colors.ListedColormap(["#4caf50", "#9e9e9e", "#ff9800", "#d32f2f"])
-    im = ax.pcolormesh(X, Y, np.ma.masked_invalid(s), shading="nearest", cmap=cmap, vmin=-0.5, vmax=3.5)
+    im = mesh(ax, X, Y, s, cmap=cmap, vmin=-0.5, vmax=3.5)
     cb = fig.colorbar(im, ax=ax, ticks=range(4))
     cb.ax.set_yticklabels(STATUS)
     ax.set_aspect("equal")

@@ -1,0 +1,81 @@
+#!/bin/sh
+# End-to-end tests of `deltamap sweep` and the map store: real clients
+# (zarr-python, xarray), a real SIGKILL and SIGINT, a corrupted tile, a
+# refused mismatch, thread-count determinism, values == `deltamap modes`.
+set -u
+DM=${DELTAMAP:-build/deltamap}
+PY=.venv/bin/python
+TMP=$(mktemp -d)
+trap 'rm -rf "$TMP"' EXIT
+pass=0
+fail=0
+ok() { pass=$((pass + 1)); }
+bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+
+GRID="x=-0.45:0.45:19,y=-0.3:0.3:13,z=-0.62:-0.5:2"
+SW="$DM sweep --robot chen2018 --grid $GRID --mesh 2,2 --modes 6 --tile 4,4,1 --progress none"
+
+$SW --out "$TMP/ref" --threads 1 >/dev/null || bad "reference sweep"
+$SW --out "$TMP/two" --threads 2 >/dev/null || bad "two-thread sweep"
+if diff -r "$TMP/ref" "$TMP/two" >/dev/null; then ok; else bad "1 and 2 threads differ"; fi
+
+# real clients and values == deltamap modes
+if $PY tests/check_store.py "$TMP/ref" "$DM" chen2018 2,2; then ok; else bad "zarr/xarray checks"; fi
+
+# SIGKILL at a random moment, then resume: identical store
+for attempt in 1 2 3; do
+    rm -rf "$TMP/kill"
+    $SW --out "$TMP/kill" --threads 2 >/dev/null 2>&1 &
+    pid=$!
+    sleep "0.$(( $(od -An -N1 -tu1 /dev/urandom) % 9 + 1))"
+    kill -9 $pid 2>/dev/null
+    wait $pid 2>/dev/null
+    $SW --out "$TMP/kill" >/dev/null || bad "resume after SIGKILL"
+    if diff -r "$TMP/ref" "$TMP/kill" >/dev/null; then ok; else bad "kill+resume differs (attempt $attempt)"; fi
+done
+
+# SIGINT: finishes tiles in flight, exits 7 with a resume hint, keeps them
+rm -rf "$TMP/int"
+$SW --out "$TMP/int" --threads 1 >"$TMP/int.out" 2>"$TMP/int.err" &
+pid=$!
+sleep 0.5
+kill -INT $pid
+wait $pid
+rc=$?
+if [ $rc -eq 7 ] && grep -q "resume" "$TMP/int.err"; then ok; elif [ $rc -eq 0 ]; then ok; else bad "SIGINT exit $rc"; cat "$TMP/int.err"; fi
+if ! ls "$TMP"/int/*/c/*/*/*.tmp.* >/dev/null 2>&1; then ok; else bad "temporary files after SIGINT"; fi
+$SW --out "$TMP/int" >/dev/null || bad "resume after SIGINT"
+if diff -r "$TMP/ref" "$TMP/int" >/dev/null; then ok; else bad "interrupt+resume differs"; fi
+
+# a corrupted tile is detected by info and recomputed by the next run
+cp -r "$TMP/ref" "$TMP/bad"
+printf 'XXXX' | dd of="$TMP/bad/frequencies_hz/c/2/1/0/0" bs=1 seek=16 conv=notrunc 2>/dev/null
+"$DM" info "$TMP/bad" >"$TMP/info.out"
+if [ $? -eq 5 ] && grep -q "1 corrupt" "$TMP/info.out"; then ok; else bad "info misses corruption"; cat "$TMP/info.out"; fi
+if $PY -c "import zarr,sys; zarr.open_group('$TMP/bad')['frequencies_hz'][:]" 2>/dev/null; then
+    bad "zarr read a corrupted chunk"; else ok; fi
+$SW --out "$TMP/bad" >"$TMP/fix.out" || bad "repair run"
+if grep -q "1 computed" "$TMP/fix.out" && diff -r "$TMP/ref" "$TMP/bad" >/dev/null; then ok; else bad "repair"; cat "$TMP/fix.out"; fi
+"$DM" info "$TMP/bad" >"$TMP/info.out" && grep -q "checksums ok" "$TMP/info.out" && ok || bad "info after repair"
+
+# another robot or grid is refused; --force overwrites
+$DM sweep --robot zheng2017 --grid "$GRID" --out "$TMP/ref" --progress none >/dev/null 2>"$TMP/err"
+if [ $? -eq 2 ] && grep -q "another robot" "$TMP/err"; then ok; else bad "robot mismatch accepted"; fi
+$DM sweep --robot chen2018 --grid "x=0,y=0,z=-0.5" --mesh 2,2 --modes 6 --tile 4,4,1 --out "$TMP/ref" --progress none >/dev/null 2>"$TMP/err"
+if [ $? -eq 2 ] && grep -q "another grid" "$TMP/err"; then ok; else bad "grid mismatch accepted"; fi
+$DM sweep --robot chen2018 --grid "x=0,y=0,z=-0.5" --out "$TMP/ref" --force --progress none >/dev/null && ok || bad "--force"
+
+# bad grids are clear errors, nothing written
+$DM sweep --robot chen2018 --grid "x=-0.3:0.3:0,y=0,z=-0.5" --out "$TMP/none" 2>"$TMP/err"
+if [ $? -eq 2 ] && grep -q "N must be" "$TMP/err" && [ ! -e "$TMP/none" ]; then ok; else bad "bad grid"; fi
+mkdir -p "$TMP/notastore" && touch "$TMP/notastore/file"
+$DM sweep --robot chen2018 --grid "x=0,y=0,z=-0.5" --out "$TMP/notastore" 2>"$TMP/err"
+if [ $? -eq 2 ] && grep -q "not a map store" "$TMP/err"; then ok; else bad "wrote into a foreign directory"; fi
+
+# a cylindrical grid with unreachable points: masked, never fatal
+$DM sweep --robot han2011 --grid "r=0:1.2:7,phi=0:300:6,z=0.9" --mesh 1,1 --modes 4 --no-dynamic --out "$TMP/cyl" --progress none >"$TMP/cyl.out" || bad "cylindrical sweep"
+if grep -q "unreachable" "$TMP/cyl.out" && ! grep -q " 0 unreachable" "$TMP/cyl.out"; then ok; else bad "no unreachable points marked"; cat "$TMP/cyl.out"; fi
+if $PY tools/plot_maps.py "$TMP/cyl" --out "$TMP/cylplots" >/dev/null && [ -s "$TMP/cylplots/f1.png" ] && [ -s "$TMP/cylplots/status.png" ]; then ok; else bad "plot_maps"; fi
+
+echo "store: $pass passed, $fail failed"
+[ "$fail" -eq 0 ]
