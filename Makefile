@@ -92,12 +92,12 @@ demo: deps
 	.venv/bin/python tools/plot_maps.py maps/demo --out maps/demo-plots
 
 bench: deps
-	@$(MAKE) --no-print-directory $(BUILD)/tests/bench_modal
-	OPENBLAS_NUM_THREADS=1 $(BUILD)/tests/bench_modal
+	@$(MAKE) --no-print-directory $(BUILD)/tests/bench $(BIN)
+	DELTAMAP=$(BIN) $(BUILD)/tests/bench
 
-$(BUILD)/tests/bench_modal: tests/bench_modal.c $(BUILD)/libdeltamap.a | $(BUILD)/tests
+$(BUILD)/tests/bench: tests/bench.c $(BUILD)/libdeltamap.a | $(BUILD)/tests
 	$(CC) $(CFLAGS) $(PKG_CFLAGS) -Itests $< -o $@ $(BUILD)/libdeltamap.a \
-	    $(PKG_LIBS) $(LDLIBS)
+	    $(PKG_LIBS) $(SUNDIALS_LIBS) $(LDLIBS)
 
 install: $(BIN)
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/deltamap/robots

@@ -35,7 +35,7 @@ static const char MAIN_HELP[] =
 
 static const char MODES_HELP[] =
     "usage: deltamap modes --robot R [--at X,Y,Z] [--modes K] [--mesh NA,NB]\n"
-    "                      [--method partial|all] [--json]\n"
+    "                      [--method partial|all] [--set SECTION.KEY=V]... [--json]\n"
     "\n"
     "Frozen-configuration modal analysis at one platform pose (MODEL.md §2-5).\n"
     "\n"
@@ -46,6 +46,7 @@ static const char MODES_HELP[] =
     "                  [mesh], 4,4 for the presets; 1,1 is Chen's 48-DOF model)\n"
     "  --method M      eigen solver: partial (k lowest modes only, default) or\n"
     "                  all (every mode, dsygvd); results agree to round-off\n"
+    "  --set K=V       override a robot-file key, e.g. arm.side=0.025 (repeatable)\n"
     "  --json          one JSON object on stdout instead of the table\n";
 
 static const char ROBOT_HELP[] =
@@ -58,6 +59,8 @@ static const char ROBOT_HELP[] =
 
 typedef struct {
     const char *robot;
+    const char *sets[16];
+    int nset;
     double at[3];
     int have_at, k, na, nb, json;
     dm_eigen_method method;
@@ -69,6 +72,7 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
         {"robot", required_argument, 0, 'r'}, {"at", required_argument, 0, 'a'},
         {"modes", required_argument, 0, 'k'}, {"mesh", required_argument, 0, 'm'},
         {"method", required_argument, 0, 'M'}, {"json", no_argument, 0, 'j'},
+        {"set", required_argument, 0, 's'},
         {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     int c;
     double mesh[2];
@@ -105,6 +109,11 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
                 return dm_cli_usage("modes", "--method is partial or all", optarg);
             break;
         case 'j': o->json = 1; break;
+        case 's':
+            if (o->nset == 16)
+                return dm_cli_usage("modes", "at most 16 --set options", optarg);
+            o->sets[o->nset++] = optarg;
+            break;
         case 'h': fputs(MODES_HELP, stdout); exit(0);
         default: return dm_cli_usage("modes", "unknown or incomplete option", argv[optind - 1]);
         }
@@ -198,6 +207,9 @@ static int cmd_modes(int argc, char **argv)
     dm_error err;
     if (dm_robot_load(o.robot, &rb, &err))
         return dm_cli_report(&err);
+    for (int i = 0; i < o.nset; i++)
+        if (dm_robot_set(&rb, o.sets[i], &err))
+            return dm_cli_report(&err);
     int na = o.na ? o.na : rb.na, nb = o.nb ? o.nb : rb.nb;
     dm_analysis *an = dm_analysis_alloc(&rb, na, nb, o.k, o.method, &err);
     if (!an)

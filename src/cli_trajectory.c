@@ -13,7 +13,8 @@ static const char HELP[] =
     "usage: deltamap trajectory --robot R --path P [--modes K|all] [--dt S]\n"
     "                           [--integrator cvode|closed-form|full] [--rtol X] [--atol X]\n"
     "                           [--quasi-static] [--from-rest] [--no-reference]\n"
-    "                           [--mesh NA,NB] [--tool X,Y,Z] [--out FILE.csv] [--json]\n"
+    "                           [--mesh NA,NB] [--tool X,Y,Z] [--set SECTION.KEY=V]...\n"
+    "                           [--out FILE.csv] [--json]\n"
     "\n"
     "Normal-coordinate integration along a trajectory (MODEL.md §4): the robot is\n"
     "frozen per step, the modal equations are integrated with SUNDIALS CVODE.\n"
@@ -34,6 +35,7 @@ static const char HELP[] =
     "  --from-rest      start undeformed (default: static equilibrium under gravity)\n"
     "  --no-reference   skip the all-modes run that measures the truncation error\n"
     "  --mesh NA,NB     elements per arm and rod (default: the robot file's)\n"
+    "  --set K=V        override a robot-file key (repeatable)\n"
     "  --tool X,Y,Z     tool point offset from the platform centre in m (default 0)\n"
     "  --out FILE       per-step CSV: t, pose, six error components, |error|, tool\n"
     "                   error, first three frequencies\n"
@@ -41,6 +43,8 @@ static const char HELP[] =
 
 typedef struct {
     const char *robot, *path, *out;
+    const char *sets[16];
+    int nset;
     int json, na, nb;
     dm_integ_opts o;
 } traj_opts;
@@ -52,7 +56,7 @@ static int parse(int argc, char **argv, traj_opts *t)
         {"integrator", 1, 0, 'i'}, {"rtol", 1, 0, 'R'}, {"atol", 1, 0, 'A'},
         {"quasi-static", 0, 0, 'q'}, {"from-rest", 0, 0, 'z'}, {"no-reference", 0, 0, 'n'},
         {"mesh", 1, 0, 'm'}, {"tool", 1, 0, 't'}, {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'},
-        {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"set", 1, 0, 's'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     int c;
     double v[2];
     memset(t, 0, sizeof *t);
@@ -67,6 +71,11 @@ static int parse(int argc, char **argv, traj_opts *t)
         case 'j': t->json = 1; break;
         case 'q': t->o.quasi_static = 1; break;
         case 'z': t->o.from_rest = 1; break;
+        case 's':
+            if (t->nset == 16)
+                return dm_cli_usage("trajectory", "at most 16 --set options", optarg);
+            t->sets[t->nset++] = optarg;
+            break;
         case 'n': t->o.reference = 0; break;
         case 'k':
             if (!strcmp(optarg, "all"))
@@ -182,7 +191,12 @@ int dm_cli_trajectory(int argc, char **argv)
     dm_robot rb;
     dm_trajectory tr;
     dm_error err;
-    if (dm_robot_load(t.robot, &rb, &err) || dm_traj_make(t.path, &rb, &tr, &err))
+    if (dm_robot_load(t.robot, &rb, &err))
+        return dm_cli_report(&err);
+    for (int i = 0; i < t.nset; i++)
+        if (dm_robot_set(&rb, t.sets[i], &err))
+            return dm_cli_report(&err);
+    if (dm_traj_make(t.path, &rb, &tr, &err))
         return dm_cli_report(&err);
     dm_cli_out out = {0};
     if (t.out && (rc = dm_cli_out_open(&out, t.out, &err))) {

@@ -146,12 +146,18 @@ int dm_standard_move(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int 
     int rc = prepare(w, md, mo, k, st, dir, o->quasi_static, rP, err);
     if (rc)
         return rc;
-    /* step: 200 per move and 20 per period of the highest retained mode */
+    /* during the move: 200 steps per move and 20 per period of the highest
+     * retained mode; after it (a = 0): 20 per period, a whole number of
+     * move steps */
     double fk = mo->freq_hz[k - 1], hmax = fmin(o->tau_s / 200, 1.0 / (20 * fk));
     long nhalf = (long)ceil(0.5 * o->tau_s / hmax);
-    double h = 0.5 * o->tau_s / nhalf;
+    double h = 0.5 * o->tau_s / nhalf, alpha = md->robot->rayleigh_alpha;
+    double beta = md->robot->rayleigh_beta;
+    long stride = (long)floor(1.0 / (20 * fk) / h);
+    if (stride < 1)
+        stride = 1;
     int damped;
-    transitions(w, mo, k, md->robot->rayleigh_alpha, md->robot->rayleigh_beta, h, &damped);
+    transitions(w, mo, k, alpha, beta, h, &damped);
     memset(w->q, 0, sizeof(double) * k);
     memset(w->v, 0, sizeof(double) * k);
     double A = o->amax_ms2, peak = 0;
@@ -161,14 +167,17 @@ int dm_standard_move(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int 
         advance(w, k, a);
         peak = fmax(peak, deviation(w, k, a, rP)); /* left limit at its end */
     }
-    long nwin = (long)ceil(o->window_s / h);
+    double hw = stride * h;
+    if (stride > 1)
+        transitions(w, mo, k, alpha, beta, hw, &damped);
+    long nwin = (long)ceil(o->window_s / hw);
     double resid = 0, last_above = -1, d = 0;
     for (long s = 1; s <= nwin; s++) {
         advance(w, k, 0.0);
         d = deviation(w, k, 0.0, rP);
         resid = fmax(resid, d);
         if (d > o->tol_m)
-            last_above = s * h;
+            last_above = s * hw;
     }
     res->peak_m = peak;
     res->residual_m = resid;

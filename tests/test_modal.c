@@ -97,8 +97,10 @@ static void partial_and_full_solvers_agree(void **state)
     dm_pose_result r1, r2;
     run_at("han2011", 3, 3, P, 15, DM_EIGEN_PARTIAL, &rb, &a1, &r1);
     run_at("han2011", 3, 3, P, 15, DM_EIGEN_ALL, &rb, &a2, &r2);
+    /* eigenvalues agree to ~eps * lambda_max; lambda_max / lambda_1 ~ 1e6 here,
+     * so f1 agrees to ~1e-10 relative: allow 1e-8 */
     for (int j = 0; j < 15; j++)
-        assert_rel(r1.modes->freq_hz[j], r2.modes->freq_hz[j], 1e-10, "mode %d", j + 1);
+        assert_rel(r1.modes->freq_hz[j], r2.modes->freq_hz[j], 1e-8, "mode %d", j + 1);
     dm_analysis_free(a1);
     dm_analysis_free(a2);
 }
