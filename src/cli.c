@@ -75,7 +75,6 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
         {"set", required_argument, 0, 's'},
         {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     int c;
-    double mesh[2];
     memset(o, 0, sizeof *o);
     o->k = 10;
     optind = 1;
@@ -93,12 +92,8 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
                 return dm_cli_usage("modes", "--modes takes a whole number >= 1", optarg);
             break;
         case 'm':
-            if (dm_cli_parse_list(optarg, mesh, 2) || mesh[0] != floor(mesh[0]) ||
-                mesh[1] != floor(mesh[1]) || mesh[0] < 1 || mesh[1] < 1 || mesh[0] > 64 ||
-                mesh[1] > 64)
+            if (dm_cli_parse_mesh(optarg, &o->na, &o->nb))
                 return dm_cli_usage("modes", "--mesh takes NA,NB, whole numbers 1..64", optarg);
-            o->na = (int)mesh[0];
-            o->nb = (int)mesh[1];
             break;
         case 'M':
             if (!strcmp(optarg, "partial"))
@@ -110,9 +105,8 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
             break;
         case 'j': o->json = 1; break;
         case 's':
-            if (o->nset == 16)
-                return dm_cli_usage("modes", "at most 16 --set options", optarg);
-            o->sets[o->nset++] = optarg;
+            if (dm_cli_add_set("modes", o->sets, &o->nset, optarg))
+                return EXIT_USAGE;
             break;
         case 'h': fputs(MODES_HELP, stdout); exit(0);
         default: return dm_cli_usage("modes", "unknown or incomplete option", argv[optind - 1]);
@@ -205,11 +199,8 @@ static int cmd_modes(int argc, char **argv)
         return rc;
     dm_robot rb;
     dm_error err;
-    if (dm_robot_load(o.robot, &rb, &err))
+    if (dm_cli_load_robot(o.robot, o.sets, o.nset, &rb, &err))
         return dm_cli_report(&err);
-    for (int i = 0; i < o.nset; i++)
-        if (dm_robot_set(&rb, o.sets[i], &err))
-            return dm_cli_report(&err);
     int na = o.na ? o.na : rb.na, nb = o.nb ? o.nb : rb.nb;
     dm_analysis *an = dm_analysis_alloc(&rb, na, nb, o.k, o.method, &err);
     if (!an)

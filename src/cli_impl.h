@@ -18,6 +18,18 @@ int dm_cli_parse_list(const char *s, double *out, int n);
 
 int dm_cli_parse_int(const char *s, int lo, int hi, int *out);
 
+/* "NA,NB": elements per arm and per rod, whole numbers 1..64. */
+int dm_cli_parse_mesh(const char *s, int *na, int *nb);
+
+/* Collect one --set SECTION.KEY=VALUE (at most DM_CLI_MAXSET). */
+#define DM_CLI_MAXSET 16
+int dm_cli_add_set(const char *cmd, const char **sets, int *nset, const char *arg);
+
+/* Load a preset or robot file and apply the --set overrides in order. */
+#include "dm_robot.h"
+int dm_cli_load_robot(const char *spec, const char *const *sets, int nset, dm_robot *robot,
+                      dm_error *err);
+
 /* Output files appear whole or not at all: write to PATH.tmp.PID, then
  * rename over PATH on success, remove on failure. */
 #include <stdio.h>

@@ -66,7 +66,6 @@ static int parse(int argc, char **argv, study_opts *t)
         {"dt", 1, 0, 'd'}, {"mesh", 1, 0, 'm'}, {"set", 1, 0, 's'}, {"threads", 1, 0, 'T'},
         {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     int c;
-    double v[2];
     memset(t, 0, sizeof *t);
     dm_integ_opts_default(&t->o);
     t->o.reference = 0;
@@ -84,9 +83,8 @@ static int parse(int argc, char **argv, study_opts *t)
             t->naxis++;
             break;
         case 's':
-            if (t->nset == 16)
-                return dm_cli_usage("study", "at most 16 --set options", optarg);
-            t->sets[t->nset++] = optarg;
+            if (dm_cli_add_set("study", t->sets, &t->nset, optarg))
+                return EXIT_USAGE;
             break;
         case 'k':
             if (dm_cli_parse_int(optarg, 1, 100000, &t->o.k))
@@ -101,11 +99,8 @@ static int parse(int argc, char **argv, study_opts *t)
                 return dm_cli_usage("study", "--dt takes a time step > 0 in s", optarg);
             break;
         case 'm':
-            if (dm_cli_parse_list(optarg, v, 2) || v[0] != floor(v[0]) || v[1] != floor(v[1]) ||
-                v[0] < 1 || v[1] < 1 || v[0] > 64 || v[1] > 64)
+            if (dm_cli_parse_mesh(optarg, &t->o.na, &t->o.nb))
                 return dm_cli_usage("study", "--mesh takes NA,NB, whole numbers 1..64", optarg);
-            t->o.na = (int)v[0];
-            t->o.nb = (int)v[1];
             break;
         case 'h': fputs(HELP, stdout); exit(0);
         default: return dm_cli_usage("study", "unknown or incomplete option", argv[optind - 1]);
@@ -236,11 +231,8 @@ int dm_cli_study(int argc, char **argv)
         return rc;
     dm_robot rb;
     dm_error err;
-    if (dm_robot_load(t.robot, &rb, &err))
+    if (dm_cli_load_robot(t.robot, t.sets, t.nset, &rb, &err))
         return dm_cli_report(&err);
-    for (int s = 0; s < t.nset; s++)
-        if (dm_robot_set(&rb, t.sets[s], &err))
-            return dm_cli_report(&err);
     for (int a = 0; a < t.naxis; a++) { /* validate each key once, up front */
         dm_robot probe = rb;
         char assign[128];

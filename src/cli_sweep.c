@@ -71,9 +71,8 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
         case 'f': a->o.force = 1; break;
         case 'D': a->o.dynamic = 0; break;
         case 's':
-            if (a->nset == 16)
-                return dm_cli_usage("sweep", "at most 16 --set options", optarg);
-            a->sets[a->nset++] = optarg;
+            if (dm_cli_add_set("sweep", a->sets, &a->nset, optarg))
+                return EXIT_USAGE;
             break;
         case 'k':
             if (dm_cli_parse_int(optarg, 1, 64, &a->o.k))
@@ -84,11 +83,8 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
                 return dm_cli_usage("sweep", "--threads takes a whole number >= 1", optarg);
             break;
         case 'm':
-            if (dm_cli_parse_list(optarg, v, 2) || v[0] != floor(v[0]) || v[1] != floor(v[1]) ||
-                v[0] < 1 || v[1] < 1 || v[0] > 64 || v[1] > 64)
+            if (dm_cli_parse_mesh(optarg, &a->o.na, &a->o.nb))
                 return dm_cli_usage("sweep", "--mesh takes NA,NB, whole numbers 1..64", optarg);
-            a->o.na = (int)v[0];
-            a->o.nb = (int)v[1];
             break;
         case 't':
             if (dm_cli_parse_list(optarg, v, 3) || v[0] < 1 || v[1] < 1 || v[2] < 1 ||
@@ -134,11 +130,8 @@ int dm_cli_sweep(int argc, char **argv)
     dm_robot rb;
     dm_grid grid;
     dm_error err;
-    if (dm_robot_load(a.robot, &rb, &err))
+    if (dm_cli_load_robot(a.robot, a.sets, a.nset, &rb, &err))
         return dm_cli_report(&err);
-    for (int s = 0; s < a.nset; s++)
-        if (dm_robot_set(&rb, a.sets[s], &err))
-            return dm_cli_report(&err);
     if (dm_grid_parse(a.grid, &grid, &err))
         return dm_cli_report(&err);
     struct sigaction sa;

@@ -72,9 +72,8 @@ static int parse(int argc, char **argv, traj_opts *t)
         case 'q': t->o.quasi_static = 1; break;
         case 'z': t->o.from_rest = 1; break;
         case 's':
-            if (t->nset == 16)
-                return dm_cli_usage("trajectory", "at most 16 --set options", optarg);
-            t->sets[t->nset++] = optarg;
+            if (dm_cli_add_set("trajectory", t->sets, &t->nset, optarg))
+                return EXIT_USAGE;
             break;
         case 'n': t->o.reference = 0; break;
         case 'k':
@@ -104,11 +103,8 @@ static int parse(int argc, char **argv, traj_opts *t)
                 return dm_cli_usage("trajectory", "--integrator is cvode, closed-form or full", optarg);
             break;
         case 'm':
-            if (dm_cli_parse_list(optarg, v, 2) || v[0] != floor(v[0]) || v[1] != floor(v[1]) ||
-                v[0] < 1 || v[1] < 1 || v[0] > 64 || v[1] > 64)
+            if (dm_cli_parse_mesh(optarg, &t->o.na, &t->o.nb))
                 return dm_cli_usage("trajectory", "--mesh takes NA,NB, whole numbers 1..64", optarg);
-            t->o.na = (int)v[0];
-            t->o.nb = (int)v[1];
             break;
         case 't':
             if (dm_cli_parse_list(optarg, t->o.tool_m, 3))
@@ -191,11 +187,8 @@ int dm_cli_trajectory(int argc, char **argv)
     dm_robot rb;
     dm_trajectory tr;
     dm_error err;
-    if (dm_robot_load(t.robot, &rb, &err))
+    if (dm_cli_load_robot(t.robot, t.sets, t.nset, &rb, &err))
         return dm_cli_report(&err);
-    for (int i = 0; i < t.nset; i++)
-        if (dm_robot_set(&rb, t.sets[i], &err))
-            return dm_cli_report(&err);
     if (dm_traj_make(t.path, &rb, &tr, &err))
         return dm_cli_report(&err);
     dm_cli_out out = {0};

@@ -89,3 +89,31 @@ void dm_cli_serial_blas(void)
     if (!getenv("OPENBLAS_NUM_THREADS"))
         openblas_set_num_threads(1);
 }
+
+int dm_cli_parse_mesh(const char *s, int *na, int *nb)
+{
+    double v[2];
+    if (dm_cli_parse_list(s, v, 2) || v[0] != floor(v[0]) || v[1] != floor(v[1]) || v[0] < 1 ||
+        v[1] < 1 || v[0] > 64 || v[1] > 64)
+        return -1;
+    *na = (int)v[0];
+    *nb = (int)v[1];
+    return 0;
+}
+
+int dm_cli_add_set(const char *cmd, const char **sets, int *nset, const char *arg)
+{
+    if (*nset == DM_CLI_MAXSET)
+        return dm_cli_usage(cmd, "at most 16 --set options", arg);
+    sets[(*nset)++] = arg;
+    return 0;
+}
+
+int dm_cli_load_robot(const char *spec, const char *const *sets, int nset, dm_robot *rb,
+                      dm_error *err)
+{
+    int rc = dm_robot_load(spec, rb, err);
+    for (int i = 0; i < nset && !rc; i++)
+        rc = dm_robot_set(rb, sets[i], err);
+    return rc;
+}
