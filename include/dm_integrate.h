@@ -100,6 +100,8 @@ typedef struct dm_integ_opts {
     int reference;       /* also run all modes (closed form) for the truncation error */
     int na, nb;          /* mesh (0: the robot's) */
     double tool_m[3];    /* tool point offset from P, platform axes */
+    double force_n[3];   /* constant external force at P (part of the initial
+                            static equilibrium as well) */
     int nfreq;           /* frequencies reported per sample (<= DM_INTEG_MAXFREQ) */
 } dm_integ_opts;
 

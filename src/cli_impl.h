@@ -4,7 +4,7 @@
 
 #include "dm_error.h"
 
-#define DM_VERSION "0.2.0"
+#include "dm_version.h"
 #define EXIT_USAGE 1
 
 /* Print "deltamap: MESSAGE" and return the error's code (the exit code). */

@@ -8,12 +8,14 @@
 
 #include "cli_impl.h"
 #include "dm_integrate.h"
+#include "dm_store.h"
 
 static const char HELP[] =
     "usage: deltamap trajectory --robot R --path P [--modes K|all] [--dt S]\n"
     "                           [--integrator cvode|closed-form|full] [--rtol X] [--atol X]\n"
     "                           [--quasi-static] [--from-rest] [--no-reference]\n"
-    "                           [--mesh NA,NB] [--tool X,Y,Z] [--set SECTION.KEY=V]...\n"
+    "                           [--mesh NA,NB] [--tool X,Y,Z] [--force FX,FY,FZ]\n"
+    "                           [--set SECTION.KEY=V]...\n"
     "                           [--out FILE.csv] [--json]\n"
     "\n"
     "Normal-coordinate integration along a trajectory (MODEL.md §4): the robot is\n"
@@ -36,9 +38,12 @@ static const char HELP[] =
     "  --no-reference   skip the all-modes run that measures the truncation error\n"
     "  --mesh NA,NB     elements per arm and rod (default: the robot file's)\n"
     "  --set K=V        override a robot-file key (repeatable)\n"
+    "  --force FX,FY,FZ constant external force at the platform centre, N (also in\n"
+    "                   the initial static equilibrium)\n"
     "  --tool X,Y,Z     tool point offset from the platform centre in m (default 0)\n"
     "  --out FILE       per-step CSV: t, pose, six error components, |error|, tool\n"
-    "                   error, first three frequencies\n"
+    "                   error, first three frequencies; a name ending in .zarr writes\n"
+    "                   the same as a Zarr v3 group (the map store's format)\n"
     "  --json           summary as JSON: mean_error_m, peak_error_m, truncation_error\n";
 
 typedef struct {
@@ -56,7 +61,7 @@ static int parse(int argc, char **argv, traj_opts *t)
         {"integrator", 1, 0, 'i'}, {"rtol", 1, 0, 'R'}, {"atol", 1, 0, 'A'},
         {"quasi-static", 0, 0, 'q'}, {"from-rest", 0, 0, 'z'}, {"no-reference", 0, 0, 'n'},
         {"mesh", 1, 0, 'm'}, {"tool", 1, 0, 't'}, {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'},
-        {"set", 1, 0, 's'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"set", 1, 0, 's'}, {"force", 1, 0, 'F'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     int c;
     double v[2];
     memset(t, 0, sizeof *t);
@@ -106,6 +111,10 @@ static int parse(int argc, char **argv, traj_opts *t)
             if (dm_cli_parse_mesh(optarg, &t->o.na, &t->o.nb))
                 return dm_cli_usage("trajectory", "--mesh takes NA,NB, whole numbers 1..64", optarg);
             break;
+        case 'F':
+            if (dm_cli_parse_list(optarg, t->o.force_n, 3))
+                return dm_cli_usage("trajectory", "--force takes FX,FY,FZ in N", optarg);
+            break;
         case 't':
             if (dm_cli_parse_list(optarg, t->o.tool_m, 3))
                 return dm_cli_usage("trajectory", "--tool takes X,Y,Z in m", optarg);
@@ -140,6 +149,107 @@ static int csv_sample(void *user, const dm_integ_sample *s)
             fprintf(f, ",");
     fputc('\n', f);
     return ferror(f) ? 1 : 0;
+}
+
+/* ---- the map store's format (--out NAME.zarr) ---------------------------- */
+
+typedef struct {
+    long n, cap;
+    dm_integ_sample *s;
+} sample_list;
+
+static int keep_sample(void *user, const dm_integ_sample *s)
+{
+    sample_list *l = user;
+    if (l->n == l->cap) {
+        long cap = l->cap ? 2 * l->cap : 1024;
+        dm_integ_sample *grown = realloc(l->s, sizeof *grown * cap);
+        if (!grown)
+            return 1;
+        l->s = grown;
+        l->cap = cap;
+    }
+    l->s[l->n++] = *s;
+    return 0;
+}
+
+#define TIME_CHUNK 4096
+
+/* One array along time (and an optional second axis of length m), chunked
+ * by TIME_CHUNK samples; value(i, j) gives element j of sample i. */
+static void time_array(dm_store *st, const char *name, const char *dim2, int m, const char *units,
+                       const char *long_name, long n)
+{
+    dm_array_spec *a = &st->arr[st->narr++];
+    memset(a, 0, sizeof *a);
+    snprintf(a->name, sizeof a->name, "%s", name);
+    a->dtype = DM_DTYPE_FLOAT64;
+    a->ndim = dim2 ? 2 : 1;
+    a->shape[0] = n;
+    a->chunk[0] = n < TIME_CHUNK ? (int)n : TIME_CHUNK;
+    snprintf(a->dims[0], sizeof a->dims[0], "time");
+    if (dim2) {
+        a->shape[1] = a->chunk[1] = m;
+        snprintf(a->dims[1], sizeof a->dims[1], "%s", dim2);
+    }
+    a->attributes = json_pack("{s:s, s:s}", "units", units, "long_name", long_name);
+}
+
+static double sample_value(const dm_integ_sample *s, int array, int j)
+{
+    switch (array) {
+    case 0: return s->t_s;
+    case 1: return s->P_m[j];
+    case 2: return s->error[j];
+    case 3: return sqrt(s->error[0] * s->error[0] + s->error[1] * s->error[1] + s->error[2] * s->error[2]);
+    case 4: return s->tool_error_m[j];
+    default: return j < s->nfreq ? s->freq_hz[j] : NAN;
+    }
+}
+
+static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory *tr,
+                      const sample_list *l, int nfreq, dm_error *err)
+{
+    dm_store st;
+    memset(&st, 0, sizeof st);
+    snprintf(st.path, sizeof st.path, "%s", path);
+    time_array(&st, "time", NULL, 1, "s", "time", l->n);
+    time_array(&st, "position", "axis", 3, "m", "commanded platform centre", l->n);
+    time_array(&st, "error", "component", 6, "m, rad", "platform error dx dy dz (m) ex ey ez (rad)", l->n);
+    time_array(&st, "error_norm", NULL, 1, "m", "|(dx, dy, dz)|", l->n);
+    time_array(&st, "tool_error", "axis", 3, "m", "tool point error", l->n);
+    time_array(&st, "frequencies_hz", "mode", nfreq, "Hz", "frequencies of the frozen configuration", l->n);
+    json_t *names = json_pack("[ssssss]", "time", "position", "error", "error_norm", "tool_error",
+                              "frequencies_hz");
+    st.group_attributes = json_pack("{s:s, s:{s:s, s:s, s:s, s:o}}", "title",
+                                    "deltamap trajectory run", "deltamap", "tool",
+                                    "deltamap " DM_VERSION, "robot", rb->name, "path", tr->name,
+                                    "arrays", names);
+    int rc = dm_store_write_metadata(&st, err);
+    double *buf = rc ? NULL : malloc(sizeof(double) * TIME_CHUNK * 8);
+    if (!rc && !buf)
+        rc = dm_fail(err, DM_ENOMEM, "out of memory");
+    for (int a = 0; a < st.narr && !rc; a++) {
+        int m = st.arr[a].ndim > 1 ? (int)st.arr[a].shape[1] : 1, ch = st.arr[a].chunk[0];
+        for (long c0 = 0; c0 * ch < l->n && !rc; c0++) {
+            for (long i = 0; i < ch; i++)
+                for (int j = 0; j < m; j++)
+                    buf[i * m + j] = c0 * ch + i < l->n ? sample_value(&l->s[c0 * ch + i], a, j) : NAN;
+            const int64_t c[2] = {c0, 0};
+            rc = dm_store_write_chunk(&st, a, c, buf, err);
+        }
+    }
+    free(buf);
+    for (int a = 0; a < st.narr; a++)
+        json_decref(st.arr[a].attributes);
+    json_decref(st.group_attributes);
+    return rc;
+}
+
+static int ends_with(const char *s, const char *tail)
+{
+    size_t n = strlen(s), m = strlen(tail);
+    return n >= m && !strcmp(s + n - m, tail);
 }
 
 static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_trajectory *tr,
@@ -192,7 +302,9 @@ int dm_cli_trajectory(int argc, char **argv)
     if (dm_traj_make(t.path, &rb, &tr, &err))
         return dm_cli_report(&err);
     dm_cli_out out = {0};
-    if (t.out && (rc = dm_cli_out_open(&out, t.out, &err))) {
+    int zarr = t.out && ends_with(t.out, ".zarr");
+    sample_list kept = {0};
+    if (t.out && !zarr && (rc = dm_cli_out_open(&out, t.out, &err))) {
         dm_traj_free(&tr);
         return dm_cli_report(&err);
     }
@@ -200,9 +312,13 @@ int dm_cli_trajectory(int argc, char **argv)
         fprintf(out.f, "t_s,x_m,y_m,z_m,dx_m,dy_m,dz_m,ex_rad,ey_rad,ez_rad,error_m,"
                        "tool_dx_m,tool_dy_m,tool_dz_m,f1_hz,f2_hz,f3_hz\n");
     dm_integ_summary sum;
-    rc = dm_integrate_trajectory(&rb, &tr, &t.o, out.f ? csv_sample : NULL, out.f, &sum, &err);
+    rc = dm_integrate_trajectory(&rb, &tr, &t.o, zarr ? keep_sample : out.f ? csv_sample : NULL,
+                                 zarr ? (void *)&kept : (void *)out.f, &sum, &err);
     if (!rc && out.f)
         rc = dm_cli_out_commit(&out, &err);
+    if (!rc && zarr)
+        rc = write_zarr(t.out, &rb, &tr, &kept, kept.n ? kept.s[0].nfreq : 0, &err);
+    free(kept.s);
     if (rc) {
         if (out.f)
             dm_cli_out_abort(&out);

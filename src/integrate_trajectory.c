@@ -102,6 +102,8 @@ static int load_at(const run_ws *w, double t, double *F, dm_error *err)
     dm_copy3(a, mo.aP);
     memcpy(F, w->md->F_gravity, sizeof(double) * w->n);
     dm_loads_add_inertial(w->md, &mo, F);
+    const double no_torque[3] = {0, 0, 0};
+    dm_loads_add_platform_wrench(w->md, w->o.force_n, no_torque, F);
     return DM_OK;
 }
 
@@ -162,7 +164,9 @@ static int initial_state(run_ws *w, dm_error *err)
 {
     if (w->o.from_rest)
         return DM_OK;
+    const double no_torque[3] = {0, 0, 0};
     memcpy(w->x, w->md->F_gravity, sizeof(double) * w->n);
+    dm_loads_add_platform_wrench(w->md, w->o.force_n, no_torque, w->x);
     int rc = dm_static_factor(w->statics, w->md->K, err);
     if (!rc)
         rc = dm_static_solve(w->statics, w->x, 1, err);

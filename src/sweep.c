@@ -13,9 +13,10 @@
 #include <unistd.h>
 
 #include "dm_store.h"
+#include "dm_version.h"
 #include "dm_vec3.h"
 
-#define DM_SWEEP_VERSION "deltamap 0.3.0"
+#define DM_SWEEP_VERSION "deltamap " DM_VERSION
 #define EXTRA_MODES 4   /* candidates beyond k for mode tracking */
 #define ANCHORS_PER_AXIS 16
 

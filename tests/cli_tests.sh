@@ -106,6 +106,21 @@ contains err "bad.csv:3: column 4 (z)"
 expect 0 "undamped all modes warns" "$DM" trajectory --robot chen2018 --path "p2p:from=0,0,-0.5;to=0.01,0,-0.5;duration=0.01" --mesh 1,1 --modes all
 contains err "alias"
 
+# external force at P: a frozen pose settles at static error + C F (all modes, exact)
+expect 0 "force at P" "$DM" trajectory --robot chen2018 --path "p2p:from=0,0,-0.5;to=0,0,-0.5;duration=0.01" --mesh 1,1 --force 0,0,-10 --modes all --no-reference --json
+cp "$TMP/out" "$TMP/force.json"
+expect 0 "modes for force" "$DM" modes --robot chen2018 --mesh 1,1 --json
+json_true "abs(json.load(open('$TMP/force.json'))['mean_error_m'] - abs(d['static_error'][2] - 10 * d['compliance'][2][2])) < 1e-12"
+
+# the store format for a run
+expect 0 "trajectory zarr" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --out "$TMP/run.zarr"
+if .venv/bin/python -c "
+import xarray as xr, numpy as np, sys
+ds = xr.open_zarr('$TMP/run.zarr', consolidated=False)
+c = np.genfromtxt('$TMP/run.csv', delimiter=',', names=True)
+ok = ds.sizes['time'] == 51 and np.allclose(ds.time.values, c['t_s']) and np.allclose(ds.error_norm.values, c['error_m'], rtol=1e-8)
+sys.exit(0 if ok and ds.error.attrs['units'] == 'm, rad' else 1)"; then ok; else bad "trajectory zarr content"; fi
+
 # ---- study ----
 expect 0 "study json" "$DM" study --robot chen2018 --path "p2p:from=0,0,-0.5;to=0.05,0,-0.5;duration=0.02" --mesh 1,1 --vary arm.side=0.02:0.03:2 --vary rod.side=0.006:0.01:2 --json --out "$TMP/study.csv"
 json_true "len(d['mean_error_m']) == 2 and len(d['mean_error_m'][0]) == 2 and d['parameters'] == ['arm.side', 'rod.side']"
