@@ -9,9 +9,16 @@
  *   lower rod end  -> platform's 6 DOFs via the platform + 2 own bending rotations
  * and M = sum (T_e S_e)' M_e (T_e S_e), likewise K (Chen eq. 13–21).
  *
- * Order of U: chain 0, 1, 2 (arm nodes 1..na; then rod +d and rod -d, each:
- * upper-end rotations, interior nodes, lower-end rotations), then the 6
- * platform DOFs (dx, dy, dz, ex, ey, ez) last. Matrices are dense n x n,
+ * Order of U: chain 0, 1, 2 (arm-root DOFs when the model extensions give
+ * it any; arm nodes 1..na; then rod +d and rod -d, each: upper-end DOFs,
+ * interior nodes, lower-end DOFs), then the 6 platform DOFs (dx, dy, dz,
+ * ex, ey, ez) last.
+ *
+ * Model extensions (MODEL.md §6, robot [effects]): actuator springs and
+ * compliant bases add arm-root DOFs and springs to ground; joint springs
+ * give each rod end its own translations tied to its short-bar point;
+ * payload and elbow masses add mass and weight; geometric stiffness adds
+ * K_G from the axial forces of a linear static gravity solve. Matrices are dense n x n,
  * column-major. A dm_model is one thread's workspace; the robot it points
  * to is read-only. */
 #ifndef DM_ASSEMBLY_H
@@ -46,17 +53,25 @@ typedef struct dm_element {
 typedef struct dm_model {
     const dm_robot *robot;
     int na, nb;
+    int root_dofs;          /* per arm root: 3 base translations and/or 1 actuator rotation */
+    int end_dofs;           /* per rod end: 2 rotations (+3 translations with joint springs) */
     int n;                  /* reduced DOFs */
     int platform_dof;       /* first of the 6 platform DOFs (== n - 6) */
     int chain_dof[3];       /* first DOF of each chain's block */
+    int elbow_dof[3];       /* first DOF (translations) of each elbow node */
     int nelem;
     dm_element *elem;
     dm_beam_props props[2]; /* arm, rod */
     double platform_mass[36]; /* 6x6 rigid mass of platform (+ payload) */
     dm_pose pose;
-    double *M, *K;          /* n x n column-major */
+    double *M, *K;          /* n x n column-major (K includes K_G when enabled) */
     double *F_gravity;      /* n: consistent gravity load */
+    double *work;           /* n x n scratch (geometric stiffness pre-solve) */
+    double *u_static;       /* n: its static gravity displacement */
 } dm_model;
+
+/* Number of reduced DOFs for this robot (with its [effects]) and mesh. */
+int dm_model_dofs(const dm_robot *robot, int na, int nb);
 
 /* Number the DOFs for this robot and mesh and allocate the matrices. */
 dm_model *dm_model_alloc(const dm_robot *robot, int na, int nb, dm_error *err);

@@ -49,10 +49,13 @@ typedef struct dm_effects {
     double joint_stiffness_n_per_m;       /* 0 = rigid rod-end joints */
     double payload_kg;
     double payload_offset_m[3];           /* platform axes */
-    double elbow_mass_kg;
+    double elbow_mass_kg;                 /* at each elbow */
     double base_stiffness_n_per_m[3][3];  /* [chain][X,Y,Z]; 0 = rigid */
     int geometric_stiffness;              /* 0/1 */
 } dm_effects;
+
+/* Is any base spring set (then every arm root gets three translations)? */
+int dm_effects_base_compliant(const dm_effects *effects);
 
 #define DM_NAME_LEN 64
 #define DM_SOURCE_LEN 512

@@ -1,6 +1,7 @@
 /* Frozen-configuration assembly (MODEL.md §2). */
 #include "dm_assembly.h"
 
+#include <lapacke.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -8,19 +9,51 @@
 
 /* ---- DOF numbering -------------------------------------------------------- */
 
-static int chain_size(int na, int nb) { return 6 * na + 2 * (2 + 6 * (nb - 1) + 2); }
+static int chain_size(const dm_model *md)
+{
+    return md->root_dofs + 6 * md->na + 2 * (2 * md->end_dofs + 6 * (md->nb - 1));
+}
 
 /* First DOF of arm node k (1..na) in chain i. */
 static int arm_node_dof(const dm_model *md, int i, int k)
 {
-    return md->chain_dof[i] + 6 * (k - 1);
+    return md->chain_dof[i] + md->root_dofs + 6 * (k - 1);
 }
 
-/* First DOF of rod s (0: +d, 1: -d) in chain i: upper rotations come first,
- * then interior nodes 1..nb-1, then lower rotations. */
+/* First DOF of rod s (0: +d, 1: -d) in chain i: the upper end's DOFs come
+ * first, then interior nodes 1..nb-1, then the lower end's. */
 static int rod_dof(const dm_model *md, int i, int s)
 {
-    return md->chain_dof[i] + 6 * md->na + s * (4 + 6 * (md->nb - 1));
+    return md->chain_dof[i] + md->root_dofs + 6 * md->na +
+           s * (2 * md->end_dofs + 6 * (md->nb - 1));
+}
+
+static int interior_dof(const dm_model *md, int i, int s, int k)
+{
+    return rod_dof(md, i, s) + md->end_dofs + 6 * (k - 1);
+}
+
+static void set_layout(dm_model *md, const dm_robot *robot, int na, int nb)
+{
+    const dm_effects *fx = &robot->effects;
+    md->robot = robot;
+    md->na = na;
+    md->nb = nb;
+    md->root_dofs = 3 * dm_effects_base_compliant(fx) + (fx->actuator_stiffness_nm_per_rad > 0);
+    md->end_dofs = fx->joint_stiffness_n_per_m > 0 ? 5 : 2;
+    for (int i = 0; i < 3; i++)
+        md->chain_dof[i] = i * chain_size(md);
+    md->platform_dof = 3 * chain_size(md);
+    md->n = md->platform_dof + 6;
+    for (int i = 0; i < 3; i++)
+        md->elbow_dof[i] = arm_node_dof(md, i, na);
+}
+
+int dm_model_dofs(const dm_robot *robot, int na, int nb)
+{
+    dm_model md;
+    set_layout(&md, robot, na, nb);
+    return md.n;
 }
 
 dm_model *dm_model_alloc(const dm_robot *robot, int na, int nb, dm_error *err)
@@ -34,20 +67,20 @@ dm_model *dm_model_alloc(const dm_robot *robot, int na, int nb, dm_error *err)
         dm_fail(err, DM_ENOMEM, "out of memory for the model");
         return NULL;
     }
-    md->robot = robot;
-    md->na = na;
-    md->nb = nb;
-    for (int i = 0; i < 3; i++)
-        md->chain_dof[i] = i * chain_size(na, nb);
-    md->platform_dof = 3 * chain_size(na, nb);
-    md->n = md->platform_dof + 6;
+    const dm_effects *fx = &robot->effects;
+    set_layout(md, robot, na, nb);
     md->nelem = 3 * (na + 2 * nb);
     size_t nn = (size_t)md->n * (size_t)md->n;
     md->elem = calloc((size_t)md->nelem, sizeof *md->elem);
     md->M = calloc(nn, sizeof *md->M);
     md->K = calloc(nn, sizeof *md->K);
     md->F_gravity = calloc((size_t)md->n, sizeof *md->F_gravity);
-    if (!md->elem || !md->M || !md->K || !md->F_gravity) {
+    if (fx->geometric_stiffness) {
+        md->work = malloc(nn * sizeof *md->work);
+        md->u_static = malloc((size_t)md->n * sizeof *md->u_static);
+    }
+    if (!md->elem || !md->M || !md->K || !md->F_gravity ||
+        (fx->geometric_stiffness && (!md->work || !md->u_static))) {
         dm_fail(err, DM_ENOMEM, "out of memory for a %d-DOF model", md->n);
         dm_model_free(md);
         return NULL;
@@ -65,12 +98,31 @@ void dm_model_free(dm_model *md)
     free(md->M);
     free(md->K);
     free(md->F_gravity);
+    free(md->work);
+    free(md->u_static);
     free(md);
 }
 
 /* ---- node maps ------------------------------------------------------------ */
 
-static void map_clamped(dm_nodemap *m) { memset(m, 0, sizeof *m); }
+/* Arm root: clamped, or with base translations (global axes) and/or the
+ * actuator rotation about t_i as DOFs. */
+static void map_root(const dm_model *md, int i, dm_nodemap *m)
+{
+    memset(m, 0, sizeof *m);
+    int base = md->chain_dof[i];
+    if (dm_effects_base_compliant(&md->robot->effects))
+        for (int k = 0; k < 3; k++, m->m++) {
+            m->idx[m->m] = base + m->m;
+            m->c[k][m->m] = 1.0;
+        }
+    if (md->robot->effects.actuator_stiffness_nm_per_rad > 0) {
+        m->idx[m->m] = base + m->m;
+        for (int k = 0; k < 3; k++)
+            m->c[3 + k][m->m] = md->pose.t[i][k];
+        m->m++;
+    }
+}
 
 static void map_free(dm_nodemap *m, int dof)
 {
@@ -103,6 +155,33 @@ static void map_rod_end(dm_nodemap *m, int ref_dof, const double s[3], int rot_d
         m->c[3 + r][6] = lambda[3 + r];
         m->c[3 + r][7] = lambda[6 + r];
     }
+}
+
+/* With joint springs the rod end's translations are DOFs of its own (the
+ * short-bar point keeps the map above; a spring ties the two). */
+static void map_free_end(dm_nodemap *m, int own, const double lambda[9])
+{
+    memset(m, 0, sizeof *m);
+    m->m = 5;
+    for (int k = 0; k < 3; k++) {
+        m->idx[k] = own + 2 + k;
+        m->c[k][k] = 1.0;
+    }
+    m->idx[3] = own;
+    m->idx[4] = own + 1;
+    for (int r = 0; r < 3; r++) {
+        m->c[3 + r][3] = lambda[3 + r];
+        m->c[3 + r][4] = lambda[6 + r];
+    }
+}
+
+static void map_end(const dm_model *md, dm_nodemap *m, int ref_dof, const double s[3], int own,
+                    const double lambda[9])
+{
+    if (md->end_dofs == 5)
+        map_free_end(m, own, lambda);
+    else
+        map_rod_end(m, ref_dof, s, own, lambda);
 }
 
 void dm_nodemap_apply(const dm_nodemap *map, const double *U, double out[6])
@@ -153,12 +232,41 @@ static int build_arm(dm_model *md, int i, dm_element *e, dm_error *err)
         if (rc)
             return rc;
         if (k == 0)
-            map_clamped(&e->node[0]);
+            map_root(md, i, &e->node[0]);
         else
             map_free(&e->node[0], arm_node_dof(md, i, k));
         map_free(&e->node[1], arm_node_dof(md, i, k + 1));
     }
     return DM_OK;
+}
+
+/* Joint spring kj*I3 between a rod end's own translations (own+2..own+4)
+ * and its short-bar point u_ref + theta_ref x s:
+ * K += kj D'D, D = [I3 on the end | -(bar map) on the body's 6 DOFs]. */
+static void add_joint_spring(dm_model *md, int ref_dof, const double s[3], int own)
+{
+    dm_nodemap bar;
+    const double no_frame[9] = {0};
+    double D[3][9], kj = md->robot->effects.joint_stiffness_n_per_m;
+    int idx[9];
+    map_rod_end(&bar, ref_dof, s, own, no_frame);
+    for (int r = 0; r < 3; r++) {
+        for (int j = 0; j < 3; j++)
+            D[r][j] = r == j;
+        for (int j = 0; j < 6; j++)
+            D[r][3 + j] = -bar.c[r][j];
+    }
+    for (int j = 0; j < 3; j++)
+        idx[j] = own + 2 + j;
+    for (int j = 0; j < 6; j++)
+        idx[3 + j] = ref_dof + j;
+    for (int a = 0; a < 9; a++)
+        for (int b = 0; b < 9; b++) {
+            double v = 0;
+            for (int r = 0; r < 3; r++)
+                v += D[r][a] * D[r][b];
+            md->K[(size_t)idx[b] * md->n + idx[a]] += kj * v;
+        }
 }
 
 static int build_rod(dm_model *md, int i, int s, dm_element *e, dm_error *err)
@@ -171,7 +279,7 @@ static int build_rod(dm_model *md, int i, int s, dm_element *e, dm_error *err)
     dm_axpy3(p->C[i], 1.0, bar, bottom);
     dm_axpy3(bar, rb->platform_radius_m, p->e[i], plat_arm); /* P -> lower end */
     int base = rod_dof(md, i, s), nb = md->nb;
-    int lower_rot = base + 2 + 6 * (nb - 1);
+    int lower = interior_dof(md, i, s, nb);
     for (int k = 0; k < nb; k++, e++) {
         double x1[3], x2[3];
         lerp3(top, bottom, (double)k / nb, x1);
@@ -182,13 +290,17 @@ static int build_rod(dm_model *md, int i, int s, dm_element *e, dm_error *err)
         if (rc)
             return rc;
         if (k == 0)
-            map_rod_end(&e->node[0], arm_node_dof(md, i, md->na), bar, base, e->lambda);
+            map_end(md, &e->node[0], arm_node_dof(md, i, md->na), bar, base, e->lambda);
         else
-            map_free(&e->node[0], base + 2 + 6 * (k - 1));
+            map_free(&e->node[0], interior_dof(md, i, s, k));
         if (k == nb - 1)
-            map_rod_end(&e->node[1], md->platform_dof, plat_arm, lower_rot, e->lambda);
+            map_end(md, &e->node[1], md->platform_dof, plat_arm, lower, e->lambda);
         else
-            map_free(&e->node[1], base + 2 + 6 * k);
+            map_free(&e->node[1], interior_dof(md, i, s, k + 1));
+    }
+    if (md->end_dofs == 5) {
+        add_joint_spring(md, arm_node_dof(md, i, md->na), bar, base);
+        add_joint_spring(md, md->platform_dof, plat_arm, lower);
     }
     return DM_OK;
 }
@@ -264,21 +376,84 @@ void dm_model_add_element_load(const dm_model *md, const dm_element *e, const do
     }
 }
 
+/* Rigid platform (mass, inertia about P) plus the payload point mass at
+ * offset o: u = uP + eps x o = S [uP; eps], S = [I3, -skew(o)], so the
+ * payload adds m S'S to the mass and S' m g to the load. */
 static void add_platform(dm_model *md)
 {
     const dm_robot *rb = md->robot;
-    double *MP = md->platform_mass;
+    const dm_effects *fx = &rb->effects;
+    double *MP = md->platform_mass, S[3][6], Ssk[9], mg[3];
     memset(MP, 0, 36 * sizeof *MP);
     for (int k = 0; k < 3; k++) {
         MP[7 * k] = rb->platform_mass_kg;
         MP[7 * (k + 3)] = rb->platform_inertia_kgm2[k];
     }
+    dm_skew3(fx->payload_offset_m, Ssk);
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) {
+            S[r][c] = r == c;
+            S[r][3 + c] = -Ssk[3 * r + c];
+        }
+    for (int a = 0; a < 6; a++)
+        for (int b = 0; b < 6; b++)
+            for (int r = 0; r < 3; r++)
+                MP[6 * b + a] += fx->payload_kg * S[r][a] * S[r][b];
     int p = md->platform_dof, n = md->n;
     for (int c = 0; c < 6; c++)
         for (int r = 0; r < 6; r++)
             md->M[(size_t)(p + c) * n + p + r] += MP[6 * c + r];
+    dm_scale3(fx->payload_kg, rb->gravity_ms2, mg);
     for (int k = 0; k < 3; k++)
         md->F_gravity[p + k] += rb->platform_mass_kg * rb->gravity_ms2[k];
+    for (int a = 0; a < 6; a++)
+        for (int r = 0; r < 3; r++)
+            md->F_gravity[p + a] += S[r][a] * mg[r];
+}
+
+/* Springs to ground at the arm roots, point masses at the elbows. */
+static void add_root_springs_and_elbow_masses(dm_model *md)
+{
+    const dm_effects *fx = &md->robot->effects;
+    int n = md->n;
+    for (int i = 0; i < 3; i++) {
+        int d = md->chain_dof[i];
+        if (dm_effects_base_compliant(fx))
+            for (int k = 0; k < 3; k++, d++)
+                md->K[(size_t)d * n + d] += fx->base_stiffness_n_per_m[i][k];
+        if (fx->actuator_stiffness_nm_per_rad > 0)
+            md->K[(size_t)d * n + d] += fx->actuator_stiffness_nm_per_rad;
+        int b = arm_node_dof(md, i, md->na);
+        for (int k = 0; k < 3 && fx->elbow_mass_kg > 0; k++) {
+            md->M[(size_t)(b + k) * n + b + k] += fx->elbow_mass_kg;
+            md->F_gravity[b + k] += fx->elbow_mass_kg * md->robot->gravity_ms2[k];
+        }
+    }
+}
+
+/* Stress stiffening (MODEL.md §6): axial forces N = EA (u2 - u1)/L from one
+ * linear static gravity solve, then K += sum of the elements' K_G(N). */
+static int add_geometric_stiffness(dm_model *md, dm_error *err)
+{
+    int n = md->n;
+    double *L = md->work, *u = md->u_static;
+    memcpy(L, md->K, sizeof(double) * n * n);
+    memcpy(u, md->F_gravity, sizeof(double) * n);
+    if (LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', n, L, n) ||
+        LAPACKE_dpotrs(LAPACK_COL_MAJOR, 'L', n, 1, L, n, u, n))
+        return dm_fail(err, DM_ENUMERIC, "geometric stiffness: static gravity solve failed");
+    for (int k = 0; k < md->nelem; k++) {
+        const dm_element *e = &md->elem[k];
+        double El[12][2 * DM_NODEMAP_MAX], KG[144], du = 0;
+        int idx[2 * DM_NODEMAP_MAX];
+        int m = element_map(e, El, idx);
+        for (int j = 0; j < m; j++) /* local axial displacement, node 2 - node 1 */
+            du += (El[6][j] - El[0][j]) * u[idx[j]];
+        const dm_beam_props *p = &md->props[e->member];
+        dm_beam_geometric(p, p->EA * du / e->length_m, e->length_m, KG);
+        scatter(md->K, n, KG, El, idx, m);
+    }
+    return DM_OK;
 }
 
 int dm_model_build(dm_model *md, const dm_pose *pose, dm_error *err)
@@ -311,5 +486,8 @@ int dm_model_build(dm_model *md, const dm_pose *pose, dm_error *err)
         dm_model_add_element_load(md, el, g12, md->F_gravity);
     }
     add_platform(md);
+    add_root_springs_and_elbow_masses(md);
+    if (md->robot->effects.geometric_stiffness)
+        return add_geometric_stiffness(md, err);
     return DM_OK;
 }

@@ -54,9 +54,12 @@ void dm_loads_add_inertial(const dm_model *md, const dm_rigid_motion *mo, double
         dm_model_add_element_load(md, e, a12, F);
     }
     int pd = md->platform_dof;
-    for (int r = 0; r < 6; r++)
+    for (int r = 0; r < 6; r++) /* platform and payload */
         for (int c = 0; c < 3; c++)
             F[pd + r] -= md->platform_mass[6 * c + r] * mo->aP[c];
+    for (int i = 0; i < 3; i++) /* elbow point masses */
+        for (int c = 0; c < 3; c++)
+            F[md->elbow_dof[i] + c] -= md->robot->effects.elbow_mass_kg * aB[i][c];
 }
 
 void dm_loads_add_platform_wrench(const dm_model *md, const double force[3],

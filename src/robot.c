@@ -25,6 +25,7 @@ typedef enum {
     KEY_VEC3,       /* three finite doubles "a, b, c" */
     KEY_VEC3_NONNEG,/* three doubles >= 0 */
     KEY_SHAPE,      /* rect | square | circle | tube */
+    KEY_ONOFF,      /* on | off */
     KEY_ELBOW,      /* out | in */
     KEY_NAME        /* free text */
 } key_kind;
@@ -71,11 +72,20 @@ static const key_spec KEYS[] = {
     {"mesh", "nb", KEY_COUNT, R_OFF(nb), 0, ""},
     {"workspace", "home", KEY_VEC3, R_OFF(home_m), 0, "m"},
     {"workspace", "singular_condition", KEY_POSITIVE, R_OFF(singular_cond), 0, ""},
+    {"effects", "actuator_stiffness", KEY_POSITIVE, R_OFF(effects.actuator_stiffness_nm_per_rad), 0, "N*m/rad"},
+    {"effects", "joint_stiffness", KEY_POSITIVE, R_OFF(effects.joint_stiffness_n_per_m), 0, "N/m"},
+    {"effects", "payload_mass", KEY_POSITIVE, R_OFF(effects.payload_kg), 0, "kg"},
+    {"effects", "payload_offset", KEY_VEC3, R_OFF(effects.payload_offset_m), 0, "m"},
+    {"effects", "elbow_mass", KEY_POSITIVE, R_OFF(effects.elbow_mass_kg), 0, "kg"},
+    {"effects", "base_stiffness", KEY_VEC3_NONNEG, 0, 0, "N/m"},
+    {"effects", "base_stiffness_0", KEY_VEC3_NONNEG, R_OFF(effects.base_stiffness_n_per_m[0]), 0, "N/m"},
+    {"effects", "base_stiffness_1", KEY_VEC3_NONNEG, R_OFF(effects.base_stiffness_n_per_m[1]), 0, "N/m"},
+    {"effects", "base_stiffness_2", KEY_VEC3_NONNEG, R_OFF(effects.base_stiffness_n_per_m[2]), 0, "N/m"},
+    {"effects", "geometric_stiffness", KEY_ONOFF, R_OFF(effects.geometric_stiffness), 0, ""},
 };
 #define NKEYS (sizeof KEYS / sizeof KEYS[0])
 
-/* Sections that exist but accept no key yet: [effects] is reserved for
- * the model extensions of MODEL.md §6. */
+/* Sections whose unknown keys get a more specific message. */
 static const char *const RESERVED_SECTIONS[] = {"effects", NULL};
 
 typedef struct {
@@ -84,6 +94,7 @@ typedef struct {
     int line;              /* line being parsed (counted by our reader) */
     int key_line[NKEYS];   /* line where each key was set, 0 = absent */
     double poisson[2];     /* arm, rod */
+    double base_global[3]; /* [effects] base_stiffness, for chains without their own */
     dm_error *err;
 } parse_state;
 
@@ -154,6 +165,11 @@ static int store_value(parse_state *st, const key_spec *ks, const char *value)
         return key_error(st, st->line, ks->section, ks->key,
                          "'%s' is not a section shape (rect, square, circle, tube)", value);
     }
+    case KEY_ONOFF:
+        if (strcmp(value, "on") && strcmp(value, "off"))
+            return key_error(st, st->line, ks->section, ks->key, "'%s' is not on or off", value);
+        *(int *)dst = !strcmp(value, "on");
+        return 1;
     case KEY_ELBOW:
         if (strcmp(value, "out") && strcmp(value, "in"))
             return key_error(st, st->line, ks->section, ks->key,
@@ -177,7 +193,7 @@ static int store_value(parse_state *st, const key_spec *ks, const char *value)
         if (ks->kind == KEY_VEC3_NONNEG && (v3[0] < 0 || v3[1] < 0 || v3[2] < 0))
             return key_error(st, st->line, ks->section, ks->key,
                              "'%s' has a negative component", value);
-        memcpy(dst, v3, sizeof v3);
+        memcpy(!strcmp(ks->key, "base_stiffness") ? (char *)st->base_global : dst, v3, sizeof v3);
         return 1;
     default:
         break;
@@ -218,7 +234,9 @@ static int handler(void *user, const char *section, const char *name, const char
     for (int r = 0; RESERVED_SECTIONS[r]; r++)
         if (!strcmp(section, RESERVED_SECTIONS[r]))
             return key_error(st, st->line, section, name,
-                             "no model extension of this name is available in this version");
+                             "not a model extension (actuator_stiffness, joint_stiffness, "
+                             "payload_mass, payload_offset, elbow_mass, base_stiffness[_0|_1|_2], "
+                             "geometric_stiffness)");
     int known_section = 0;
     for (size_t i = 0; i < NKEYS; i++)
         known_section |= !strcmp(KEYS[i].section, section);
@@ -322,6 +340,46 @@ static int finish_member(parse_state *st, const char *sec, dm_member *m, double 
     return dm_section_compute(m, &m->section, st->err);
 }
 
+int dm_effects_base_compliant(const dm_effects *e)
+{
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            if (e->base_stiffness_n_per_m[i][k] > 0)
+                return 1;
+    return 0;
+}
+
+/* A base spring must be set on all three axes of a chain, or none:
+ * a free translation would make the robot a mechanism. */
+static int check_effects(parse_state *st)
+{
+    dm_effects *e = &st->robot->effects;
+    for (int i = 0; i < 3 && line_of(st, "effects", "base_stiffness"); i++) {
+        char key[32]; /* the global value fills chains without their own */
+        snprintf(key, sizeof key, "base_stiffness_%d", i);
+        if (!line_of(st, "effects", key))
+            memcpy(e->base_stiffness_n_per_m[i], st->base_global, sizeof st->base_global);
+    }
+    if (!dm_effects_base_compliant(e))
+        return DM_OK;
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            if (!(e->base_stiffness_n_per_m[i][k] > 0)) {
+                char key[32];
+                int line = line_of(st, "effects", "base_stiffness");
+                snprintf(key, sizeof key, "base_stiffness_%d", i);
+                if (line_of(st, "effects", key))
+                    line = line_of(st, "effects", key);
+                else
+                    snprintf(key, sizeof key, "base_stiffness");
+                return dm_fail(st->err, DM_EINVAL,
+                               "%s:%d: [effects] %s: chain %d has no spring along %c; "
+                               "a compliant base needs kX, kY, kZ > 0 for every chain",
+                               st->source, line, key, i, "XYZ"[k]);
+            }
+    return DM_OK;
+}
+
 static int check_required(parse_state *st)
 {
     for (size_t i = 0; i < NKEYS; i++)
@@ -340,7 +398,7 @@ static int finish_robot(parse_state *st)
     if (rc)
         return rc;
     if (finish_member(st, "arm", &rb->arm, st->poisson[0]) ||
-        finish_member(st, "rod", &rb->rod, st->poisson[1]))
+        finish_member(st, "rod", &rb->rod, st->poisson[1]) || check_effects(st))
         return DM_EINVAL;
     double offset = fabs(rb->base_radius_m - rb->platform_radius_m);
     if (offset >= rb->arm_length_m + rb->rod_length_m)
@@ -512,6 +570,27 @@ static void write_member(FILE *out, const char *sec, const dm_member *m)
             m->youngs_pa, m->shear_pa, m->density_kgm3);
 }
 
+static void write_effects(FILE *out, const dm_effects *e)
+{
+    fprintf(out, "\n[effects]\n");
+    if (e->actuator_stiffness_nm_per_rad > 0)
+        fprintf(out, "actuator_stiffness = %.17g\n", e->actuator_stiffness_nm_per_rad);
+    if (e->joint_stiffness_n_per_m > 0)
+        fprintf(out, "joint_stiffness = %.17g\n", e->joint_stiffness_n_per_m);
+    if (e->payload_kg > 0) {
+        const double *o = e->payload_offset_m;
+        fprintf(out, "payload_mass = %.17g\npayload_offset = %.17g, %.17g, %.17g\n", e->payload_kg,
+                o[0], o[1], o[2]);
+    }
+    if (e->elbow_mass_kg > 0)
+        fprintf(out, "elbow_mass = %.17g\n", e->elbow_mass_kg);
+    for (int i = 0; i < 3 && dm_effects_base_compliant(e); i++) {
+        const double *k = e->base_stiffness_n_per_m[i];
+        fprintf(out, "base_stiffness_%d = %.17g, %.17g, %.17g\n", i, k[0], k[1], k[2]);
+    }
+    fprintf(out, "geometric_stiffness = %s\n", e->geometric_stiffness ? "on" : "off");
+}
+
 int dm_robot_write(const dm_robot *rb, FILE *out)
 {
     fprintf(out, "[robot]\nname = %s\n", rb->name);
@@ -531,6 +610,7 @@ int dm_robot_write(const dm_robot *rb, FILE *out)
     fprintf(out, "\n[mesh]\nna = %d\nnb = %d\n", rb->na, rb->nb);
     fprintf(out, "\n[workspace]\nhome = %.17g, %.17g, %.17g\nsingular_condition = %.17g\n",
             h[0], h[1], h[2], rb->singular_cond);
+    write_effects(out, &rb->effects);
     return ferror(out) ? DM_EIO : DM_OK;
 }
 

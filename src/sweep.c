@@ -634,7 +634,7 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
     c->o = *o;
     c->na = o->na ? o->na : rb->na;
     c->nb = o->nb ? o->nb : rb->nb;
-    c->n = 3 * (6 * c->na + 2 * (4 + 6 * (c->nb - 1))) + 6;
+    c->n = dm_model_dofs(rb, c->na, c->nb);
     if (o->k < 1 || o->k > 64 || o->k > c->n)
         return dm_fail(err, DM_EINVAL, "sweep: --modes must be 1..64 (and at most %d DOF)", c->n);
     c->k = o->k;

@@ -175,6 +175,28 @@ static void inconsistent_keys(void **state)
                  "[rod] poisson_ratio", "not both");
 }
 
+static void effects_keys(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_error err;
+    const char *good = "[effects]\nactuator_stiffness = 5e3\npayload_mass = 1.5\n"
+                       "payload_offset = 0, 0, -0.05\nbase_stiffness = 1e6, 1e6, 2e6\n"
+                       "base_stiffness_1 = 5e5, 5e5, 5e5\ngeometric_stiffness = on\n";
+    assert_int_equal(dm_robot_parse_string(edited(0, NULL, good), "fx.ini", &rb, &err), 0);
+    assert_rel(rb.effects.base_stiffness_n_per_m[0][2], 2e6, 0, "global base spring");
+    assert_rel(rb.effects.base_stiffness_n_per_m[1][0], 5e5, 0, "per-chain override");
+    assert_int_equal(rb.effects.geometric_stiffness, 1);
+    expect_error(edited(0, NULL, "[effects]\nbase_stiffness = 1e6, 0, 1e6\n"),
+                 "bad.ini:25: [effects] base_stiffness", "no spring along Y");
+    expect_error(edited(0, NULL, "[effects]\ngeometric_stiffness = yes\n"),
+                 "bad.ini:25: [effects] geometric_stiffness", "on or off");
+    expect_error(edited(0, NULL, "[effects]\njoint_stiffness = -1\n"),
+                 "bad.ini:25: [effects] joint_stiffness", "> 0");
+    expect_error(edited(0, NULL, "[effects]\npayload_offset = 1, 2\n"), "[effects] payload_offset",
+                 "three numbers");
+}
+
 static void syntax_and_files(void **state)
 {
     (void)state;
@@ -230,6 +252,7 @@ int main(void)
         cmocka_unit_test(non_physical_values),
         cmocka_unit_test(malformed_values),
         cmocka_unit_test(inconsistent_keys),
+        cmocka_unit_test(effects_keys),
         cmocka_unit_test(syntax_and_files),
         cmocka_unit_test(overrides_are_validated),
     };
