@@ -10,7 +10,7 @@
 
 CC      ?= cc
 PREFIX  ?= /usr/local
-PKGS    := openblas lapacke inih jansson
+PKGS    := openblas lapacke inih jansson cminpack
 PKG_CONFIG ?= pkg-config
 
 ifeq ($(SANITIZE),1)

@@ -53,7 +53,7 @@ typedef struct dm_element {
 typedef struct dm_model {
     const dm_robot *robot;
     int na, nb;
-    int root_dofs;          /* per arm root: 3 base translations and/or 1 actuator rotation */
+    int root_dofs[3];       /* per arm root: 3 base translations and/or 1 actuator rotation */
     int end_dofs;           /* per rod end: 2 rotations (+3 translations with joint springs) */
     int n;                  /* reduced DOFs */
     int platform_dof;       /* first of the 6 platform DOFs (== n - 6) */

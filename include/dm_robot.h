@@ -54,8 +54,9 @@ typedef struct dm_effects {
     int geometric_stiffness;              /* 0/1 */
 } dm_effects;
 
-/* Is any base spring set (then every arm root gets three translations)? */
-int dm_effects_base_compliant(const dm_effects *effects);
+/* Does chain i sit on a compliant base (its arm root gets three
+ * translations tied to ground by springs)? Chains without springs stay rigid. */
+int dm_effects_base_compliant(const dm_effects *effects, int chain);
 
 #define DM_NAME_LEN 64
 #define DM_SOURCE_LEN 512

@@ -53,6 +53,11 @@ typedef struct dm_trajectory {
 int dm_traj_make(const char *spec, const dm_robot *robot, dm_trajectory *traj, dm_error *err);
 void dm_traj_free(dm_trajectory *traj);
 
+/* A trajectory through samples t (s, strictly increasing from 0) and
+ * positions xyz (3 per sample, m): natural cubic spline. Copies the data. */
+int dm_traj_from_samples(const double *t, const double *xyz, int n, const char *name,
+                         dm_trajectory *traj, dm_error *err);
+
 /* Position, velocity, acceleration at time t (clamped to [0, duration]). */
 void dm_traj_eval(const dm_trajectory *traj, double t, double P[3], double v[3], double a[3]);
 

@@ -9,22 +9,22 @@
 
 /* ---- DOF numbering -------------------------------------------------------- */
 
-static int chain_size(const dm_model *md)
+static int chain_size(const dm_model *md, int i)
 {
-    return md->root_dofs + 6 * md->na + 2 * (2 * md->end_dofs + 6 * (md->nb - 1));
+    return md->root_dofs[i] + 6 * md->na + 2 * (2 * md->end_dofs + 6 * (md->nb - 1));
 }
 
 /* First DOF of arm node k (1..na) in chain i. */
 static int arm_node_dof(const dm_model *md, int i, int k)
 {
-    return md->chain_dof[i] + md->root_dofs + 6 * (k - 1);
+    return md->chain_dof[i] + md->root_dofs[i] + 6 * (k - 1);
 }
 
 /* First DOF of rod s (0: +d, 1: -d) in chain i: the upper end's DOFs come
  * first, then interior nodes 1..nb-1, then the lower end's. */
 static int rod_dof(const dm_model *md, int i, int s)
 {
-    return md->chain_dof[i] + md->root_dofs + 6 * md->na +
+    return md->chain_dof[i] + md->root_dofs[i] + 6 * md->na +
            s * (2 * md->end_dofs + 6 * (md->nb - 1));
 }
 
@@ -39,11 +39,15 @@ static void set_layout(dm_model *md, const dm_robot *robot, int na, int nb)
     md->robot = robot;
     md->na = na;
     md->nb = nb;
-    md->root_dofs = 3 * dm_effects_base_compliant(fx) + (fx->actuator_stiffness_nm_per_rad > 0);
     md->end_dofs = fx->joint_stiffness_n_per_m > 0 ? 5 : 2;
-    for (int i = 0; i < 3; i++)
-        md->chain_dof[i] = i * chain_size(md);
-    md->platform_dof = 3 * chain_size(md);
+    int next = 0;
+    for (int i = 0; i < 3; i++) {
+        md->root_dofs[i] = 3 * dm_effects_base_compliant(fx, i) +
+                           (fx->actuator_stiffness_nm_per_rad > 0);
+        md->chain_dof[i] = next;
+        next += chain_size(md, i);
+    }
+    md->platform_dof = next;
     md->n = md->platform_dof + 6;
     for (int i = 0; i < 3; i++)
         md->elbow_dof[i] = arm_node_dof(md, i, na);
@@ -111,7 +115,7 @@ static void map_root(const dm_model *md, int i, dm_nodemap *m)
 {
     memset(m, 0, sizeof *m);
     int base = md->chain_dof[i];
-    if (dm_effects_base_compliant(&md->robot->effects))
+    if (dm_effects_base_compliant(&md->robot->effects, i))
         for (int k = 0; k < 3; k++, m->m++) {
             m->idx[m->m] = base + m->m;
             m->c[k][m->m] = 1.0;
@@ -418,7 +422,7 @@ static void add_root_springs_and_elbow_masses(dm_model *md)
     int n = md->n;
     for (int i = 0; i < 3; i++) {
         int d = md->chain_dof[i];
-        if (dm_effects_base_compliant(fx))
+        if (dm_effects_base_compliant(fx, i))
             for (int k = 0; k < 3; k++, d++)
                 md->K[(size_t)d * n + d] += fx->base_stiffness_n_per_m[i][k];
         if (fx->actuator_stiffness_nm_per_rad > 0)

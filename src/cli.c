@@ -24,6 +24,9 @@ static const char MAIN_HELP[] =
     "  sweep       workspace maps (frequencies, errors, stiffness) into a store\n"
     "  info        what a map store holds, its completeness and checksums\n"
     "  study       mean trajectory error over one or two robot parameters\n"
+    "  compare     residuals of the model against measured data\n"
+    "  diagnose    name the physical effect behind the residuals, fit it\n"
+    "  synth       synthetic measured data from an extended robot\n"
     "  robot       check a robot file or preset and print it in full\n"
     "  presets     list the built-in robots\n"
     "\n"
@@ -276,6 +279,12 @@ int dm_cli_main(int argc, char **argv)
         return dm_cli_sweep(argc - 1, argv + 1);
     if (!strcmp(cmd, "info"))
         return dm_cli_info(argc - 1, argv + 1);
+    if (!strcmp(cmd, "compare"))
+        return dm_cli_compare(argc - 1, argv + 1);
+    if (!strcmp(cmd, "diagnose"))
+        return dm_cli_diagnose(argc - 1, argv + 1);
+    if (!strcmp(cmd, "synth"))
+        return dm_cli_synth(argc - 1, argv + 1);
     if (!strcmp(cmd, "study"))
         return dm_cli_study(argc - 1, argv + 1);
     if (!strcmp(cmd, "robot"))

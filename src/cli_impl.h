@@ -52,5 +52,8 @@ int dm_cli_trajectory(int argc, char **argv);
 int dm_cli_study(int argc, char **argv);
 int dm_cli_sweep(int argc, char **argv);
 int dm_cli_info(int argc, char **argv);
+int dm_cli_compare(int argc, char **argv);
+int dm_cli_diagnose(int argc, char **argv);
+int dm_cli_synth(int argc, char **argv);
 
 #endif

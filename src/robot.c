@@ -340,17 +340,16 @@ static int finish_member(parse_state *st, const char *sec, dm_member *m, double 
     return dm_section_compute(m, &m->section, st->err);
 }
 
-int dm_effects_base_compliant(const dm_effects *e)
+int dm_effects_base_compliant(const dm_effects *e, int i)
 {
-    for (int i = 0; i < 3; i++)
-        for (int k = 0; k < 3; k++)
-            if (e->base_stiffness_n_per_m[i][k] > 0)
-                return 1;
+    for (int k = 0; k < 3; k++)
+        if (e->base_stiffness_n_per_m[i][k] > 0)
+            return 1;
     return 0;
 }
 
-/* A base spring must be set on all three axes of a chain, or none:
- * a free translation would make the robot a mechanism. */
+/* A chain's base springs are set on all three axes or on none (rigid):
+ * one free translation would make the robot a mechanism. */
 static int check_effects(parse_state *st)
 {
     dm_effects *e = &st->robot->effects;
@@ -360,10 +359,8 @@ static int check_effects(parse_state *st)
         if (!line_of(st, "effects", key))
             memcpy(e->base_stiffness_n_per_m[i], st->base_global, sizeof st->base_global);
     }
-    if (!dm_effects_base_compliant(e))
-        return DM_OK;
     for (int i = 0; i < 3; i++)
-        for (int k = 0; k < 3; k++)
+        for (int k = 0; k < 3 && dm_effects_base_compliant(e, i); k++)
             if (!(e->base_stiffness_n_per_m[i][k] > 0)) {
                 char key[32];
                 int line = line_of(st, "effects", "base_stiffness");
@@ -374,7 +371,7 @@ static int check_effects(parse_state *st)
                     snprintf(key, sizeof key, "base_stiffness");
                 return dm_fail(st->err, DM_EINVAL,
                                "%s:%d: [effects] %s: chain %d has no spring along %c; "
-                               "a compliant base needs kX, kY, kZ > 0 for every chain",
+                               "a compliant base needs kX, kY, kZ > 0 (or all 0: rigid)",
                                st->source, line, key, i, "XYZ"[k]);
             }
     return DM_OK;
@@ -584,9 +581,10 @@ static void write_effects(FILE *out, const dm_effects *e)
     }
     if (e->elbow_mass_kg > 0)
         fprintf(out, "elbow_mass = %.17g\n", e->elbow_mass_kg);
-    for (int i = 0; i < 3 && dm_effects_base_compliant(e); i++) {
+    for (int i = 0; i < 3; i++) {
         const double *k = e->base_stiffness_n_per_m[i];
-        fprintf(out, "base_stiffness_%d = %.17g, %.17g, %.17g\n", i, k[0], k[1], k[2]);
+        if (dm_effects_base_compliant(e, i))
+            fprintf(out, "base_stiffness_%d = %.17g, %.17g, %.17g\n", i, k[0], k[1], k[2]);
     }
     fprintf(out, "geometric_stiffness = %s\n", e->geometric_stiffness ? "on" : "off");
 }

@@ -463,6 +463,33 @@ static int make_samples(const char *path, dm_trajectory *tr, dm_error *err)
     return rc;
 }
 
+int dm_traj_from_samples(const double *t, const double *xyz, int n, const char *name,
+                         dm_trajectory *tr, dm_error *err)
+{
+    memset(tr, 0, sizeof *tr);
+    snprintf(tr->name, sizeof tr->name, "%s", name);
+    tr->kind = DM_PATH_SAMPLES;
+    if (n < 3 || fabs(t[0]) > 1e-12)
+        return dm_fail(err, DM_EINVAL, "%s: needs at least 3 samples starting at t = 0", name);
+    for (int i = 1; i < n; i++)
+        if (!(t[i] > t[i - 1]))
+            return dm_fail(err, DM_EINVAL, "%s: times must increase strictly", name);
+    tr->t_s = malloc(sizeof(double) * n);
+    tr->xyz_m = malloc(3 * sizeof(double) * n);
+    if (!tr->t_s || !tr->xyz_m) {
+        dm_traj_free(tr);
+        return dm_fail(err, DM_ENOMEM, "out of memory");
+    }
+    memcpy(tr->t_s, t, sizeof(double) * n);
+    memcpy(tr->xyz_m, xyz, 3 * sizeof(double) * n);
+    tr->nsamp = n;
+    tr->duration_s = t[n - 1];
+    int rc = spline(tr, err);
+    if (rc)
+        dm_traj_free(tr);
+    return rc;
+}
+
 int dm_traj_make(const char *spec, const dm_robot *rb, dm_trajectory *tr, dm_error *err)
 {
     memset(tr, 0, sizeof *tr);

@@ -1,0 +1,63 @@
+/* dm_diagnose — what the model gets wrong about measured data, and why.
+ *
+ * Residuals r = measured - predicted, normalised by each sample's sigma.
+ * For every candidate effect of MODEL.md §6 the effect's parameters are
+ * fitted by nonlinear least squares (cminpack lmdif, parameters in log10)
+ * on a training part of the data and scored on the held-out rest: poses
+ * whose index is 2 mod 3 (modal, static) or the last third of the time
+ * (tracker). Score: held-out chi-square plus a BIC-like penalty p ln N.
+ * Gain (%) = share of the held-out excess chi-square (over the noise, N)
+ * that the effect removes; without sigma, the share of the held-out mean
+ * square. The best effect may be joined by a second (forward selection)
+ * when that lowers the held-out chi-square by more than 9 + p ln N. */
+#ifndef DM_DIAGNOSE_H
+#define DM_DIAGNOSE_H
+
+#include "dm_measure.h"
+#include "dm_robot.h"
+
+#define DM_DIAG_MAXP 4
+
+typedef struct dm_candidate {
+    const char *name;        /* effect name, as in the robot file's [effects] */
+    const char *unit;
+    double lo, hi;           /* log10 search range of the parameter */
+    unsigned kinds;          /* bit per dm_data_kind that can see it */
+} dm_candidate;
+
+const dm_candidate *dm_candidates(int *count);
+const dm_candidate *dm_candidate_find(const char *name);
+
+/* Apply effect `name` with value v (ignored for switches) to a robot. */
+int dm_effect_apply(dm_robot *robot, const char *name, double v, dm_error *err);
+
+typedef struct dm_fit {
+    int ncand;                   /* 1 or 2 effects */
+    const dm_candidate *cand[2];
+    double value[2], sigma[2];   /* fitted values and 1-sigma uncertainties */
+    double train_chi2, held_chi2, held_rms, gain_percent, score;
+    int ok;                      /* 0 when the fit failed (reported, never fatal) */
+} dm_fit;
+
+typedef struct dm_diagnosis {
+    int n_train, n_held, sigma_known;
+    double base_train_chi2, base_held_chi2, base_held_rms;
+    int significant;             /* baseline misfit beyond the noise */
+    int nrank;
+    dm_fit rank[16];             /* single effects, best first */
+    dm_fit best;                 /* the verdict: one or two effects */
+    int found;                   /* best beats the noise */
+} dm_diagnosis;
+
+typedef struct dm_diagnose_opts {
+    int na, nb;                  /* mesh (0: the robot's) */
+    int pairs;                   /* try a second effect (default 1) */
+} dm_diagnose_opts;
+
+int dm_diagnose(const dm_robot *robot, const dm_dataset *data, const dm_diagnose_opts *opts,
+                dm_diagnosis *out, dm_error *err);
+
+/* The robot with the fitted effects of `fit` applied. */
+int dm_fit_apply(const dm_robot *robot, const dm_fit *fit, dm_robot *out, dm_error *err);
+
+#endif

@@ -1,0 +1,82 @@
+/* dm_measure — measured data (../shared/docs/MEASURED.md) and what the
+ * model predicts for it.
+ *
+ * Kinds: modal surveys (frequency of mode rank j at a pose), static
+ * deflection surveys (platform deflection under an added force at P) and
+ * tracker trajectories (measured minus commanded platform position along a
+ * path). Files are CSV with a header row, '#' comments anywhere, SI units,
+ * columns found by name; a bad cell is an error naming file, line and
+ * column. A dataset is a plain value owned by its caller. */
+#ifndef DM_MEASURE_H
+#define DM_MEASURE_H
+
+#include <stdint.h>
+#include <stdio.h>
+
+#include "dm_error.h"
+#include "dm_robot.h"
+
+typedef enum { DM_DATA_MODAL = 0, DM_DATA_STATIC = 1, DM_DATA_TRACKER = 2 } dm_data_kind;
+
+/* One measured number (a frequency, or one component of a deflection or a
+ * tracker error) with its pose and its standard deviation. */
+typedef struct dm_sample {
+    double P[3];      /* pose (m); for tracker data: the commanded position */
+    double value;     /* measured: Hz, or m */
+    double sigma;     /* standard deviation; 0 = not given */
+    double force[3];  /* static: added force at P (N) */
+    double t;         /* tracker: time (s) */
+    int mode;         /* modal: rank, 1 = lowest */
+    int comp;         /* static/tracker: 0, 1, 2 = x, y, z */
+    int pose_id;      /* samples of one pose (or one tracker time) share it */
+    int line;         /* line in the file */
+} dm_sample;
+
+typedef struct dm_dataset {
+    dm_data_kind kind;
+    char source[512];
+    char robot[256];   /* "# robot: NAME" header, or "" */
+    int n, cap, npose;
+    dm_sample *s;
+} dm_dataset;
+
+const char *dm_data_kind_name(dm_data_kind kind);
+int dm_data_kind_parse(const char *name, dm_data_kind *kind);
+
+/* Read a file; the kind is recognised from its columns. */
+int dm_dataset_read(const char *path, dm_dataset *data, dm_error *err);
+int dm_dataset_write(const dm_dataset *data, FILE *out);
+void dm_dataset_free(dm_dataset *data);
+
+/* Model predictions for every sample (same order), with the robot's mesh
+ * (or na, nb when > 0). Unreachable poses and mode ranks beyond the model
+ * are errors naming the sample's line. */
+int dm_predict(const dm_robot *robot, const dm_dataset *data, int na, int nb, double *pred,
+               dm_error *err);
+
+/* Synthetic data from `robot` (with any effects already applied): npose
+ * poses drawn in the workspace around home (modal, static), or the path
+ * `path` sampled every 1 ms (tracker), plus Gaussian noise of standard
+ * deviation `noise` (Hz or m). Deterministic for a seed. */
+typedef struct dm_synth_opts {
+    dm_data_kind kind;
+    int npose;          /* modal/static poses (default 16) */
+    int modes;          /* modal: ranks 1..modes (default 6) */
+    double noise;       /* Hz or m */
+    uint64_t seed;
+    double force_n;     /* static: magnitude of the added force (default 50 N) */
+    const char *path;   /* tracker: trajectory spec (default: a circle about home) */
+    int na, nb;
+} dm_synth_opts;
+
+int dm_synthesize(const dm_robot *robot, const dm_synth_opts *opts, dm_dataset *data,
+                  dm_error *err);
+
+/* splitmix64-based generator: uniform in [0,1) and standard normal. */
+typedef struct dm_rng {
+    uint64_t state;
+} dm_rng;
+double dm_rng_uniform(dm_rng *rng);
+double dm_rng_normal(dm_rng *rng);
+
+#endif

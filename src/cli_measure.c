@@ -1,0 +1,496 @@
+/* deltamap compare / diagnose / synth: the model against measured data. */
+#include <getopt.h>
+#include <jansson.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli_impl.h"
+#include "dm_diagnose.h"
+#include "dm_measure.h"
+
+static const char COMPARE_HELP[] =
+    "usage: deltamap compare --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"
+    "                        [--out RESIDUALS.csv] [--json]\n"
+    "\n"
+    "What the simulation gets wrong: residuals (measured - predicted) per sample\n"
+    "and in summary (bias, RMS, normalised by sigma), where they are largest\n"
+    "(which modes or directions, which poses) and whether they exceed the noise.\n"
+    "--robot defaults to the file's '# robot:' line. Plot with\n"
+    "tools/plot_compare.py RESIDUALS.csv.\n";
+
+static const char DIAGNOSE_HELP[] =
+    "usage: deltamap diagnose --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"
+    "                         [--no-pairs] [--write-robot FILE] [--json]\n"
+    "\n"
+    "Fits every candidate effect of MODEL.md §6 (actuator, joint and base springs,\n"
+    "payload, elbow masses, geometric stiffness) on two thirds of the data, scores\n"
+    "it on the held-out third, ranks the effects, tries a second one, and says\n"
+    "what is wrong, the cause, the fitted values, and the held-out gain; or that\n"
+    "nothing beats the noise. --write-robot writes the extended robot file.\n";
+
+static const char SYNTH_HELP[] =
+    "usage: deltamap synth --robot R --kind modal|static|tracker [--effect NAME=VALUE]...\n"
+    "                      [--noise X] [--poses N] [--modes K] [--seed S] [--path P]\n"
+    "                      [--mesh NA,NB] [--out FILE]\n"
+    "\n"
+    "Synthetic measured data from the robot extended by the given effects, with\n"
+    "Gaussian noise (Hz for modal, m otherwise), in the formats of MEASURED.md:\n"
+    "check whether an experiment can identify an effect before running it.\n"
+    "Effects: actuator_stiffness, joint_stiffness, base_stiffness,\n"
+    "base_stiffness_0/1/2 (N/m, isotropic), payload_mass, elbow_mass (kg),\n"
+    "geometric_stiffness=on.\n";
+
+typedef struct {
+    const char *measured, *robot, *out, *write_robot;
+    const char *sets[DM_CLI_MAXSET];
+    int nset, json, pairs, na, nb;
+} measure_args;
+
+static int parse(const char *cmd, const char *help, int argc, char **argv, measure_args *a)
+{
+    static const struct option lo[] = {
+        {"measured", 1, 0, 'd'}, {"robot", 1, 0, 'r'}, {"out", 1, 0, 'o'},
+        {"write-robot", 1, 0, 'w'}, {"set", 1, 0, 's'}, {"mesh", 1, 0, 'm'},
+        {"no-pairs", 0, 0, 'P'}, {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    int c;
+    memset(a, 0, sizeof *a);
+    a->pairs = 1;
+    optind = 1;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+        switch (c) {
+        case 'd': a->measured = optarg; break;
+        case 'r': a->robot = optarg; break;
+        case 'o': a->out = optarg; break;
+        case 'w': a->write_robot = optarg; break;
+        case 'j': a->json = 1; break;
+        case 'P': a->pairs = 0; break;
+        case 's':
+            if (dm_cli_add_set(cmd, a->sets, &a->nset, optarg))
+                return EXIT_USAGE;
+            break;
+        case 'm':
+            if (dm_cli_parse_mesh(optarg, &a->na, &a->nb))
+                return dm_cli_usage(cmd, "--mesh takes NA,NB, whole numbers 1..64", optarg);
+            break;
+        case 'h': fputs(help, stdout); exit(0);
+        default: return dm_cli_usage(cmd, "unknown or incomplete option", argv[optind - 1]);
+        }
+    }
+    if (optind < argc)
+        return dm_cli_usage(cmd, "unexpected argument", argv[optind]);
+    if (!a->measured)
+        return dm_cli_usage(cmd, "--measured is required", NULL);
+    return 0;
+}
+
+/* Read the data and the robot (the command line wins over the file). */
+static int load(const measure_args *a, dm_dataset *d, dm_robot *rb, dm_error *err)
+{
+    int rc = dm_dataset_read(a->measured, d, err);
+    if (rc)
+        return rc;
+    const char *spec = a->robot ? a->robot : d->robot[0] ? d->robot : NULL;
+    if (!spec) {
+        dm_dataset_free(d);
+        return dm_fail(err, DM_EINVAL, "%s names no robot ('# robot: NAME'); give --robot",
+                       a->measured);
+    }
+    rc = dm_cli_load_robot(spec, a->sets, a->nset, rb, err);
+    if (rc)
+        dm_dataset_free(d);
+    return rc;
+}
+
+static const char *label(const dm_dataset *d, const dm_sample *s, char *buf, size_t n)
+{
+    if (d->kind == DM_DATA_MODAL)
+        snprintf(buf, n, "mode %d", s->mode);
+    else
+        snprintf(buf, n, "%c", "xyz"[s->comp]);
+    return buf;
+}
+
+/* ---- compare ------------------------------------------------------------------ */
+
+static void group_name(const dm_dataset *d, int k, char *buf, size_t n)
+{
+    if (d->kind == DM_DATA_MODAL)
+        snprintf(buf, n, "%d", k + 1);
+    else
+        snprintf(buf, n, "%c", "xyz"[k]);
+}
+
+typedef struct {
+    double bias, rms, chi2;
+    int n;
+} stats;
+
+static void accumulate(stats *st, double r, double sigma)
+{
+    st->bias += r;
+    st->rms += r * r;
+    st->chi2 += sigma > 0 ? r * r / (sigma * sigma) : 0;
+    st->n++;
+}
+
+static void finish(stats *st)
+{
+    if (st->n) {
+        st->bias /= st->n;
+        st->rms = sqrt(st->rms / st->n);
+    }
+}
+
+int dm_cli_compare(int argc, char **argv)
+{
+    dm_cli_serial_blas();
+    measure_args a;
+    int rc = parse("compare", COMPARE_HELP, argc, argv, &a);
+    if (rc)
+        return rc;
+    dm_dataset d;
+    dm_robot rb;
+    dm_error err;
+    if ((rc = load(&a, &d, &rb, &err)))
+        return dm_cli_report(&err);
+    double *pred = malloc(sizeof(double) * d.n);
+    if (!pred || (rc = dm_predict(&rb, &d, a.na, a.nb, pred, &err))) {
+        free(pred);
+        dm_dataset_free(&d);
+        return dm_cli_report(rc ? &err : (dm_fail(&err, DM_ENOMEM, "out of memory"), &err));
+    }
+    int sigma = 1, groups = d.kind == DM_DATA_MODAL ? 64 : 3, worst[5] = {-1, -1, -1, -1, -1};
+    stats all = {0}, by[64] = {{0}};
+    for (int i = 0; i < d.n; i++) {
+        const dm_sample *s = &d.s[i];
+        double r = s->value - pred[i];
+        sigma &= s->sigma > 0;
+        accumulate(&all, r, s->sigma);
+        accumulate(&by[d.kind == DM_DATA_MODAL ? s->mode - 1 : s->comp], r, s->sigma);
+        double z = fabs(r) / (s->sigma > 0 ? s->sigma : 1);
+        for (int w = 0; w < 5; w++) {
+            int j = worst[w];
+            if (j < 0 || z > fabs(d.s[j].value - pred[j]) / (d.s[j].sigma > 0 ? d.s[j].sigma : 1)) {
+                memmove(worst + w + 1, worst + w, sizeof(int) * (4 - w));
+                worst[w] = i;
+                break;
+            }
+        }
+    }
+    finish(&all);
+    for (int g = 0; g < groups; g++)
+        finish(&by[g]);
+    double limit = all.n + 4 * sqrt(2.0 * all.n);
+    int exceeds = sigma && all.chi2 > limit;
+    const char *unit = d.kind == DM_DATA_MODAL ? "Hz" : "m";
+    if (a.json) {
+        json_t *o = json_pack("{s:s, s:s, s:s, s:i, s:f, s:f}", "robot", rb.name, "measured",
+                              a.measured, "kind", dm_data_kind_name(d.kind), "samples", d.n,
+                              "bias", all.bias, "rms", all.rms);
+        json_object_set_new(o, "chi2_per_sample", sigma ? json_real(all.chi2 / all.n) : json_null());
+        json_object_set_new(o, "exceeds_noise", sigma ? json_boolean(exceeds) : json_null());
+        json_t *g = json_array();
+        for (int k = 0; k < groups; k++) {
+            char name[16];
+            if (!by[k].n)
+                continue;
+            group_name(&d, k, name, sizeof name);
+            json_array_append_new(g, json_pack("{s:s, s:i, s:f, s:f}", "group", name, "samples",
+                                               by[k].n, "bias", by[k].bias, "rms", by[k].rms));
+        }
+        json_object_set_new(o, "groups", g);
+        json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
+        putchar('\n');
+        json_decref(o);
+    } else {
+        printf("robot     %s against %s (%s data, %d samples)\n", rb.name, a.measured,
+               dm_data_kind_name(d.kind), d.n);
+        printf("overall   bias %+.4g %s, RMS %.4g %s", all.bias, unit, all.rms, unit);
+        if (sigma)
+            printf(", chi2/N %.3g (noise alone: 1 +- %.2g)", all.chi2 / all.n, 4 * sqrt(2.0 / all.n));
+        printf("\n\n %-8s %6s %12s %12s %10s\n", d.kind == DM_DATA_MODAL ? "mode" : "axis", "n",
+               "bias", "RMS", sigma ? "chi2/n" : "");
+        for (int k = 0; k < groups; k++) {
+            char name[16];
+            if (!by[k].n)
+                continue;
+            group_name(&d, k, name, sizeof name);
+            printf(" %-8s %6d %+12.4g %12.4g %10.3g\n", name, by[k].n, by[k].bias, by[k].rms,
+                   sigma ? by[k].chi2 / by[k].n : 0.0);
+        }
+        printf("\nlargest residuals (file line, pose, what, measured, predicted)\n");
+        for (int w = 0; w < 5 && worst[w] >= 0; w++) {
+            const dm_sample *s = &d.s[worst[w]];
+            char lb[32];
+            printf("  line %-5d (%+.3f, %+.3f, %+.3f) m  %-7s %.6g  %.6g %s\n", s->line, s->P[0],
+                   s->P[1], s->P[2], label(&d, s, lb, sizeof lb), s->value, pred[worst[w]], unit);
+        }
+        printf("\nverdict   %s\n", !sigma ? "no sigma given: cannot tell misfit from noise"
+                                   : exceeds ? "the residuals exceed the noise: the model misses something (try deltamap diagnose)"
+                                             : "the residuals are within the noise");
+    }
+    if (a.out) {
+        dm_cli_out out;
+        if ((rc = dm_cli_out_open(&out, a.out, &err)) == DM_OK) {
+            fprintf(out.f, "line,x,y,z,group,measured,predicted,residual,normalised\n");
+            for (int i = 0; i < d.n; i++) {
+                const dm_sample *s = &d.s[i];
+                double r = s->value - pred[i];
+                fprintf(out.f, "%d,%.9g,%.9g,%.9g,%d,%.12g,%.12g,%.6g,%.6g\n", s->line, s->P[0],
+                        s->P[1], s->P[2], d.kind == DM_DATA_MODAL ? s->mode : s->comp, s->value,
+                        pred[i], r, s->sigma > 0 ? r / s->sigma : r);
+            }
+            rc = dm_cli_out_commit(&out, &err);
+        }
+        if (rc)
+            dm_cli_report(&err);
+    }
+    free(pred);
+    dm_dataset_free(&d);
+    return rc;
+}
+
+/* ---- diagnose ---------------------------------------------------------------- */
+
+static void fit_name(const dm_fit *f, char *buf, size_t n)
+{
+    snprintf(buf, n, "%s%s%s", f->cand[0]->name, f->ncand > 1 ? " + " : "",
+             f->ncand > 1 ? f->cand[1]->name : "");
+}
+
+static json_t *fit_json(const dm_fit *f)
+{
+    char name[128];
+    json_t *params = json_object();
+    fit_name(f, name, sizeof name);
+    for (int i = 0; i < f->ncand; i++)
+        json_object_set_new(params, f->cand[i]->name,
+                            json_pack("{s:f, s:f, s:s}", "value", f->value[i], "sigma",
+                                      isfinite(f->sigma[i]) ? f->sigma[i] : -1.0, "unit",
+                                      f->cand[i]->unit));
+    return json_pack("{s:s, s:o, s:b, s:f, s:f, s:f, s:f}", "effect", name, "parameters", params,
+                     "ok", f->ok, "held_out_chi2", f->held_chi2, "held_out_rms", f->held_rms,
+                     "gain_percent", f->gain_percent, "score", f->score);
+}
+
+static void print_values(const dm_fit *f)
+{
+    for (int i = 0; i < f->ncand; i++)
+        if (f->cand[i]->hi > f->cand[i]->lo)
+            printf("%s%s = %.4g +- %.2g %s", i ? ", " : "", f->cand[i]->name, f->value[i],
+                   f->sigma[i], f->cand[i]->unit);
+        else
+            printf("%s%s on", i ? ", " : "", f->cand[i]->name);
+}
+
+static void print_diagnosis(const dm_dataset *d, const dm_robot *rb, const dm_diagnosis *dg)
+{
+    const char *unit = d->kind == DM_DATA_MODAL ? "Hz" : "m";
+    printf("robot     %s against %s (%s data: %d training, %d held-out samples)\n", rb->name,
+           d->source, dm_data_kind_name(d->kind), dg->n_train, dg->n_held);
+    printf("baseline  held-out RMS %.4g %s", dg->base_held_rms, unit);
+    if (dg->sigma_known)
+        printf(", chi2/N %.3g (noise alone ~1)", dg->base_held_chi2 / dg->n_held);
+    printf("\n\n rank  effect                    held-out RMS   gain    fitted value\n");
+    for (int r = 0; r < dg->nrank; r++) {
+        const dm_fit *f = &dg->rank[r];
+        if (!f->ok) {
+            printf(" %4d  %-24s   fit failed (unphysical over the whole range)\n", r + 1,
+                   f->cand[0]->name);
+            continue;
+        }
+        printf(" %4d  %-24s %12.4g %6.1f %%   ", r + 1, f->cand[0]->name, f->held_rms,
+               f->gain_percent);
+        print_values(f);
+        printf("\n");
+    }
+    printf("\nverdict   ");
+    if (!dg->significant)
+        printf("no significant discrepancy: the baseline fits the held-out data within the "
+               "noise; nothing to fix.\n");
+    else if (!dg->found)
+        printf("the model misses something (held-out chi2/N %.3g), but no candidate effect "
+               "beats the noise; the cause is outside the candidates.\n",
+               dg->base_held_chi2 / dg->n_held);
+    else {
+        char name[128];
+        fit_name(&dg->best, name, sizeof name);
+        printf("the model is wrong about the %s data (held-out RMS %.4g %s against noise); the "
+               "cause is %s: ",
+               dm_data_kind_name(d->kind), dg->base_held_rms, unit, name);
+        print_values(&dg->best);
+        printf(".\n          Held-out RMS %.4g -> %.4g %s, gain %.1f %%.", dg->base_held_rms,
+               dg->best.held_rms, unit, dg->best.gain_percent);
+        if (dg->nrank > 1)
+            printf(" Runner-up: %s (gain %.1f %%).", dg->rank[dg->best.ncand > 1 ? 2 : 1].cand[0]->name,
+                   dg->rank[dg->best.ncand > 1 ? 2 : 1].gain_percent);
+        printf("\n");
+    }
+}
+
+int dm_cli_diagnose(int argc, char **argv)
+{
+    dm_cli_serial_blas();
+    measure_args a;
+    int rc = parse("diagnose", DIAGNOSE_HELP, argc, argv, &a);
+    if (rc)
+        return rc;
+    dm_dataset d;
+    dm_robot rb, fixed;
+    dm_error err;
+    dm_diagnosis dg;
+    dm_diagnose_opts o = {a.na, a.nb, a.pairs};
+    if ((rc = load(&a, &d, &rb, &err)))
+        return dm_cli_report(&err);
+    if ((rc = dm_diagnose(&rb, &d, &o, &dg, &err))) {
+        dm_dataset_free(&d);
+        return dm_cli_report(&err);
+    }
+    if (a.json) {
+        json_t *rank = json_array(), *o2 = json_object();
+        for (int r = 0; r < dg.nrank; r++)
+            json_array_append_new(rank, fit_json(&dg.rank[r]));
+        char name[128];
+        fit_name(&dg.best, name, sizeof name);
+        json_t *causes = json_array();
+        for (int i = 0; dg.found && i < dg.best.ncand; i++)
+            json_array_append_new(causes, json_string(dg.best.cand[i]->name));
+        json_t *params = json_object();
+        for (int i = 0; dg.found && i < dg.best.ncand; i++)
+            json_object_set_new(params, dg.best.cand[i]->name, json_real(dg.best.value[i]));
+        json_object_set_new(o2, "robot", json_string(rb.name));
+        json_object_set_new(o2, "kind", json_string(dm_data_kind_name(d.kind)));
+        json_object_set_new(o2, "significant", json_boolean(dg.significant));
+        json_object_set_new(o2, "cause", dg.found ? json_string(name) : json_null());
+        json_object_set_new(o2, "causes", causes);
+        json_object_set_new(o2, "parameters", params);
+        json_object_set_new(o2, "gain_percent", dg.found ? json_real(dg.best.gain_percent) : json_real(0));
+        json_object_set_new(o2, "baseline_held_out_rms", json_real(dg.base_held_rms));
+        json_object_set_new(o2, "baseline_held_out_chi2", json_real(dg.base_held_chi2));
+        json_object_set_new(o2, "held_out_samples", json_integer(dg.n_held));
+        json_object_set_new(o2, "best", fit_json(&dg.best));
+        json_object_set_new(o2, "ranking", rank);
+        json_dumpf(o2, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
+        putchar('\n');
+        json_decref(o2);
+    } else {
+        print_diagnosis(&d, &rb, &dg);
+    }
+    if (a.write_robot) {
+        dm_cli_out out;
+        if (!dg.found)
+            fprintf(stderr, "deltamap diagnose: nothing found; %s is the robot unchanged\n",
+                    a.write_robot);
+        rc = dg.found ? dm_fit_apply(&rb, &dg.best, &fixed, &err) : (fixed = rb, DM_OK);
+        if (!rc && !(rc = dm_cli_out_open(&out, a.write_robot, &err))) {
+            fprintf(out.f, "# %s extended by deltamap diagnose on %s\n", rb.name, a.measured);
+            dm_robot_write(&fixed, out.f);
+            rc = dm_cli_out_commit(&out, &err);
+        }
+        if (rc)
+            dm_cli_report(&err);
+    }
+    dm_dataset_free(&d);
+    return rc;
+}
+
+/* ---- synth ------------------------------------------------------------------- */
+
+int dm_cli_synth(int argc, char **argv)
+{
+    dm_cli_serial_blas();
+    static const struct option lo[] = {
+        {"robot", 1, 0, 'r'}, {"kind", 1, 0, 'k'}, {"effect", 1, 0, 'e'}, {"noise", 1, 0, 'n'},
+        {"poses", 1, 0, 'p'}, {"modes", 1, 0, 'M'}, {"seed", 1, 0, 'S'}, {"path", 1, 0, 'P'},
+        {"mesh", 1, 0, 'm'}, {"out", 1, 0, 'o'}, {"set", 1, 0, 's'}, {"help", 0, 0, 'h'},
+        {0, 0, 0, 0}};
+    const char *robot = NULL, *out_path = NULL, *effects[8], *sets[DM_CLI_MAXSET];
+    int neff = 0, nset = 0, c, have_kind = 0, seed = 1;
+    dm_synth_opts o = {0};
+    optind = 1;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+        switch (c) {
+        case 'r': robot = optarg; break;
+        case 'o': out_path = optarg; break;
+        case 'P': o.path = optarg; break;
+        case 'k':
+            if (dm_data_kind_parse(optarg, &o.kind))
+                return dm_cli_usage("synth", "--kind is modal, static or tracker", optarg);
+            have_kind = 1;
+            break;
+        case 'e':
+            if (neff == 8)
+                return dm_cli_usage("synth", "at most 8 --effect options", optarg);
+            effects[neff++] = optarg;
+            break;
+        case 's':
+            if (dm_cli_add_set("synth", sets, &nset, optarg))
+                return EXIT_USAGE;
+            break;
+        case 'n':
+            if (dm_cli_parse_list(optarg, &o.noise, 1) || o.noise < 0)
+                return dm_cli_usage("synth", "--noise takes a value >= 0", optarg);
+            break;
+        case 'p':
+            if (dm_cli_parse_int(optarg, 3, 100000, &o.npose))
+                return dm_cli_usage("synth", "--poses takes a whole number >= 3", optarg);
+            break;
+        case 'M':
+            if (dm_cli_parse_int(optarg, 1, 64, &o.modes))
+                return dm_cli_usage("synth", "--modes takes 1..64", optarg);
+            break;
+        case 'S':
+            if (dm_cli_parse_int(optarg, 0, 2147483647, &seed))
+                return dm_cli_usage("synth", "--seed takes a whole number >= 0", optarg);
+            break;
+        case 'm':
+            if (dm_cli_parse_mesh(optarg, &o.na, &o.nb))
+                return dm_cli_usage("synth", "--mesh takes NA,NB, whole numbers 1..64", optarg);
+            break;
+        case 'h': fputs(SYNTH_HELP, stdout); exit(0);
+        default: return dm_cli_usage("synth", "unknown or incomplete option", argv[optind - 1]);
+        }
+    }
+    if (optind < argc || !robot || !have_kind)
+        return dm_cli_usage("synth", "--robot and --kind are required", NULL);
+    o.seed = (uint64_t)seed;
+    dm_robot rb;
+    dm_error err;
+    dm_dataset d;
+    int rc = dm_cli_load_robot(robot, sets, nset, &rb, &err);
+    for (int i = 0; i < neff && !rc; i++) {
+        char name[64];
+        double v = 1;
+        const char *eq = strchr(effects[i], '=');
+        snprintf(name, sizeof name, "%.*s", eq ? (int)(eq - effects[i]) : (int)strlen(effects[i]),
+                 effects[i]);
+        if (eq && strcmp(eq + 1, "on") && dm_cli_parse_list(eq + 1, &v, 1))
+            return dm_cli_usage("synth", "--effect takes NAME=VALUE", effects[i]);
+        rc = dm_effect_apply(&rb, name, v, &err);
+    }
+    if (!rc)
+        rc = dm_synthesize(&rb, &o, &d, &err);
+    if (rc)
+        return dm_cli_report(&err);
+    snprintf(d.robot, sizeof d.robot, "%s", robot);
+    dm_cli_out out;
+    FILE *f = stdout;
+    if (out_path && (rc = dm_cli_out_open(&out, out_path, &err)))
+        return dm_cli_report(&err);
+    if (out_path)
+        f = out.f;
+    fprintf(f, "# synthetic %s data from deltamap synth: seed %d, noise %g", dm_data_kind_name(o.kind),
+            seed, o.noise);
+    for (int i = 0; i < neff; i++)
+        fprintf(f, ", %s", effects[i]);
+    fprintf(f, "\n");
+    dm_dataset_write(&d, f);
+    if (out_path && (rc = dm_cli_out_commit(&out, &err)))
+        dm_cli_report(&err);
+    dm_dataset_free(&d);
+    return rc;
+}

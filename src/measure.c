@@ -1,0 +1,508 @@
+/* Measured data: reading, writing, model predictions, synthetic data. */
+#include "dm_measure.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dm_analysis.h"
+#include "dm_integrate.h"
+#include "dm_trajectory.h"
+
+/* ---- random numbers ------------------------------------------------------- */
+
+static uint64_t splitmix64(uint64_t *s)
+{
+    uint64_t z = (*s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+double dm_rng_uniform(dm_rng *r) { return (splitmix64(&r->state) >> 11) * 0x1.0p-53; }
+
+double dm_rng_normal(dm_rng *r)
+{
+    double u1 = dm_rng_uniform(r), u2 = dm_rng_uniform(r);
+    return sqrt(-2.0 * log(1.0 - u1)) * cos(2 * M_PI * u2);
+}
+
+/* ---- kinds ---------------------------------------------------------------- */
+
+static const char *const KIND_NAMES[] = {"modal", "static", "tracker"};
+static const char *const COLUMNS[3][8] = {
+    {"x", "y", "z", "mode", "freq_hz", NULL},
+    {"x", "y", "z", "fx", "fy", "fz", "dx", NULL},
+    {"t", "x_cmd", "y_cmd", "z_cmd", "x_meas", "y_meas", "z_meas", NULL}};
+
+const char *dm_data_kind_name(dm_data_kind k) { return KIND_NAMES[k]; }
+
+int dm_data_kind_parse(const char *name, dm_data_kind *k)
+{
+    for (int i = 0; i < 3; i++)
+        if (!strcmp(name, KIND_NAMES[i])) {
+            *k = (dm_data_kind)i;
+            return 0;
+        }
+    return -1;
+}
+
+static int push(dm_dataset *d, const dm_sample *s)
+{
+    if (d->n == d->cap) {
+        int cap = d->cap ? 2 * d->cap : 256;
+        dm_sample *g = realloc(d->s, sizeof *g * cap);
+        if (!g)
+            return DM_ENOMEM;
+        d->s = g;
+        d->cap = cap;
+    }
+    d->s[d->n++] = *s;
+    return DM_OK;
+}
+
+void dm_dataset_free(dm_dataset *d)
+{
+    free(d->s);
+    d->s = NULL;
+    d->n = d->cap = d->npose = 0;
+}
+
+/* ---- reading ----------------------------------------------------------------- */
+
+#define MAXCOL 32
+
+typedef struct {
+    const char *path;
+    int line;
+    int ncol;
+    char names[MAXCOL][32];
+    dm_error *err;
+} csv_ctx;
+
+static int split(char *line, char *cells[MAXCOL])
+{
+    int n = 0;
+    char *p = line;
+    while (n < MAXCOL) {
+        size_t len = strcspn(p, ",\r\n");
+        char end = p[len];
+        p[len] = '\0';
+        char *c = p + strspn(p, " \t");
+        for (char *e = c + strlen(c); e > c && (e[-1] == ' ' || e[-1] == '\t');)
+            *--e = '\0';
+        cells[n++] = c;
+        if (end != ',')
+            break;
+        p += len + 1;
+    }
+    return n;
+}
+
+static int col_of(const csv_ctx *c, const char *name)
+{
+    for (int i = 0; i < c->ncol; i++)
+        if (!strcmp(c->names[i], name))
+            return i;
+    return -1;
+}
+
+static int cell(const csv_ctx *c, char *cells[], int ncells, const char *name, int required,
+                double *out)
+{
+    int i = col_of(c, name);
+    if (i < 0)
+        return required ? dm_fail(c->err, DM_EINVAL, "%s: no column '%s'", c->path, name) : 1;
+    if (i >= ncells || !*cells[i])
+        return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): empty", c->path, c->line, i + 1,
+                       name);
+    char *end;
+    errno = 0;
+    *out = strtod(cells[i], &end);
+    if (end == cells[i] || *end || !isfinite(*out) || errno == ERANGE)
+        return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): '%s' is not a number", c->path,
+                       c->line, i + 1, name, cells[i]);
+    return DM_OK;
+}
+
+static int bad(const csv_ctx *c, const char *name, const char *what)
+{
+    return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): %s", c->path, c->line,
+                   col_of(c, name) + 1, name, what);
+}
+
+static int read_row(csv_ctx *c, dm_dataset *d, char *cells[], int nc, double *last_t,
+                    double last_P[3])
+{
+    dm_sample s = {0};
+    double v[8];
+    int rc;
+    s.line = c->line;
+    if (d->kind == DM_DATA_MODAL) {
+        for (int k = 0; k < 5; k++)
+            if ((rc = cell(c, cells, nc, COLUMNS[0][k], 1, &v[k])))
+                return rc;
+        rc = cell(c, cells, nc, "sigma_hz", 0, &s.sigma);
+        if (rc == DM_EINVAL)
+            return rc;
+        if (v[3] != floor(v[3]) || v[3] < 1 || v[3] > 64)
+            return bad(c, "mode", "not a mode rank 1..64 (1 = lowest)");
+        if (!(v[4] > 0))
+            return bad(c, "freq_hz", "must be > 0");
+        if (rc == DM_OK && !(s.sigma > 0))
+            return bad(c, "sigma_hz", "must be > 0");
+        memcpy(s.P, v, sizeof s.P);
+        s.mode = (int)v[3];
+        s.value = v[4];
+        if (d->n == 0 || memcmp(s.P, last_P, sizeof s.P))
+            d->npose++;
+        memcpy(last_P, s.P, sizeof s.P);
+        s.pose_id = d->npose - 1;
+        return push(d, &s);
+    }
+    if (d->kind == DM_DATA_STATIC) {
+        static const char *const names[9] = {"x", "y", "z", "fx", "fy", "fz", "dx", "dy", "dz"};
+        double all[9];
+        for (int k = 0; k < 9; k++)
+            if ((rc = cell(c, cells, nc, names[k], 1, &all[k])))
+                return rc;
+        rc = cell(c, cells, nc, "sigma_m", 0, &s.sigma);
+        if (rc == DM_EINVAL)
+            return rc;
+        if (rc == DM_OK && !(s.sigma > 0))
+            return bad(c, "sigma_m", "must be > 0");
+        memcpy(s.P, all, sizeof s.P);
+        memcpy(s.force, all + 3, sizeof s.force);
+        s.pose_id = d->npose++;
+        for (int k = 0; k < 3; k++) {
+            s.comp = k;
+            s.value = all[6 + k];
+            if ((rc = push(d, &s)))
+                return rc;
+        }
+        return DM_OK;
+    }
+    for (int k = 0; k < 7; k++)
+        if ((rc = cell(c, cells, nc, COLUMNS[2][k], 1, &v[k])))
+            return rc;
+    if (d->n && !(v[0] > *last_t))
+        return bad(c, "t", "times must increase strictly");
+    *last_t = v[0];
+    s.t = v[0];
+    memcpy(s.P, v + 1, sizeof s.P);
+    s.pose_id = d->npose++;
+    for (int k = 0; k < 3; k++) {
+        s.comp = k;
+        s.value = v[4 + k] - v[1 + k];
+        if ((rc = push(d, &s)))
+            return rc;
+    }
+    return DM_OK;
+}
+
+static int detect_kind(csv_ctx *c, dm_dataset *d)
+{
+    for (int k = 0; k < 3; k++) {
+        int ok = 1;
+        for (int j = 0; COLUMNS[k][j] && ok; j++)
+            ok = col_of(c, COLUMNS[k][j]) >= 0;
+        if (ok) {
+            d->kind = (dm_data_kind)k;
+            return DM_OK;
+        }
+    }
+    return dm_fail(c->err, DM_EINVAL,
+                   "%s:%d: header is none of: modal (x,y,z,mode,freq_hz[,sigma_hz]), static "
+                   "(x,y,z,fx,fy,fz,dx,dy,dz[,sigma_m]), tracker "
+                   "(t,x_cmd,y_cmd,z_cmd,x_meas,y_meas,z_meas)",
+                   c->path, c->line);
+}
+
+int dm_dataset_read(const char *path, dm_dataset *d, dm_error *err)
+{
+    memset(d, 0, sizeof *d);
+    snprintf(d->source, sizeof d->source, "%s", path);
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return dm_fail(err, DM_EIO, "%s: cannot open: %s", path, strerror(errno));
+    csv_ctx c = {.path = path, .err = err};
+    char buf[4096], *cells[MAXCOL];
+    int rc = DM_OK, header = 0;
+    double last_t = 0, last_P[3] = {0};
+    while (!rc && fgets(buf, sizeof buf, f)) {
+        c.line++;
+        char *p = buf + strspn(buf, " \t");
+        if (*p == '#') {
+            if (!strncmp(p, "# robot:", 8) && !d->robot[0]) {
+                char *name = p + 8 + strspn(p + 8, " \t");
+                name[strcspn(name, "\r\n")] = '\0';
+                snprintf(d->robot, sizeof d->robot, "%s", name);
+            }
+            continue;
+        }
+        if (*p == '\n' || *p == '\r' || !*p)
+            continue;
+        int nc = split(p, cells);
+        if (!header) {
+            c.ncol = nc;
+            for (int i = 0; i < nc; i++)
+                snprintf(c.names[i], sizeof c.names[i], "%s", cells[i]);
+            header = 1;
+            rc = detect_kind(&c, d);
+            continue;
+        }
+        rc = read_row(&c, d, cells, nc, &last_t, last_P);
+    }
+    fclose(f);
+    if (!rc && !d->n)
+        rc = dm_fail(err, DM_EINVAL, "%s: no data rows", path);
+    if (!rc && d->kind == DM_DATA_TRACKER && fabs(d->s[0].t) > 1e-12)
+        rc = dm_fail(err, DM_EINVAL, "%s:%d: column 1 (t): the first sample must be at t = 0",
+                     path, d->s[0].line);
+    if (rc)
+        dm_dataset_free(d);
+    return rc;
+}
+
+int dm_dataset_write(const dm_dataset *d, FILE *out)
+{
+    if (d->robot[0])
+        fprintf(out, "# robot: %s\n", d->robot);
+    if (d->kind == DM_DATA_MODAL) {
+        fprintf(out, "x,y,z,mode,freq_hz,sigma_hz\n");
+        for (int i = 0; i < d->n; i++) {
+            const dm_sample *s = &d->s[i];
+            fprintf(out, "%.9g,%.9g,%.9g,%d,%.12g,%.6g\n", s->P[0], s->P[1], s->P[2], s->mode,
+                    s->value, s->sigma);
+        }
+    } else if (d->kind == DM_DATA_STATIC) {
+        fprintf(out, "x,y,z,fx,fy,fz,dx,dy,dz,sigma_m\n");
+        for (int i = 0; i + 2 < d->n; i += 3) {
+            const dm_sample *s = &d->s[i];
+            fprintf(out, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.12g,%.12g,%.12g,%.6g\n", s->P[0], s->P[1],
+                    s->P[2], s->force[0], s->force[1], s->force[2], s->value, d->s[i + 1].value,
+                    d->s[i + 2].value, s->sigma);
+        }
+    } else {
+        fprintf(out, "t,x_cmd,y_cmd,z_cmd,x_meas,y_meas,z_meas\n");
+        for (int i = 0; i + 2 < d->n; i += 3) {
+            const dm_sample *s = &d->s[i];
+            fprintf(out, "%.9g,%.12g,%.12g,%.12g,%.12g,%.12g,%.12g\n", s->t, s->P[0], s->P[1],
+                    s->P[2], s->P[0] + s->value, s->P[1] + d->s[i + 1].value,
+                    s->P[2] + d->s[i + 2].value);
+        }
+    }
+    return ferror(out) ? DM_EIO : DM_OK;
+}
+
+/* ---- predictions ------------------------------------------------------------ */
+
+static int max_mode(const dm_dataset *d)
+{
+    int m = 1;
+    for (int i = 0; i < d->n; i++)
+        if (d->s[i].mode > m)
+            m = d->s[i].mode;
+    return m;
+}
+
+static int predict_poses(const dm_robot *rb, const dm_dataset *d, int na, int nb, double *pred,
+                         dm_error *err)
+{
+    int kmax = d->kind == DM_DATA_MODAL ? max_mode(d) : 1;
+    int n = dm_model_dofs(rb, na, nb);
+    if (kmax > n)
+        return dm_fail(err, DM_EINVAL, "%s: mode %d is beyond the model's %d modes", d->source,
+                       kmax, n);
+    dm_analysis *an = dm_analysis_alloc(rb, na, nb, kmax, DM_EIGEN_PARTIAL, err);
+    if (!an)
+        return err->code;
+    dm_pose_result res;
+    int rc = DM_OK, last = -1;
+    for (int i = 0; i < d->n && !rc; i++) {
+        const dm_sample *s = &d->s[i];
+        if (s->pose_id != last) {
+            dm_error perr;
+            rc = dm_analysis_run(an, s->P, kmax, &res, &perr);
+            if (rc)
+                rc = dm_fail(err, rc, "%s:%d: %s", d->source, s->line, perr.msg);
+            last = s->pose_id;
+        }
+        if (rc)
+            break;
+        if (d->kind == DM_DATA_MODAL) {
+            pred[i] = res.modes->freq_hz[s->mode - 1];
+        } else {
+            double v = 0;
+            for (int j = 0; j < 3; j++)
+                v += res.compliance[6 * j + s->comp] * s->force[j];
+            pred[i] = v;
+        }
+    }
+    dm_analysis_free(an);
+    return rc;
+}
+
+typedef struct {
+    int n, cap;
+    double *t, *e; /* e: 3 per sample */
+} track;
+
+static int keep(void *user, const dm_integ_sample *s)
+{
+    track *tk = user;
+    if (tk->n == tk->cap) {
+        int cap = tk->cap ? 2 * tk->cap : 1024;
+        double *t = realloc(tk->t, sizeof(double) * cap), *e;
+        if (t)
+            tk->t = t;
+        e = t ? realloc(tk->e, 3 * sizeof(double) * cap) : NULL;
+        if (!e)
+            return 1;
+        tk->e = e;
+        tk->cap = cap;
+    }
+    tk->t[tk->n] = s->t_s;
+    memcpy(tk->e + 3 * tk->n, s->error, 3 * sizeof(double));
+    tk->n++;
+    return 0;
+}
+
+/* Tracker: the elastic error (static + dynamic) along the commanded path,
+ * 10 modes with the quasi-static correction, linear between steps. */
+static int predict_tracker(const dm_robot *rb, const dm_dataset *d, int na, int nb, double *pred,
+                           dm_error *err)
+{
+    int m = d->npose;
+    double *t = malloc(sizeof(double) * m), *xyz = malloc(3 * sizeof(double) * m);
+    dm_trajectory tr;
+    track tk = {0};
+    int rc = (!t || !xyz) ? dm_fail(err, DM_ENOMEM, "out of memory") : DM_OK;
+    for (int i = 0; i < m && !rc; i++) {
+        t[i] = d->s[3 * i].t;
+        memcpy(xyz + 3 * i, d->s[3 * i].P, 3 * sizeof(double));
+    }
+    if (!rc)
+        rc = dm_traj_from_samples(t, xyz, m, d->source, &tr, err);
+    if (!rc) {
+        dm_integ_opts o;
+        dm_integ_summary sum;
+        dm_integ_opts_default(&o);
+        o.method = DM_ODE_CLOSED_FORM;
+        o.quasi_static = 1;
+        o.reference = 0;
+        o.na = na;
+        o.nb = nb;
+        o.dt_s = fmin(1e-3, t[m - 1] / (m - 1));
+        rc = dm_integrate_trajectory(rb, &tr, &o, keep, &tk, &sum, err);
+        dm_traj_free(&tr);
+    }
+    for (int i = 0, j = 0; i < m && !rc; i++) {
+        while (j + 2 < tk.n && tk.t[j + 1] < t[i])
+            j++;
+        double w = tk.n > 1 ? (t[i] - tk.t[j]) / (tk.t[j + 1] - tk.t[j]) : 0;
+        w = fmin(1, fmax(0, w));
+        for (int k = 0; k < 3; k++)
+            pred[3 * i + k] = (1 - w) * tk.e[3 * j + k] + w * tk.e[3 * (j + 1) + k];
+    }
+    free(t);
+    free(xyz);
+    free(tk.t);
+    free(tk.e);
+    return rc;
+}
+
+int dm_predict(const dm_robot *rb, const dm_dataset *d, int na, int nb, double *pred, dm_error *err)
+{
+    na = na > 0 ? na : rb->na;
+    nb = nb > 0 ? nb : rb->nb;
+    return d->kind == DM_DATA_TRACKER ? predict_tracker(rb, d, na, nb, pred, err)
+                                      : predict_poses(rb, d, na, nb, pred, err);
+}
+
+/* ---- synthetic data ---------------------------------------------------------- */
+
+static int draw_pose(const dm_robot *rb, dm_rng *rng, double P[3])
+{
+    double h = rb->arm_length_m;
+    for (int tries = 0; tries < 1000; tries++) {
+        dm_pose pose;
+        P[0] = rb->home_m[0] + 0.3 * h * (2 * dm_rng_uniform(rng) - 1);
+        P[1] = rb->home_m[1] + 0.3 * h * (2 * dm_rng_uniform(rng) - 1);
+        P[2] = rb->home_m[2] + 0.15 * h * (2 * dm_rng_uniform(rng) - 1);
+        if (!dm_kin_inverse(rb, P, &pose, NULL) && pose.cond <= rb->singular_cond)
+            return DM_OK;
+    }
+    return DM_EUNREACHABLE;
+}
+
+int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_error *err)
+{
+    dm_rng rng = {o->seed * 0x2545F4914F6CDD1Dull + 1};
+    memset(d, 0, sizeof *d);
+    d->kind = o->kind;
+    snprintf(d->source, sizeof d->source, "synthetic %s data", dm_data_kind_name(o->kind));
+    snprintf(d->robot, sizeof d->robot, "%s", rb->name);
+    int rc = DM_OK;
+    if (o->kind == DM_DATA_TRACKER) {
+        char spec[256];
+        dm_trajectory tr;
+        const double *h = rb->home_m;
+        if (o->path)
+            snprintf(spec, sizeof spec, "%s", o->path);
+        else
+            snprintf(spec, sizeof spec, "circle:centre=%.9g,%.9g,%.9g;radius=%.9g;rate=%.9g;duration=0.5",
+                     h[0], h[1], h[2], 0.2 * rb->arm_length_m, 4 * M_PI);
+        if ((rc = dm_traj_make(spec, rb, &tr, err)))
+            return rc;
+        int m = (int)floor(tr.duration_s / 1e-3 + 1e-9) + 1;
+        for (int i = 0; i < m && !rc; i++) {
+            dm_sample s = {0};
+            double v[3], a[3];
+            s.t = i * 1e-3;
+            dm_traj_eval(&tr, s.t, s.P, v, a);
+            s.pose_id = d->npose++;
+            s.sigma = o->noise;
+            for (int k = 0; k < 3 && !rc; k++) {
+                s.comp = k;
+                rc = push(d, &s);
+            }
+        }
+        dm_traj_free(&tr);
+    } else {
+        for (int p = 0; p < (o->npose > 0 ? o->npose : 16) && !rc; p++) {
+            dm_sample s = {0};
+            if (draw_pose(rb, &rng, s.P))
+                return dm_fail(err, DM_EUNREACHABLE, "no reachable pose found near home");
+            s.pose_id = d->npose++;
+            s.sigma = o->noise;
+            if (o->kind == DM_DATA_MODAL) {
+                for (int j = 1; j <= (o->modes > 0 ? o->modes : 6) && !rc; j++) {
+                    s.mode = j;
+                    rc = push(d, &s);
+                }
+            } else {
+                double u[3] = {dm_rng_normal(&rng), dm_rng_normal(&rng), dm_rng_normal(&rng)};
+                double nu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+                for (int k = 0; k < 3; k++)
+                    s.force[k] = (o->force_n > 0 ? o->force_n : 50.0) * u[k] / nu;
+                for (int k = 0; k < 3 && !rc; k++) {
+                    s.comp = k;
+                    rc = push(d, &s);
+                }
+            }
+        }
+    }
+    double *pred = rc ? NULL : malloc(sizeof(double) * d->n);
+    if (!rc && !pred)
+        rc = dm_fail(err, DM_ENOMEM, "out of memory");
+    if (!rc)
+        rc = dm_predict(rb, d, o->na, o->nb, pred, err);
+    for (int i = 0; i < d->n && !rc; i++)
+        d->s[i].value = pred[i] + o->noise * dm_rng_normal(&rng);
+    free(pred);
+    if (rc)
+        dm_dataset_free(d);
+    return rc;
+}
