@@ -12,17 +12,18 @@
 
 static const char COMPARE_HELP[] =
     "usage: deltamap compare --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"
-    "                        [--out RESIDUALS.csv] [--json]\n"
+    "                        [--sigma S] [--out RESIDUALS.csv] [--json]\n"
     "\n"
     "What the simulation gets wrong: residuals (measured - predicted) per sample\n"
     "and in summary (bias, RMS, normalised by sigma), where they are largest\n"
     "(which modes or directions, which poses) and whether they exceed the noise.\n"
-    "--robot defaults to the file's '# robot:' line. Plot with\n"
+    "--robot defaults to the file's '# robot:' line; --sigma gives the noise level\n"
+    "(Hz or m) of samples whose file has none (tracker files never do). Plot with\n"
     "tools/plot_compare.py RESIDUALS.csv.\n";
 
 static const char DIAGNOSE_HELP[] =
     "usage: deltamap diagnose --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"
-    "                         [--no-pairs] [--write-robot FILE] [--json]\n"
+    "                         [--sigma S] [--no-pairs] [--write-robot FILE] [--json]\n"
     "\n"
     "Fits every candidate effect of MODEL.md §6 (actuator, joint and base springs,\n"
     "payload, elbow masses, geometric stiffness) on two thirds of the data, scores\n"
@@ -46,6 +47,7 @@ typedef struct {
     const char *measured, *robot, *out, *write_robot;
     const char *sets[DM_CLI_MAXSET];
     int nset, json, pairs, na, nb;
+    double sigma;       /* --sigma: noise level for samples that give none */
 } measure_args;
 
 static int parse(const char *cmd, const char *help, int argc, char **argv, measure_args *a)
@@ -53,7 +55,8 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
     static const struct option lo[] = {
         {"measured", 1, 0, 'd'}, {"robot", 1, 0, 'r'}, {"out", 1, 0, 'o'},
         {"write-robot", 1, 0, 'w'}, {"set", 1, 0, 's'}, {"mesh", 1, 0, 'm'},
-        {"no-pairs", 0, 0, 'P'}, {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"no-pairs", 0, 0, 'P'}, {"sigma", 1, 0, 'S'}, {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'},
+        {0, 0, 0, 0}};
     int c;
     memset(a, 0, sizeof *a);
     a->pairs = 1;
@@ -67,6 +70,10 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
         case 'w': a->write_robot = optarg; break;
         case 'j': a->json = 1; break;
         case 'P': a->pairs = 0; break;
+        case 'S':
+            if (dm_cli_parse_list(optarg, &a->sigma, 1) || !(a->sigma > 0))
+                return dm_cli_usage(cmd, "--sigma takes the noise level > 0 (Hz or m)", optarg);
+            break;
         case 's':
             if (dm_cli_add_set(cmd, a->sets, &a->nset, optarg))
                 return EXIT_USAGE;
@@ -92,6 +99,9 @@ static int load(const measure_args *a, dm_dataset *d, dm_robot *rb, dm_error *er
     int rc = dm_dataset_read(a->measured, d, err);
     if (rc)
         return rc;
+    for (int i = 0; i < d->n && a->sigma > 0; i++)
+        if (!(d->s[i].sigma > 0))
+            d->s[i].sigma = a->sigma;
     const char *spec = a->robot ? a->robot : d->robot[0] ? d->robot : NULL;
     if (!spec) {
         dm_dataset_free(d);

@@ -128,10 +128,51 @@ json_true "d['mean_error_m'][1][0] < d['mean_error_m'][0][0]"
 expect 2 "study bad key" "$DM" study --robot chen2018 --path chen2018 --vary arm.colour=1:2:2
 contains err "unknown key"
 
+# ---- measured data: synth, compare, diagnose ----
+expect 0 "synth modal" "$DM" synth --robot zheng2017 --kind modal --effect payload_mass=1.5 --noise 0.02 --poses 9 --seed 4 --mesh 1,1 --out "$TMP/modal.csv"
+if grep -q "^# robot: zheng2017" "$TMP/modal.csv" && grep -q "^x,y,z,mode,freq_hz,sigma_hz" "$TMP/modal.csv"; then ok; else bad "synth format"; fi
+expect 0 "synth is deterministic" "$DM" synth --robot zheng2017 --kind modal --effect payload_mass=1.5 --noise 0.02 --poses 9 --seed 4 --mesh 1,1
+if diff -q "$TMP/out" "$TMP/modal.csv" >/dev/null; then ok; else bad "synth differs for one seed"; fi
+expect 0 "compare" "$DM" compare --measured "$TMP/modal.csv" --mesh 1,1 --out "$TMP/res.csv"
+contains out "exceed the noise"
+expect 0 "compare json" "$DM" compare --measured "$TMP/modal.csv" --mesh 1,1 --json
+json_true "d['exceeds_noise'] is True and d['samples'] == 54 and d['bias'] < 0"  # a payload lowers them
+expect 0 "diagnose json" "$DM" diagnose --measured "$TMP/modal.csv" --mesh 1,1 --json --write-robot "$TMP/fixed.ini"
+json_true "d['cause'] == 'payload_mass' and abs(d['parameters']['payload_mass'] / 1.5 - 1) < 0.1 and d['gain_percent'] >= 80"
+json_true "len(d['ranking']) >= 6 and all('gain_percent' in r for r in d['ranking'])"
+expect 0 "extended robot fits" "$DM" compare --measured "$TMP/modal.csv" --robot "$TMP/fixed.ini" --mesh 1,1 --json
+json_true "d['exceeds_noise'] is False"
+expect 0 "synth noise only" "$DM" synth --robot zheng2017 --kind static --noise 1e-7 --poses 9 --seed 2 --mesh 1,1 --out "$TMP/null.csv"
+expect 0 "diagnose null" "$DM" diagnose --measured "$TMP/null.csv" --mesh 1,1 --json
+json_true "d['cause'] is None and d['causes'] == []"
+expect 0 "diagnose text" "$DM" diagnose --measured "$TMP/null.csv" --mesh 1,1
+contains out "no significant discrepancy"
+expect 0 "synth tracker" "$DM" synth --robot zheng2017 --kind tracker --noise 1e-7 --seed 1 --mesh 1,1 --path "circle:centre=0,0,-0.4;radius=0.03;rate=6.283;duration=0.1" --out "$TMP/track.csv"
+expect 0 "compare tracker" "$DM" compare --measured "$TMP/track.csv" --mesh 1,1 --sigma 1e-7 --json
+json_true "d['kind'] == 'tracker' and d['exceeds_noise'] is False"
+printf '# robot: zheng2017\nx,y,z,mode,freq_hz\n0,0,-0.4,1,84\n0,0,-0.4,x,90\n' >"$TMP/bad1.csv"
+expect 2 "bad cell" "$DM" compare --measured "$TMP/bad1.csv"
+contains err "bad1.csv:4: column 4 (mode)"
+printf '# robot: zheng2017\nx,y,z,mode,freq_hz\n0,0,-2,1,84\n' >"$TMP/bad2.csv"
+expect 3 "unreachable pose in data" "$DM" compare --measured "$TMP/bad2.csv"
+contains err "bad2.csv:3:"
+contains err "unreachable"
+printf '# robot: zheng2017\nx,y,z,mode,freq_hz\n0,0,-0.4,99,84\n' >"$TMP/bad3.csv"
+expect 2 "unknown mode" "$DM" compare --measured "$TMP/bad3.csv"
+contains err "mode rank 1..64"
+printf 'x,y,z,mode,freq_hz\n0,0,-0.4,1,84\n' >"$TMP/norobot.csv"
+expect 2 "no robot named" "$DM" diagnose --measured "$TMP/norobot.csv"
+contains err "give --robot"
+printf 'a,b\n1,2\n' >"$TMP/bad4.csv"
+expect 2 "unknown format" "$DM" compare --measured "$TMP/bad4.csv" --robot zheng2017
+contains err "header is none of"
+
 # ---- plots (the project's Python environment) ----
 if [ -x .venv/bin/python ]; then
     expect 0 "plot trajectory" .venv/bin/python tools/plot_trajectory.py "$TMP/run.csv" -o "$TMP/run.png"
     if [ -s "$TMP/run.png" ]; then ok; else bad "no trajectory plot"; fi
+    expect 0 "plot compare" .venv/bin/python tools/plot_compare.py "$TMP/res.csv" -o "$TMP/res.png"
+    if [ -s "$TMP/res.png" ]; then ok; else bad "no compare plot"; fi
     expect 0 "plot study" .venv/bin/python tools/plot_study.py "$TMP/study.csv" -o "$TMP/study.png"
     if [ -s "$TMP/study.png" ]; then ok; else bad "no study plot"; fi
 else
