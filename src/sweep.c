@@ -663,8 +663,8 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
     memset(stats, 0, sizeof *stats);
     int rc = setup(&c, rb, g, o, out, err);
     long ntiles = (long)c.ntiles[0] * c.ntiles[1] * c.ntiles[2];
-    char *todo = rc ? NULL : calloc((size_t)ntiles, 1);
-    if (!rc && !todo)
+    char *pending = rc ? NULL : calloc((size_t)ntiles, 1);
+    if (!rc && !pending)
         rc = dm_fail(err, DM_ENOMEM, "out of memory");
     worker w0;
     if (!rc && !(rc = worker_alloc(&c, &w0, err))) {
@@ -689,8 +689,8 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
 #pragma omp for schedule(static)
             for (long t = 0; t < ntiles; t++) /* which tiles are already done */
                 if (!wrc) {
-                    todo[t] = !tile_complete(&c, &w, t);
-                    if (!todo[t]) {
+                    pending[t] = !tile_complete(&c, &w, t);
+                    if (!pending[t]) {
 #pragma omp atomic
                         present++;
                     }
@@ -700,7 +700,7 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
             long local[4] = {0};
 #pragma omp for schedule(dynamic, 1)
             for (long t = 0; t < ntiles; t++) {
-                if (wrc || !todo[t] || *stop)
+                if (wrc || !pending[t] || *stop)
                     continue;
                 int failed;
 #pragma omp atomic read
@@ -715,7 +715,7 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
                         shared_err = werr;
                     }
                     if (!trc) {
-                        todo[t] = 0;
+                        pending[t] = 0;
                         pg.done++;
                         progress_show(&pg, 0);
                     }
@@ -755,7 +755,7 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
                      "command again to resume",
                      present + pg.done, ntiles, out);
     }
-    free(todo);
+    free(pending);
     teardown(&c);
     return rc;
 }

@@ -35,15 +35,19 @@ def main():
     ax[0].set_ylabel("measured")
     ax[0].legend(title="mode / axis", fontsize=8, ncol=2)
     ax[0].set_title("measured vs predicted")
-    z = d["normalised"]
-    lim = np.nanmax(np.abs(z))
-    sc = ax[1].scatter(1e3 * d["x"], 1e3 * d["y"], c=z, cmap="coolwarm", vmin=-lim, vmax=lim,
-                       s=30 + 10 * (d["group"] % 3))
-    fig.colorbar(sc, ax=ax[1], label="residual / sigma")
+    # one point per pose: the mean normalised residual of its samples
+    keys = np.round(np.column_stack([d["x"], d["y"], d["z"]]), 9)
+    poses, inv = np.unique(keys, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    z = np.array([d["normalised"][inv == p].mean() for p in range(len(poses))])
+    lim = np.nanmax(np.abs(z)) or 1.0
+    sc = ax[1].scatter(1e3 * poses[:, 0], 1e3 * poses[:, 1], c=z, cmap="coolwarm", vmin=-lim,
+                       vmax=lim, s=60, edgecolors="k", linewidths=0.3)
+    fig.colorbar(sc, ax=ax[1], label="mean residual / sigma at the pose")
     ax[1].set_xlabel("x (mm)")
     ax[1].set_ylabel("y (mm)")
     ax[1].set_aspect("equal")
-    ax[1].set_title("residuals over the workspace")
+    ax[1].set_title("where: residuals over the workspace (one point per pose)")
     fig.suptitle(a.title or a.csv)
     fig.tight_layout()
     out = a.output or a.csv.rsplit(".", 1)[0] + ".png"
