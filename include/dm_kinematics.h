@@ -19,6 +19,7 @@ typedef struct dm_pose {
     double B[3][3];       /* elbow (arm end) */
     double C[3][3];       /* platform attachment centre P + r e_i */
     double cond;          /* 2-norm condition number of J (alpha_dot = J P_dot) */
+    double offset[3];     /* real - commanded platform position (geometry errors), m */
 } dm_pose;
 
 /* Inverse kinematics with the robot's elbow branch; DM_EUNREACHABLE (and a
@@ -29,6 +30,15 @@ int dm_kin_inverse(const dm_robot *robot, const double P[3], dm_pose *pose, dm_e
 /* Forward kinematics: the platform positions (0, 1 or 2) reached with arm
  * angles alpha. Solutions are ordered by ascending z. Returns their count. */
 int dm_kin_forward(const dm_robot *robot, const double alpha[3], double P[2][3]);
+
+/* The configuration the real robot takes when commanded to P: its
+ * controller solves the nominal inverse kinematics, the real arms (with the
+ * geometry errors of the robot's [effects]: lengths, radii, mounting angle,
+ * actuator offset per chain) turn to those angles (+ offset), and the
+ * platform goes where the real geometry closes (forward kinematics, the
+ * solution nearest P). pose->offset = real - commanded position. Without
+ * geometry errors this is dm_kin_inverse. */
+int dm_kin_pose(const dm_robot *robot, const double P[3], dm_pose *pose, dm_error *err);
 
 /* Jacobian J (row-major 3x3) with alpha_dot = J * P_dot. Returns
  * DM_ENUMERIC at a serial singularity (an arm's motion does not change its

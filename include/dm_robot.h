@@ -52,7 +52,16 @@ typedef struct dm_effects {
     double elbow_mass_kg;                 /* at each elbow */
     double base_stiffness_n_per_m[3][3];  /* [chain][X,Y,Z]; 0 = rigid */
     int geometric_stiffness;              /* 0/1 */
+    /* geometry errors per chain (Zheng table 1): the real robot differs from
+     * the nominal one its controller assumes */
+    double err_arm_length_m[3], err_rod_length_m[3];
+    double err_base_radius_m[3], err_platform_radius_m[3];
+    double err_theta_rad[3], err_alpha0_rad[3];
 } dm_effects;
+
+/* Does the robot have any geometry error (then the real pose differs from
+ * the commanded one)? */
+int dm_effects_geometry_errors(const dm_effects *effects);
 
 /* Does chain i sit on a compliant base (its arm root gets three
  * translations tied to ground by springs)? Chains without springs stay rigid. */

@@ -42,7 +42,7 @@ void dm_analysis_free(dm_analysis *an)
 int dm_analysis_run(dm_analysis *an, const double P[3], int k, dm_pose_result *res,
                     dm_error *err)
 {
-    int rc = dm_kin_inverse(an->robot, P, &res->pose, err);
+    int rc = dm_kin_pose(an->robot, P, &res->pose, err);
     if (!rc)
         rc = dm_model_build(an->model, &res->pose, err);
     if (!rc)

@@ -281,7 +281,8 @@ static int build_rod(dm_model *md, int i, int s, dm_element *e, dm_error *err)
     dm_scale3(sign * rb->rod_half_spacing_m, p->t[i], bar);
     dm_axpy3(p->B[i], 1.0, bar, top);
     dm_axpy3(p->C[i], 1.0, bar, bottom);
-    dm_axpy3(bar, rb->platform_radius_m, p->e[i], plat_arm); /* P -> lower end */
+    dm_sub3(p->C[i], p->P, plat_arm); /* P -> lower end: r_i e_i + bar */
+    dm_axpy3(plat_arm, 1.0, bar, plat_arm);
     int base = rod_dof(md, i, s), nb = md->nb;
     int lower = interior_dof(md, i, s, nb);
     for (int k = 0; k < nb; k++, e++) {

@@ -92,7 +92,7 @@ static int load_at(const run_ws *w, double t, double *F, dm_error *err)
     dm_pose pose;
     dm_rigid_motion mo;
     dm_traj_eval(w->tr, t, P, v, a);
-    int rc = dm_kin_inverse(w->rb, P, &pose, err);
+    int rc = dm_kin_pose(w->rb, P, &pose, err);
     if (!rc)
         rc = dm_kin_rates(w->rb, &pose, v, mo.alpha_dot, err);
     if (!rc)
@@ -143,6 +143,10 @@ static void fill_sample(const run_ws *w, double t, const double *x, const dm_mod
     s->t_s = t;
     dm_traj_eval(w->tr, t, s->P_m, v, a);
     memcpy(s->error, u, 6 * sizeof(double));
+    dm_pose real;
+    if (dm_effects_geometry_errors(&w->rb->effects) && !dm_kin_pose(w->rb, s->P_m, &real, NULL))
+        for (int k = 0; k < 3; k++) /* geometry errors: where the real platform is at t */
+            s->error[k] += real.offset[k];
     dm_cross3(u + 3, w->o.tool_m, exr);
     for (int k = 0; k < 3; k++)
         s->tool_error_m[k] = u[k] + exr[k];
@@ -188,7 +192,7 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     const dm_modes *mo, *mo_all = NULL;
     dm_integ_sample s;
     dm_traj_eval(tr, t0, P, v, a);
-    int rc = dm_kin_inverse(w->rb, P, &pose, err);
+    int rc = dm_kin_pose(w->rb, P, &pose, err);
     if (!rc) rc = dm_model_build(w->md, &pose, err);
     if (!rc) rc = dm_modal_solve(w->modal, w->md->K, w->md->M, w->ksolve, &mo, err);
     if (!rc && j == 0) {

@@ -8,33 +8,60 @@
 
 #include "dm_vec3.h"
 
-static void chain_axes(const dm_robot *rb, int i, double e[3], double t[3])
+/* One chain's geometry: nominal, or the real one with the geometry errors. */
+typedef struct {
+    double R, r, la, lb, theta, alpha0;
+} chain_geom;
+
+static void chain_geometry(const dm_robot *rb, int i, int real, chain_geom *g)
 {
-    double th = rb->theta0_rad + i * 2.0 * M_PI / 3.0;
-    e[0] = cos(th); e[1] = sin(th); e[2] = 0;
-    t[0] = -sin(th); t[1] = cos(th); t[2] = 0;
+    const dm_effects *e = &rb->effects;
+    g->R = rb->base_radius_m + (real ? e->err_base_radius_m[i] : 0);
+    g->r = rb->platform_radius_m + (real ? e->err_platform_radius_m[i] : 0);
+    g->la = rb->arm_length_m + (real ? e->err_arm_length_m[i] : 0);
+    g->lb = rb->rod_length_m + (real ? e->err_rod_length_m[i] : 0);
+    g->theta = rb->theta0_rad + i * 2.0 * M_PI / 3.0 + (real ? e->err_theta_rad[i] : 0);
+    g->alpha0 = real ? e->err_alpha0_rad[i] : 0;
+}
+
+static void chain_axes(const chain_geom *g, double e[3], double t[3])
+{
+    e[0] = cos(g->theta); e[1] = sin(g->theta); e[2] = 0;
+    t[0] = -sin(g->theta); t[1] = cos(g->theta); t[2] = 0;
 }
 
 /* Elbow position for arm angle a. */
-static void elbow_at(const dm_robot *rb, const double A[3], const double e[3], double a,
+static void elbow_at(const chain_geom *g, const double A[3], const double e[3], double a,
                      double B[3])
 {
-    double la = rb->arm_length_m;
-    B[0] = A[0] + la * cos(a) * e[0];
-    B[1] = A[1] + la * cos(a) * e[1];
-    B[2] = A[2] - la * sin(a);
+    B[0] = A[0] + g->la * cos(a) * e[0];
+    B[1] = A[1] + g->la * cos(a) * e[1];
+    B[2] = A[2] - g->la * sin(a);
 }
 
-/* dB/dalpha and d2B/dalpha2 */
-static void elbow_derivatives(const dm_robot *rb, const dm_pose *p, int i, double b1[3],
-                              double b2[3])
+/* dB/dalpha = t x (B - A) and d2B/dalpha2 = t x (t x (B - A)): the arm
+ * turns about t_i through A_i; from the pose alone, for any geometry. */
+static void elbow_derivatives(const dm_pose *p, int i, double b1[3], double b2[3])
 {
-    double la = rb->arm_length_m, a = p->alpha[i];
-    const double *e = p->e[i];
-    for (int k = 0; k < 3; k++) {
-        double ez = (k == 2);
-        b1[k] = la * (-sin(a) * e[k] - cos(a) * ez);
-        b2[k] = la * (-cos(a) * e[k] + sin(a) * ez);
+    double r[3];
+    dm_sub3(p->B[i], p->A[i], r);
+    dm_cross3(p->t[i], r, b1);
+    dm_cross3(p->t[i], b1, b2);
+}
+
+/* A, B, C, e, t of every chain for platform position P and arm angles. */
+static void place_chains(const dm_robot *rb, int real, const double P[3], const double alpha[3],
+                         dm_pose *pose)
+{
+    dm_copy3(P, pose->P);
+    for (int i = 0; i < 3; i++) {
+        chain_geom g;
+        chain_geometry(rb, i, real, &g);
+        chain_axes(&g, pose->e[i], pose->t[i]);
+        dm_scale3(g.R, pose->e[i], pose->A[i]);
+        dm_axpy3(P, g.r, pose->e[i], pose->C[i]);
+        pose->alpha[i] = alpha[i];
+        elbow_at(&g, pose->A[i], pose->e[i], alpha[i], pose->B[i]);
     }
 }
 
@@ -49,15 +76,14 @@ static double condition_number(const double J[9])
 
 int dm_kin_inverse(const dm_robot *rb, const double P[3], dm_pose *pose, dm_error *err)
 {
-    double la = rb->arm_length_m, lb = rb->rod_length_m;
+    double la = rb->arm_length_m, lb = rb->rod_length_m, alpha[3];
     memset(pose, 0, sizeof *pose);
-    dm_copy3(P, pose->P);
     for (int i = 0; i < 3; i++) {
-        double *e = pose->e[i], *t = pose->t[i], Q[3];
-        chain_axes(rb, i, e, t);
-        dm_scale3(rb->base_radius_m, e, pose->A[i]);
-        dm_axpy3(P, rb->platform_radius_m, e, pose->C[i]);
-        dm_axpy3(P, rb->platform_radius_m - rb->base_radius_m, e, Q);
+        chain_geom g;
+        double e[3], t[3], Q[3];
+        chain_geometry(rb, i, 0, &g);
+        chain_axes(&g, e, t);
+        dm_axpy3(P, g.r - g.R, e, Q);
         double qe = dm_dot3(Q, e), qz = Q[2];
         double kappa = (dm_dot3(Q, Q) + la * la - lb * lb) / (2.0 * la);
         double rho = hypot(qe, qz);
@@ -71,31 +97,35 @@ int dm_kin_inverse(const dm_robot *rb, const double P[3], dm_pose *pose, dm_erro
         double a1 = remainder(-psi + delta, 2.0 * M_PI);
         double a2 = remainder(-psi - delta, 2.0 * M_PI);
         int out_first = cos(a1) >= cos(a2); /* elbow-out: larger B.e */
-        pose->alpha[i] = (out_first != rb->elbow_in) ? a1 : a2;
-        elbow_at(rb, pose->A[i], e, pose->alpha[i], pose->B[i]);
+        alpha[i] = (out_first != rb->elbow_in) ? a1 : a2;
     }
+    place_chains(rb, 0, P, alpha, pose);
     double J[9];
     pose->cond = dm_kin_jacobian(rb, pose, J, NULL) ? INFINITY : condition_number(J);
     return DM_OK;
 }
 
-int dm_kin_forward(const dm_robot *rb, const double alpha[3], double P[2][3])
+static int forward(const dm_robot *rb, int real, const double alpha[3], double P[2][3])
 {
-    /* Each chain: |P - S_i| = lb with S_i = B_i - r e_i. Subtracting sphere
-     * equations gives two planes; their line meets sphere 0 in 0-2 points. */
-    double S[3][3], e[3], t[3];
+    /* Each chain: |P - S_i| = lb_i with S_i = B_i - r_i e_i. Subtracting the
+     * spheres pairwise gives two planes; their line meets sphere 0 in 0-2
+     * points. */
+    double S[3][3], e[3], t[3], lb2[3];
     for (int i = 0; i < 3; i++) {
         double A[3], B[3];
-        chain_axes(rb, i, e, t);
-        dm_scale3(rb->base_radius_m, e, A);
-        elbow_at(rb, A, e, alpha[i], B);
-        dm_axpy3(B, -rb->platform_radius_m, e, S[i]);
+        chain_geom g;
+        chain_geometry(rb, i, real, &g);
+        chain_axes(&g, e, t);
+        dm_scale3(g.R, e, A);
+        elbow_at(&g, A, e, alpha[i] + g.alpha0, B);
+        dm_axpy3(B, -g.r, e, S[i]);
+        lb2[i] = g.lb * g.lb;
     }
     double n1[3], n2[3], dir[3];
     dm_sub3(S[1], S[0], n1);
     dm_sub3(S[2], S[0], n2);
-    double c1 = 0.5 * (dm_dot3(S[1], S[1]) - dm_dot3(S[0], S[0]));
-    double c2 = 0.5 * (dm_dot3(S[2], S[2]) - dm_dot3(S[0], S[0]));
+    double c1 = 0.5 * (dm_dot3(S[1], S[1]) - dm_dot3(S[0], S[0]) - lb2[1] + lb2[0]);
+    double c2 = 0.5 * (dm_dot3(S[2], S[2]) - dm_dot3(S[0], S[0]) - lb2[2] + lb2[0]);
     dm_cross3(n1, n2, dir);
     double dd = dm_dot3(dir, dir);
     if (dd == 0.0)
@@ -108,8 +138,7 @@ int dm_kin_forward(const dm_robot *rb, const double alpha[3], double P[2][3])
         X0[k] = (c1 * a1[k] + c2 * a2[k]) / dd;
     double w[3];
     dm_sub3(X0, S[0], w);
-    double lb = rb->rod_length_m;
-    double qa = dd, qb = 2.0 * dm_dot3(w, dir), qc = dm_dot3(w, w) - lb * lb;
+    double qa = dd, qb = 2.0 * dm_dot3(w, dir), qc = dm_dot3(w, w) - lb2[0];
     double disc = qb * qb - 4.0 * qa * qc;
     if (disc < 0)
         return 0;
@@ -125,15 +154,49 @@ int dm_kin_forward(const dm_robot *rb, const double alpha[3], double P[2][3])
     return disc == 0 ? 1 : 2;
 }
 
+int dm_kin_forward(const dm_robot *rb, const double alpha[3], double P[2][3])
+{
+    return forward(rb, 0, alpha, P);
+}
+
+int dm_kin_pose(const dm_robot *rb, const double P[3], dm_pose *pose, dm_error *err)
+{
+    int rc = dm_kin_inverse(rb, P, pose, err);
+    if (rc || !dm_effects_geometry_errors(&rb->effects))
+        return rc;
+    double sol[2][3], alpha[3];
+    int n = forward(rb, 1, pose->alpha, sol);
+    if (n == 0)
+        return dm_fail(err, DM_EUNREACHABLE,
+                       "pose (%g, %g, %g) m: the real robot (with its geometry errors) cannot "
+                       "close its chains there",
+                       P[0], P[1], P[2]);
+    double d0[3], d1[3];
+    dm_sub3(sol[0], P, d0);
+    dm_sub3(sol[1], P, d1);
+    const double *real = n == 1 || dm_norm3(d0) <= dm_norm3(d1) ? sol[0] : sol[1];
+    for (int i = 0; i < 3; i++) {
+        chain_geom g;
+        chain_geometry(rb, i, 1, &g);
+        alpha[i] = pose->alpha[i] + g.alpha0;
+    }
+    place_chains(rb, 1, real, alpha, pose);
+    dm_sub3(real, P, pose->offset);
+    double J[9];
+    pose->cond = dm_kin_jacobian(rb, pose, J, NULL) ? INFINITY : condition_number(J);
+    return DM_OK;
+}
+
 /* Row i of J is L_i / (L_i . dB_i/dalpha_i), from d/dt |B_i - C_i|^2 = 0. */
 int dm_kin_jacobian(const dm_robot *rb, const dm_pose *p, double J[9], dm_error *err)
 {
+    (void)rb; /* the pose carries its own (nominal or real) geometry */
     for (int i = 0; i < 3; i++) {
         double L[3], b1[3], b2[3];
         dm_sub3(p->B[i], p->C[i], L);
-        elbow_derivatives(rb, p, i, b1, b2);
+        elbow_derivatives(p, i, b1, b2);
         double den = dm_dot3(L, b1);
-        if (fabs(den) <= 1e-12 * dm_norm3(L) * rb->arm_length_m)
+        if (fabs(den) <= 1e-12 * dm_norm3(L) * dm_norm3(b1))
             return dm_fail(err, DM_ENUMERIC, "chain %d is at a serial singularity", i);
         for (int k = 0; k < 3; k++)
             J[3 * i + k] = L[k] / den;
@@ -165,7 +228,7 @@ int dm_kin_accelerations(const dm_robot *rb, const dm_pose *p, const double v[3]
     for (int i = 0; i < 3; i++) {
         double L[3], b1[3], b2[3], Ldot[3];
         dm_sub3(p->B[i], p->C[i], L);
-        elbow_derivatives(rb, p, i, b1, b2);
+        elbow_derivatives(p, i, b1, b2);
         for (int k = 0; k < 3; k++)
             Ldot[k] = ad[i] * b1[k] - v[k];
         alpha_ddot[i] = (dm_dot3(L, a) - ad[i] * ad[i] * dm_dot3(L, b2) - dm_dot3(Ldot, Ldot)) /
@@ -187,7 +250,7 @@ int dm_kin_link_motion(const dm_robot *rb, const dm_pose *p, const double v[3],
     dm_copy3(a, m->aP);
     for (int i = 0; i < 3; i++) {
         double b1[3], b2[3], L[3], dv[3], da[3];
-        elbow_derivatives(rb, p, i, b1, b2);
+        elbow_derivatives(p, i, b1, b2);
         double w = m->alpha_dot[i], wd = m->alpha_ddot[i];
         for (int k = 0; k < 3; k++) {
             m->vB[i][k] = w * b1[k];

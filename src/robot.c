@@ -24,6 +24,7 @@ typedef enum {
     KEY_COUNT,      /* integer >= 1 */
     KEY_VEC3,       /* three finite doubles "a, b, c" */
     KEY_VEC3_NONNEG,/* three doubles >= 0 */
+    KEY_VEC3_DEG,   /* three doubles in degrees, stored in radians */
     KEY_SHAPE,      /* rect | square | circle | tube */
     KEY_ONOFF,      /* on | off */
     KEY_ELBOW,      /* out | in */
@@ -82,6 +83,12 @@ static const key_spec KEYS[] = {
     {"effects", "base_stiffness_1", KEY_VEC3_NONNEG, R_OFF(effects.base_stiffness_n_per_m[1]), 0, "N/m"},
     {"effects", "base_stiffness_2", KEY_VEC3_NONNEG, R_OFF(effects.base_stiffness_n_per_m[2]), 0, "N/m"},
     {"effects", "geometric_stiffness", KEY_ONOFF, R_OFF(effects.geometric_stiffness), 0, ""},
+    {"effects", "error_arm_length", KEY_VEC3, R_OFF(effects.err_arm_length_m), 0, "m"},
+    {"effects", "error_rod_length", KEY_VEC3, R_OFF(effects.err_rod_length_m), 0, "m"},
+    {"effects", "error_base_radius", KEY_VEC3, R_OFF(effects.err_base_radius_m), 0, "m"},
+    {"effects", "error_platform_radius", KEY_VEC3, R_OFF(effects.err_platform_radius_m), 0, "m"},
+    {"effects", "error_theta_deg", KEY_VEC3_DEG, R_OFF(effects.err_theta_rad), 0, "deg"},
+    {"effects", "error_alpha0_deg", KEY_VEC3_DEG, R_OFF(effects.err_alpha0_rad), 0, "deg"},
 };
 #define NKEYS (sizeof KEYS / sizeof KEYS[0])
 
@@ -187,12 +194,15 @@ static int store_value(parse_state *st, const key_spec *ks, const char *value)
     }
     case KEY_VEC3:
     case KEY_VEC3_NONNEG:
+    case KEY_VEC3_DEG:
         if (parse_vec3(value, v3))
             return key_error(st, st->line, ks->section, ks->key,
                              "'%s' is not three numbers 'a, b, c'", value);
         if (ks->kind == KEY_VEC3_NONNEG && (v3[0] < 0 || v3[1] < 0 || v3[2] < 0))
             return key_error(st, st->line, ks->section, ks->key,
                              "'%s' has a negative component", value);
+        for (int k = 0; k < 3 && ks->kind == KEY_VEC3_DEG; k++)
+            v3[k] *= M_PI / 180.0;
         memcpy(!strcmp(ks->key, "base_stiffness") ? (char *)st->base_global : dst, v3, sizeof v3);
         return 1;
     default:
@@ -236,7 +246,9 @@ static int handler(void *user, const char *section, const char *name, const char
             return key_error(st, st->line, section, name,
                              "not a model extension (actuator_stiffness, joint_stiffness, "
                              "payload_mass, payload_offset, elbow_mass, base_stiffness[_0|_1|_2], "
-                             "geometric_stiffness)");
+                             "geometric_stiffness, error_arm_length, error_rod_length, "
+                             "error_base_radius, error_platform_radius, error_theta_deg, "
+                             "error_alpha0_deg)");
     int known_section = 0;
     for (size_t i = 0; i < NKEYS; i++)
         known_section |= !strcmp(KEYS[i].section, section);
@@ -338,6 +350,15 @@ static int finish_member(parse_state *st, const char *sec, dm_member *m, double 
     if (!g_line)
         m->shear_pa = m->youngs_pa / (2.0 * (1.0 + poisson));
     return dm_section_compute(m, &m->section, st->err);
+}
+
+int dm_effects_geometry_errors(const dm_effects *e)
+{
+    for (int i = 0; i < 3; i++)
+        if (e->err_arm_length_m[i] || e->err_rod_length_m[i] || e->err_base_radius_m[i] ||
+            e->err_platform_radius_m[i] || e->err_theta_rad[i] || e->err_alpha0_rad[i])
+            return 1;
+    return 0;
 }
 
 int dm_effects_base_compliant(const dm_effects *e, int i)
@@ -587,6 +608,20 @@ static void write_effects(FILE *out, const dm_effects *e)
             fprintf(out, "base_stiffness_%d = %.17g, %.17g, %.17g\n", i, k[0], k[1], k[2]);
     }
     fprintf(out, "geometric_stiffness = %s\n", e->geometric_stiffness ? "on" : "off");
+    const struct {
+        const char *key;
+        const double *v;
+        double scale;
+    } errs[] = {{"error_arm_length", e->err_arm_length_m, 1},
+                {"error_rod_length", e->err_rod_length_m, 1},
+                {"error_base_radius", e->err_base_radius_m, 1},
+                {"error_platform_radius", e->err_platform_radius_m, 1},
+                {"error_theta_deg", e->err_theta_rad, 180.0 / M_PI},
+                {"error_alpha0_deg", e->err_alpha0_rad, 180.0 / M_PI}};
+    for (int k = 0; k < 6; k++)
+        if (errs[k].v[0] || errs[k].v[1] || errs[k].v[2])
+            fprintf(out, "%s = %.17g, %.17g, %.17g\n", errs[k].key, errs[k].scale * errs[k].v[0],
+                    errs[k].scale * errs[k].v[1], errs[k].scale * errs[k].v[2]);
 }
 
 int dm_robot_write(const dm_robot *rb, FILE *out)

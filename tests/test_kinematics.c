@@ -171,6 +171,44 @@ static void condition_number_symmetric_centre(void **state)
     assert_true(pose.cond > rb.singular_cond); /* flagged near-singular */
 }
 
+/* Geometry errors: without them the real pose is the commanded one; with
+ * them every real chain closes with its real lengths; a mounting rotated by
+ * the same angle on all chains rotates the whole robot about Z. */
+static void geometry_errors_move_the_platform(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_pose nom, real;
+    const double P[3] = {0.04, -0.03, -0.45};
+    assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
+    assert_int_equal(dm_kin_pose(&rb, P, &real, NULL), 0);
+    assert_int_equal(dm_kin_inverse(&rb, P, &nom, NULL), 0);
+    assert_memory_equal(&real, &nom, sizeof real);
+    assert_int_equal(dm_robot_set(&rb, "effects.error_theta_deg=0.5,0.5,0.5", NULL), 0);
+    assert_int_equal(dm_kin_pose(&rb, P, &real, NULL), 0);
+    double c = cos(0.5 * M_PI / 180), s = sin(0.5 * M_PI / 180);
+    const double rot[3] = {c * P[0] - s * P[1], s * P[0] + c * P[1], P[2]};
+    for (int k = 0; k < 3; k++)
+        assert_abs(real.P[k], rot[k], 1e-12, "rotated mounting rotates the platform, comp %d", k);
+    assert_int_equal(dm_robot_set(&rb, "effects.error_theta_deg=0,0,0", NULL), 0);
+    assert_int_equal(dm_robot_set(&rb, "effects.error_arm_length=0.002,-0.001,0", NULL), 0);
+    assert_int_equal(dm_robot_set(&rb, "effects.error_rod_length=0,0.001,-0.002", NULL), 0);
+    assert_int_equal(dm_robot_set(&rb, "effects.error_alpha0_deg=0.1,0,-0.2", NULL), 0);
+    assert_int_equal(dm_robot_set(&rb, "effects.error_platform_radius=0.001,0,0", NULL), 0);
+    assert_int_equal(dm_kin_pose(&rb, P, &real, NULL), 0);
+    assert_int_equal(dm_kin_inverse(&rb, P, &nom, NULL), 0);
+    const double dla[3] = {0.002, -0.001, 0}, dlb[3] = {0, 0.001, -0.002}, da[3] = {0.1, 0, -0.2};
+    for (int i = 0; i < 3; i++) {
+        double L[3], arm[3];
+        dm_sub3(real.B[i], real.C[i], L);
+        dm_sub3(real.B[i], real.A[i], arm);
+        assert_rel(dm_norm3(L), rb.rod_length_m + dlb[i], 1e-12, "real rod %d closes", i);
+        assert_rel(dm_norm3(arm), rb.arm_length_m + dla[i], 1e-12, "real arm %d length", i);
+        assert_abs(real.alpha[i], nom.alpha[i] + da[i] * M_PI / 180, 1e-15, "actuator offset %d", i);
+    }
+    assert_true(dm_norm3(real.offset) > 1e-4 && dm_norm3(real.offset) < 1e-2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -180,6 +218,7 @@ int main(void)
         cmocka_unit_test(link_motion_is_rigid),
         cmocka_unit_test(unreachable_is_detected),
         cmocka_unit_test(condition_number_symmetric_centre),
+        cmocka_unit_test(geometry_errors_move_the_platform),
     };
     return cmocka_run_group_tests_name("kinematics", tests, NULL, NULL);
 }
