@@ -16,25 +16,28 @@
 #include "dm_measure.h"
 #include "dm_robot.h"
 
-#define DM_DIAG_MAXP 4
+#define DM_DIAG_MAXP 6
 
 typedef struct dm_candidate {
     const char *name;        /* effect name, as in the robot file's [effects] */
     const char *unit;
-    double lo, hi;           /* log10 search range of the parameter */
+    double lo, hi;           /* log10 search range (lo == hi: a switch) */
     unsigned kinds;          /* bit per dm_data_kind that can see it */
+    int nparam;              /* 1, 2 (damping alpha, beta) or 3 (one per chain) */
+    int linear;              /* parameters fitted as they are (may be negative), from 0 */
 } dm_candidate;
 
 const dm_candidate *dm_candidates(int *count);
 const dm_candidate *dm_candidate_find(const char *name);
 
-/* Apply effect `name` with value v (ignored for switches) to a robot. */
-int dm_effect_apply(dm_robot *robot, const char *name, double v, dm_error *err);
+/* Apply effect `name` with its parameter values v[nparam] (ignored for
+ * switches) to a robot. */
+int dm_effect_apply(dm_robot *robot, const char *name, const double *v, dm_error *err);
 
 typedef struct dm_fit {
     int ncand;                   /* 1 or 2 effects */
     const dm_candidate *cand[2];
-    double value[2], sigma[2];   /* fitted values and 1-sigma uncertainties */
+    double value[2][3], sigma[2][3]; /* per effect: fitted values, 1-sigma uncertainties */
     double train_chi2, held_chi2, held_rms, gain_percent, score;
     int ok;                      /* 0 when the fit failed (reported, never fatal) */
 } dm_fit;

@@ -26,7 +26,8 @@ static const char DIAGNOSE_HELP[] =
     "                         [--sigma S] [--no-pairs] [--write-robot FILE] [--json]\n"
     "\n"
     "Fits every candidate effect of MODEL.md §6 (actuator, joint and base springs,\n"
-    "payload, elbow masses, geometric stiffness) on two thirds of the data, scores\n"
+    "payload, elbow masses, geometric stiffness; for tracker data also geometry\n"
+    "errors per chain and Rayleigh damping) on two thirds of the data, scores\n"
     "it on the held-out third, ranks the effects, tries a second one, and says\n"
     "what is wrong, the cause, the fitted values, and the held-out gain; or that\n"
     "nothing beats the noise. --write-robot writes the extended robot file.\n";
@@ -41,7 +42,9 @@ static const char SYNTH_HELP[] =
     "check whether an experiment can identify an effect before running it.\n"
     "Effects: actuator_stiffness, joint_stiffness, base_stiffness,\n"
     "base_stiffness_0/1/2 (N/m, isotropic), payload_mass, elbow_mass (kg),\n"
-    "geometric_stiffness=on.\n";
+    "geometric_stiffness=on, damping=ALPHA,BETA, and the geometry errors per chain\n"
+    "error_arm_length, error_rod_length, error_base_radius, error_platform_radius\n"
+    "(m), error_theta_deg, error_alpha0_deg (deg) as =C0,C1,C2.\n";
 
 typedef struct {
     const char *measured, *robot, *out, *write_robot;
@@ -271,6 +274,17 @@ static void fit_name(const dm_fit *f, char *buf, size_t n)
              f->ncand > 1 ? f->cand[1]->name : "");
 }
 
+/* One effect's fitted values: a number, or a list for several parameters. */
+static json_t *values_json(const dm_fit *f, int i, const double v[3])
+{
+    if (f->cand[i]->nparam <= 1)
+        return json_real(v[0]);
+    json_t *a = json_array();
+    for (int k = 0; k < f->cand[i]->nparam; k++)
+        json_array_append_new(a, json_real(isfinite(v[k]) ? v[k] : -1.0));
+    return a;
+}
+
 static json_t *fit_json(const dm_fit *f)
 {
     char name[128];
@@ -278,8 +292,8 @@ static json_t *fit_json(const dm_fit *f)
     fit_name(f, name, sizeof name);
     for (int i = 0; i < f->ncand; i++)
         json_object_set_new(params, f->cand[i]->name,
-                            json_pack("{s:f, s:f, s:s}", "value", f->value[i], "sigma",
-                                      isfinite(f->sigma[i]) ? f->sigma[i] : -1.0, "unit",
+                            json_pack("{s:o, s:o, s:s}", "value", values_json(f, i, f->value[i]),
+                                      "sigma", values_json(f, i, f->sigma[i]), "unit",
                                       f->cand[i]->unit));
     return json_pack("{s:s, s:o, s:b, s:f, s:f, s:f, s:f}", "effect", name, "parameters", params,
                      "ok", f->ok, "held_out_chi2", f->held_chi2, "held_out_rms", f->held_rms,
@@ -288,12 +302,19 @@ static json_t *fit_json(const dm_fit *f)
 
 static void print_values(const dm_fit *f)
 {
-    for (int i = 0; i < f->ncand; i++)
-        if (f->cand[i]->hi > f->cand[i]->lo)
-            printf("%s%s = %.4g +- %.2g %s", i ? ", " : "", f->cand[i]->name, f->value[i],
-                   f->sigma[i], f->cand[i]->unit);
-        else
-            printf("%s%s on", i ? ", " : "", f->cand[i]->name);
+    for (int i = 0; i < f->ncand; i++) {
+        const dm_candidate *c = f->cand[i];
+        printf("%s%s", i ? ", " : "", c->name);
+        if (c->nparam == 0) {
+            printf(" on");
+            continue;
+        }
+        printf(" = ");
+        for (int k = 0; k < c->nparam; k++)
+            printf("%s%.4g +- %.2g", k ? ", " : c->nparam > 1 ? "(" : "", f->value[i][k],
+                   f->sigma[i][k]);
+        printf("%s %s", c->nparam > 1 ? ")" : "", c->unit);
+    }
 }
 
 static void print_diagnosis(const dm_dataset *d, const dm_robot *rb, const dm_diagnosis *dg)
@@ -370,7 +391,8 @@ int dm_cli_diagnose(int argc, char **argv)
             json_array_append_new(causes, json_string(dg.best.cand[i]->name));
         json_t *params = json_object();
         for (int i = 0; dg.found && i < dg.best.ncand; i++)
-            json_object_set_new(params, dg.best.cand[i]->name, json_real(dg.best.value[i]));
+            json_object_set_new(params, dg.best.cand[i]->name,
+                                values_json(&dg.best, i, dg.best.value[i]));
         json_object_set_new(o2, "robot", json_string(rb.name));
         json_object_set_new(o2, "kind", json_string(dm_data_kind_name(d.kind)));
         json_object_set_new(o2, "significant", json_boolean(dg.significant));
@@ -474,12 +496,16 @@ int dm_cli_synth(int argc, char **argv)
     int rc = dm_cli_load_robot(robot, sets, nset, &rb, &err);
     for (int i = 0; i < neff && !rc; i++) {
         char name[64];
-        double v = 1;
+        double v[3] = {1, 1, 1};
         const char *eq = strchr(effects[i], '=');
         snprintf(name, sizeof name, "%.*s", eq ? (int)(eq - effects[i]) : (int)strlen(effects[i]),
                  effects[i]);
-        if (eq && strcmp(eq + 1, "on") && dm_cli_parse_list(eq + 1, &v, 1))
-            return dm_cli_usage("synth", "--effect takes NAME=VALUE", effects[i]);
+        const dm_candidate *cd = dm_candidate_find(name);
+        int np = cd && cd->nparam > 1 ? cd->nparam : 1;
+        if (eq && strcmp(eq + 1, "on") && dm_cli_parse_list(eq + 1, v, np))
+            return dm_cli_usage("synth", np > 1 ? "--effect takes NAME=V1,V2[,V3]"
+                                                : "--effect takes NAME=VALUE",
+                                effects[i]);
         rc = dm_effect_apply(&rb, name, v, &err);
     }
     if (!rc)

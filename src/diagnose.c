@@ -2,6 +2,7 @@
 #include "dm_diagnose.h"
 
 #include <cminpack.h>
+#include <lapacke.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -14,16 +15,26 @@
 /* Ranges: springs from very soft to far stiffer than the structure. Masses
  * seen by statics cannot be: a deflection survey is relative to the same
  * pose without the force. */
+#define ALL (K_MODAL | K_STATIC | K_TRACK)
 static const dm_candidate CANDIDATES[] = {
-    {"actuator_stiffness", "N*m/rad", 2.0, 8.0, K_MODAL | K_STATIC | K_TRACK},
-    {"joint_stiffness", "N/m", 4.0, 10.0, K_MODAL | K_STATIC | K_TRACK},
-    {"base_stiffness", "N/m", 4.0, 10.0, K_MODAL | K_STATIC | K_TRACK},
-    {"base_stiffness_0", "N/m", 4.0, 10.0, K_MODAL | K_STATIC | K_TRACK},
-    {"base_stiffness_1", "N/m", 4.0, 10.0, K_MODAL | K_STATIC | K_TRACK},
-    {"base_stiffness_2", "N/m", 4.0, 10.0, K_MODAL | K_STATIC | K_TRACK},
-    {"payload_mass", "kg", -2.0, 1.5, K_MODAL | K_TRACK},
-    {"elbow_mass", "kg", -2.0, 1.0, K_MODAL | K_TRACK},
-    {"geometric_stiffness", "", 0, 0, K_MODAL | K_STATIC | K_TRACK},
+    {"actuator_stiffness", "N*m/rad", 2.0, 8.0, ALL, 1, 0},
+    {"joint_stiffness", "N/m", 4.0, 10.0, ALL, 1, 0},
+    {"base_stiffness", "N/m", 4.0, 10.0, ALL, 1, 0},
+    {"base_stiffness_0", "N/m", 4.0, 10.0, ALL, 1, 0},
+    {"base_stiffness_1", "N/m", 4.0, 10.0, ALL, 1, 0},
+    {"base_stiffness_2", "N/m", 4.0, 10.0, ALL, 1, 0},
+    {"payload_mass", "kg", -2.0, 1.5, K_MODAL | K_TRACK, 1, 0},
+    {"elbow_mass", "kg", -2.0, 1.0, K_MODAL | K_TRACK, 1, 0},
+    {"geometric_stiffness", "", 0, 0, ALL, 0, 0},
+    /* geometry errors move the platform: only a tracker sees them */
+    {"error_arm_length", "m", 0, 1, K_TRACK, 3, 1},
+    {"error_rod_length", "m", 0, 1, K_TRACK, 3, 1},
+    {"error_base_radius", "m", 0, 1, K_TRACK, 3, 1},
+    {"error_platform_radius", "m", 0, 1, K_TRACK, 3, 1},
+    {"error_theta_deg", "deg", 0, 1, K_TRACK, 3, 1},
+    {"error_alpha0_deg", "deg", 0, 1, K_TRACK, 3, 1},
+    /* Rayleigh alpha (1/s), beta (s): decay of the vibration a tracker sees */
+    {"damping", "1/s, s", -6.0, -2.0, K_TRACK, 2, 0},
 };
 #define NCAND ((int)(sizeof CANDIDATES / sizeof CANDIDATES[0]))
 
@@ -41,19 +52,27 @@ const dm_candidate *dm_candidate_find(const char *name)
     return NULL;
 }
 
-static int is_switch(const dm_candidate *c) { return c->hi <= c->lo; }
 
-int dm_effect_apply(dm_robot *rb, const char *name, double v, dm_error *err)
+int dm_effect_apply(dm_robot *rb, const char *name, const double *v, dm_error *err)
 {
-    char set[160];
-    if (!dm_candidate_find(name))
+    char set[256];
+    const dm_candidate *c = dm_candidate_find(name);
+    if (!c)
         return dm_fail(err, DM_EINVAL, "'%s' is not a candidate effect", name);
     if (!strcmp(name, "geometric_stiffness"))
         snprintf(set, sizeof set, "effects.geometric_stiffness=on");
-    else if (!strncmp(name, "base_stiffness", 14))
-        snprintf(set, sizeof set, "effects.%s=%.17g,%.17g,%.17g", name, v, v, v);
+    else if (!strcmp(name, "damping")) {
+        snprintf(set, sizeof set, "damping.alpha=%.17g", v[0]);
+        int rc = dm_robot_set(rb, set, err);
+        if (rc)
+            return rc;
+        snprintf(set, sizeof set, "damping.beta=%.17g", v[1]);
+    } else if (!strncmp(name, "base_stiffness", 14))
+        snprintf(set, sizeof set, "effects.%s=%.17g,%.17g,%.17g", name, v[0], v[0], v[0]);
+    else if (c->nparam == 3)
+        snprintf(set, sizeof set, "effects.%s=%.17g,%.17g,%.17g", name, v[0], v[1], v[2]);
     else
-        snprintf(set, sizeof set, "effects.%s=%.17g", name, v);
+        snprintf(set, sizeof set, "effects.%s=%.17g", name, v[0]);
     return dm_robot_set(rb, set, err);
 }
 
@@ -89,7 +108,7 @@ static void split_samples(const dm_dataset *d, char *held)
 }
 
 /* Predictions with the given effect values (physical units). */
-static int predict_with(problem *p, const double *value, dm_error *err)
+static int predict_with(problem *p, double value[2][3], dm_error *err)
 {
     dm_robot rb = *p->rb;
     int rc = DM_OK;
@@ -111,15 +130,31 @@ static double chi2(const problem *p, int want_held)
     return s;
 }
 
-/* cminpack callback: x = log10 values of the non-switch effects. */
+/* Parameters x (log10, or as they are for linear candidates) to values.
+ * log10 parameters stay within two decades of their search range: beyond
+ * it the data cannot see them and the search would only wander. */
+static void to_values(const problem *p, const double *x, double value[2][3])
+{
+    for (int i = 0, j = 0; i < p->ncand; i++) {
+        const dm_candidate *c = p->cand[i];
+        double lo = c->lo - 2, hi = c->hi + 2;
+        if (c->nparam == 2) /* damping: alpha and beta share one wide band */
+            lo = -8, hi = 3;
+        for (int k = 0; k < 3; k++)
+            value[i][k] = k >= c->nparam ? 1.0
+                          : c->linear    ? x[j++]
+                                         : pow(10.0, fmin(hi, fmax(lo, x[j++])));
+    }
+}
+
+/* cminpack callback */
 static int residuals(void *user, int m, int n, const double *x, double *fvec, int iflag)
 {
     (void)iflag;
-    problem *p = user;
-    double value[2] = {0, 0};
-    for (int i = 0, j = 0; i < p->ncand; i++)
-        value[i] = is_switch(p->cand[i]) ? 1 : pow(10.0, x[j++]);
     (void)n;
+    problem *p = user;
+    double value[2][3];
+    to_values(p, x, value);
     if (predict_with(p, value, NULL)) {
         p->failed = 1;
         for (int i = 0; i < m; i++)
@@ -162,40 +197,40 @@ static double scan_start(problem *p, double *x, int j, const dm_candidate *c, in
 }
 
 /* Parameter uncertainties from the Jacobian at the optimum (forward
- * differences in log10), scaled by the reduced chi-square when above 1. */
-static void uncertainties(problem *p, const double *x, int n, int m, double *sig_log)
+ * differences), scaled by the reduced chi-square when above 1:
+ * cov = s (J'J)^-1. */
+static void uncertainties(problem *p, const double *x, int n, int m, double *sig)
 {
-    double *f0 = malloc(sizeof(double) * m), *f1 = malloc(sizeof(double) * m), J[2][4096];
-    double xx[2];
+    double *f0 = malloc(sizeof(double) * m), *f1 = malloc(sizeof(double) * m);
+    double *J = malloc(sizeof(double) * m * n), xx[DM_DIAG_MAXP], A[DM_DIAG_MAXP * DM_DIAG_MAXP];
     memcpy(xx, x, sizeof(double) * n);
     residuals(p, m, n, xx, f0, 1);
     double c2 = 0;
     for (int i = 0; i < m; i++)
         c2 += f0[i] * f0[i];
-    int mm = m < 4096 ? m : 4096;
     for (int j = 0; j < n; j++) {
-        double h = 1e-4;
+        double h = 1e-4 * fmax(1e-3, fabs(x[j]));
         xx[j] = x[j] + h;
         residuals(p, m, n, xx, f1, 1);
         xx[j] = x[j];
-        for (int i = 0; i < mm; i++)
-            J[j][i] = (f1[i] - f0[i]) / h;
+        for (int i = 0; i < m; i++)
+            J[(size_t)j * m + i] = (f1[i] - f0[i]) / h;
     }
-    double A[2][2] = {{0, 0}, {0, 0}};
     for (int a = 0; a < n; a++)
-        for (int b = 0; b < n; b++)
-            for (int i = 0; i < mm; i++)
-                A[a][b] += J[a][i] * J[b][i];
+        for (int b = 0; b < n; b++) {
+            double v = 0;
+            for (int i = 0; i < m; i++)
+                v += J[(size_t)a * m + i] * J[(size_t)b * m + i];
+            A[b * n + a] = v;
+        }
     double scale = fmax(1.0, c2 / (m > n ? m - n : 1));
-    if (n == 1)
-        sig_log[0] = A[0][0] > 0 ? sqrt(scale / A[0][0]) : INFINITY;
-    else {
-        double det = A[0][0] * A[1][1] - A[0][1] * A[1][0];
-        sig_log[0] = det > 0 ? sqrt(scale * A[1][1] / det) : INFINITY;
-        sig_log[1] = det > 0 ? sqrt(scale * A[0][0] / det) : INFINITY;
-    }
+    int ok = !LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', n, A, n) &&
+             !LAPACKE_dpotri(LAPACK_COL_MAJOR, 'U', n, A, n);
+    for (int j = 0; j < n; j++)
+        sig[j] = ok && A[j * n + j] > 0 ? sqrt(scale * A[j * n + j]) : INFINITY;
     free(f0);
     free(f1);
+    free(J);
 }
 
 static void score_fit(problem *p, const dm_diagnosis *dg, dm_fit *f, int nparam)
@@ -215,36 +250,37 @@ static void score_fit(problem *p, const dm_diagnosis *dg, dm_fit *f, int nparam)
     f->score = f->held_chi2 + nparam * log((double)dg->n_held);
 }
 
-/* Fit one or two effects: scan, then Levenberg-Marquardt in log10. */
-static void fit(problem *p, const dm_diagnosis *dg, const double *start, dm_fit *f)
+/* Fit one or two effects: a coarse scan for one log parameter, then
+ * Levenberg-Marquardt. start: values to start from (NULL: scan / defaults). */
+static void fit(problem *p, const dm_diagnosis *dg, double start[2][3], dm_fit *f)
 {
     int m = count_train(p), n = 0;
-    double x[2], value[2] = {1, 1};
+    double x[DM_DIAG_MAXP], value[2][3];
     for (int i = 0; i < p->ncand; i++)
-        if (!is_switch(p->cand[i]))
-            x[n++] = start ? log10(start[i]) : 0;
+        for (int k = 0; k < p->cand[i]->nparam; k++)
+            x[n++] = start ? (p->cand[i]->linear ? start[i][k] : log10(start[i][k]))
+                     : p->cand[i]->linear ? 0.0
+                     : p->cand[i]->nparam == 2 ? (k ? -4.0 : -1.0) /* damping: beta 1e-4 */
+                                               : 0.5 * (p->cand[i]->lo + p->cand[i]->hi);
     double *fvec = malloc(sizeof(double) * m);
-    int *iwa = malloc(sizeof(int) * 4);
-    int lwa = m * 4 + 5 * 4 + m;
+    int *iwa = malloc(sizeof(int) * DM_DIAG_MAXP);
+    int lwa = m * DM_DIAG_MAXP + 5 * DM_DIAG_MAXP + m;
     double *wa = malloc(sizeof(double) * lwa);
     memset(f, 0, sizeof *f);
     f->ncand = p->ncand;
     memcpy(f->cand, p->cand, sizeof f->cand);
     p->failed = 0;
-    if (n == 1 && !start)
-        scan_start(p, x, 0, p->cand[0]->hi > p->cand[0]->lo ? p->cand[0] : p->cand[1], m, fvec);
+    if (n == 1 && !start && !p->cand[0]->linear)
+        scan_start(p, x, 0, p->cand[0], m, fvec);
     if (n > 0)
         lmdif1(residuals, p, m, n, x, fvec, 1e-8, iwa, wa, lwa);
-    double sig_log[2] = {0, 0};
+    double sig[DM_DIAG_MAXP] = {0};
     if (n > 0)
-        uncertainties(p, x, n, m, sig_log);
-    for (int i = 0, j = 0; i < p->ncand; i++) {
-        if (is_switch(p->cand[i]))
-            continue;
-        value[i] = pow(10.0, x[j]);
-        f->sigma[i] = value[i] * log(10.0) * sig_log[j];
-        j++;
-    }
+        uncertainties(p, x, n, m, sig);
+    to_values(p, x, value);
+    for (int i = 0, j = 0; i < p->ncand; i++)
+        for (int k = 0; k < p->cand[i]->nparam; k++, j++)
+            f->sigma[i][k] = p->cand[i]->linear ? sig[j] : value[i][k] * log(10.0) * sig[j];
     memcpy(f->value, value, sizeof value);
     f->ok = predict_with(p, value, NULL) == DM_OK;
     if (f->ok)
@@ -315,11 +351,14 @@ int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts 
         dg->found = dg->significant && dg->best.ok && dg->base_held_chi2 - dg->best.score > need;
         for (int c = 1; c < dg->nrank && o->pairs && dg->found; c++) {
             dm_fit pair;
-            double start[2] = {dg->best.value[0], dg->rank[c].value[0]};
+            double start[2][3];
+            memcpy(start[0], dg->best.value[0], sizeof start[0]);
+            memcpy(start[1], dg->rank[c].value[0], sizeof start[1]);
             p.ncand = 2;
             p.cand[0] = dg->best.cand[0];
             p.cand[1] = dg->rank[c].cand[0];
-            if (p.cand[0] == p.cand[1] || (is_switch(p.cand[0]) && is_switch(p.cand[1])))
+            if (p.cand[0] == p.cand[1] || !dg->rank[c].ok ||
+                p.cand[0]->nparam + p.cand[1]->nparam > DM_DIAG_MAXP)
                 continue;
             fit(&p, dg, start, &pair);
             if (pair.ok && pair.score < dg->best.score - need && dg->best.ncand == 1)
