@@ -40,6 +40,14 @@ int dm_kin_forward(const dm_robot *robot, const double alpha[3], double P[2][3])
  * geometry errors this is dm_kin_inverse. */
 int dm_kin_pose(const dm_robot *robot, const double P[3], dm_pose *pose, dm_error *err);
 
+/* The same under a net force W (N) on the platform (its weight, inertia,
+ * an added force). With joint clearance c each rod's effective length is
+ * lb + 2c in tension and lb - 2c in compression, the rod forces following
+ * from the platform's equilibrium (rods as two-force members). dm_kin_pose
+ * uses the weight of the platform and payload. */
+int dm_kin_pose_loaded(const dm_robot *robot, const double P[3], const double W[3],
+                       dm_pose *pose, dm_error *err);
+
 /* Jacobian J (row-major 3x3) with alpha_dot = J * P_dot. Returns
  * DM_ENUMERIC at a serial singularity (an arm's motion does not change its
  * rod length). */

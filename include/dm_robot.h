@@ -57,6 +57,7 @@ typedef struct dm_effects {
     double err_arm_length_m[3], err_rod_length_m[3];
     double err_base_radius_m[3], err_platform_radius_m[3];
     double err_theta_rad[3], err_alpha0_rad[3];
+    double clearance_m;                   /* radial clearance of each rod-end ball joint */
 } dm_effects;
 
 /* Does the robot have any geometry error (then the real pose differs from

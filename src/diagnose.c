@@ -26,6 +26,8 @@ static const dm_candidate CANDIDATES[] = {
     {"payload_mass", "kg", -2.0, 1.5, K_MODAL | K_TRACK, 1, 0},
     {"elbow_mass", "kg", -2.0, 1.0, K_MODAL | K_TRACK, 1, 0},
     {"geometric_stiffness", "", 0, 0, ALL, 0, 0},
+    /* joint clearance: jumps when a force flips a rod's load */
+    {"clearance", "m", -7.0, -3.0, K_STATIC | K_TRACK, 1, 0},
     /* geometry errors move the platform: only a tracker sees them */
     {"error_arm_length", "m", 0, 1, K_TRACK, 3, 1},
     {"error_rod_length", "m", 0, 1, K_TRACK, 3, 1},

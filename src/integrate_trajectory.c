@@ -84,6 +84,17 @@ static int alloc_ws(run_ws *w, dm_error *err)
     return DM_OK;
 }
 
+/* The real configuration commanded to P while accelerating at a: the
+ * platform's net force m (g - a) sets which way joint clearances open. */
+static int pose_at(const run_ws *w, const double P[3], const double a[3], dm_pose *pose,
+                   dm_error *err)
+{
+    double W[3], m = w->rb->platform_mass_kg + w->rb->effects.payload_kg;
+    for (int k = 0; k < 3; k++)
+        W[k] = m * (w->rb->gravity_ms2[k] - a[k]) + w->o.force_n[k];
+    return dm_kin_pose_loaded(w->rb, P, W, pose, err);
+}
+
 /* Load at time t on the model frozen at the current step's pose: gravity +
  * inertia of the nominal motion at t (rates from the kinematics at P(t)). */
 static int load_at(const run_ws *w, double t, double *F, dm_error *err)
@@ -92,7 +103,7 @@ static int load_at(const run_ws *w, double t, double *F, dm_error *err)
     dm_pose pose;
     dm_rigid_motion mo;
     dm_traj_eval(w->tr, t, P, v, a);
-    int rc = dm_kin_pose(w->rb, P, &pose, err);
+    int rc = pose_at(w, P, a, &pose, err);
     if (!rc)
         rc = dm_kin_rates(w->rb, &pose, v, mo.alpha_dot, err);
     if (!rc)
@@ -144,7 +155,7 @@ static void fill_sample(const run_ws *w, double t, const double *x, const dm_mod
     dm_traj_eval(w->tr, t, s->P_m, v, a);
     memcpy(s->error, u, 6 * sizeof(double));
     dm_pose real;
-    if (dm_effects_geometry_errors(&w->rb->effects) && !dm_kin_pose(w->rb, s->P_m, &real, NULL))
+    if (dm_effects_geometry_errors(&w->rb->effects) && !pose_at(w, s->P_m, a, &real, NULL))
         for (int k = 0; k < 3; k++) /* geometry errors: where the real platform is at t */
             s->error[k] += real.offset[k];
     dm_cross3(u + 3, w->o.tool_m, exr);
@@ -192,7 +203,7 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     const dm_modes *mo, *mo_all = NULL;
     dm_integ_sample s;
     dm_traj_eval(tr, t0, P, v, a);
-    int rc = dm_kin_pose(w->rb, P, &pose, err);
+    int rc = pose_at(w, P, a, &pose, err);
     if (!rc) rc = dm_model_build(w->md, &pose, err);
     if (!rc) rc = dm_modal_solve(w->modal, w->md->K, w->md->M, w->ksolve, &mo, err);
     if (!rc && j == 0) {

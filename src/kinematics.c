@@ -105,7 +105,18 @@ int dm_kin_inverse(const dm_robot *rb, const double P[3], dm_pose *pose, dm_erro
     return DM_OK;
 }
 
+static int forward_lb(const dm_robot *rb, int real, const double alpha[3], const double dlb[3],
+                      double P[2][3]);
+
 static int forward(const dm_robot *rb, int real, const double alpha[3], double P[2][3])
+{
+    const double none[3] = {0, 0, 0};
+    return forward_lb(rb, real, alpha, none, P);
+}
+
+/* Forward kinematics with extra rod lengths dlb (clearance). */
+static int forward_lb(const dm_robot *rb, int real, const double alpha[3], const double dlb[3],
+                      double P[2][3])
 {
     /* Each chain: |P - S_i| = lb_i with S_i = B_i - r_i e_i. Subtracting the
      * spheres pairwise gives two planes; their line meets sphere 0 in 0-2
@@ -119,7 +130,7 @@ static int forward(const dm_robot *rb, int real, const double alpha[3], double P
         dm_scale3(g.R, e, A);
         elbow_at(&g, A, e, alpha[i] + g.alpha0, B);
         dm_axpy3(B, -g.r, e, S[i]);
-        lb2[i] = g.lb * g.lb;
+        lb2[i] = (g.lb + dlb[i]) * (g.lb + dlb[i]);
     }
     double n1[3], n2[3], dir[3];
     dm_sub3(S[1], S[0], n1);
@@ -159,13 +170,45 @@ int dm_kin_forward(const dm_robot *rb, const double alpha[3], double P[2][3])
     return forward(rb, 0, alpha, P);
 }
 
+/* Rod forces N_i (tension > 0) from the platform's equilibrium
+ * sum_i N_i u_i + W = 0, u_i the unit vector from C_i to B_i. */
+static void rod_forces(const dm_pose *p, const double W[3], double N[3])
+{
+    double U[9], b[3];
+    for (int i = 0; i < 3; i++) {
+        double u[3];
+        dm_sub3(p->B[i], p->C[i], u);
+        dm_scale3(1.0 / dm_norm3(u), u, u);
+        for (int k = 0; k < 3; k++)
+            U[3 * k + i] = u[k]; /* row-major: column i = u_i */
+        b[i] = -W[i];
+    }
+    lapack_int ipiv[3];
+    if (LAPACKE_dgesv(LAPACK_ROW_MAJOR, 3, 1, U, 3, ipiv, b, 1))
+        b[0] = b[1] = b[2] = 0;
+    memcpy(N, b, sizeof b);
+}
+
 int dm_kin_pose(const dm_robot *rb, const double P[3], dm_pose *pose, dm_error *err)
+{
+    double W[3], m = rb->platform_mass_kg + rb->effects.payload_kg;
+    dm_scale3(m, rb->gravity_ms2, W);
+    return dm_kin_pose_loaded(rb, P, W, pose, err);
+}
+
+int dm_kin_pose_loaded(const dm_robot *rb, const double P[3], const double W[3], dm_pose *pose,
+                       dm_error *err)
 {
     int rc = dm_kin_inverse(rb, P, pose, err);
     if (rc || !dm_effects_geometry_errors(&rb->effects))
         return rc;
-    double sol[2][3], alpha[3];
-    int n = forward(rb, 1, pose->alpha, sol);
+    double sol[2][3], alpha[3], dlb[3] = {0, 0, 0}, N[3];
+    if (rb->effects.clearance_m > 0) {
+        rod_forces(pose, W, N);
+        for (int i = 0; i < 3; i++)
+            dlb[i] = 2 * rb->effects.clearance_m * (N[i] >= 0 ? 1.0 : -1.0);
+    }
+    int n = forward_lb(rb, 1, pose->alpha, dlb, sol);
     if (n == 0)
         return dm_fail(err, DM_EUNREACHABLE,
                        "pose (%g, %g, %g) m: the real robot (with its geometry errors) cannot "

@@ -83,6 +83,7 @@ static const key_spec KEYS[] = {
     {"effects", "base_stiffness_1", KEY_VEC3_NONNEG, R_OFF(effects.base_stiffness_n_per_m[1]), 0, "N/m"},
     {"effects", "base_stiffness_2", KEY_VEC3_NONNEG, R_OFF(effects.base_stiffness_n_per_m[2]), 0, "N/m"},
     {"effects", "geometric_stiffness", KEY_ONOFF, R_OFF(effects.geometric_stiffness), 0, ""},
+    {"effects", "clearance", KEY_POSITIVE, R_OFF(effects.clearance_m), 0, "m"},
     {"effects", "error_arm_length", KEY_VEC3, R_OFF(effects.err_arm_length_m), 0, "m"},
     {"effects", "error_rod_length", KEY_VEC3, R_OFF(effects.err_rod_length_m), 0, "m"},
     {"effects", "error_base_radius", KEY_VEC3, R_OFF(effects.err_base_radius_m), 0, "m"},
@@ -246,7 +247,7 @@ static int handler(void *user, const char *section, const char *name, const char
             return key_error(st, st->line, section, name,
                              "not a model extension (actuator_stiffness, joint_stiffness, "
                              "payload_mass, payload_offset, elbow_mass, base_stiffness[_0|_1|_2], "
-                             "geometric_stiffness, error_arm_length, error_rod_length, "
+                             "geometric_stiffness, clearance, error_arm_length, error_rod_length, "
                              "error_base_radius, error_platform_radius, error_theta_deg, "
                              "error_alpha0_deg)");
     int known_section = 0;
@@ -358,7 +359,7 @@ int dm_effects_geometry_errors(const dm_effects *e)
         if (e->err_arm_length_m[i] || e->err_rod_length_m[i] || e->err_base_radius_m[i] ||
             e->err_platform_radius_m[i] || e->err_theta_rad[i] || e->err_alpha0_rad[i])
             return 1;
-    return 0;
+    return e->clearance_m > 0;
 }
 
 int dm_effects_base_compliant(const dm_effects *e, int i)
@@ -608,6 +609,8 @@ static void write_effects(FILE *out, const dm_effects *e)
             fprintf(out, "base_stiffness_%d = %.17g, %.17g, %.17g\n", i, k[0], k[1], k[2]);
     }
     fprintf(out, "geometric_stiffness = %s\n", e->geometric_stiffness ? "on" : "off");
+    if (e->clearance_m > 0)
+        fprintf(out, "clearance = %.17g\n", e->clearance_m);
     const struct {
         const char *key;
         const double *v;

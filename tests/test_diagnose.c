@@ -20,6 +20,7 @@ static const hidden HIDDEN[] = {
     {"base_stiffness", 2e5, 2e7},      {"base_stiffness_0", 2e5, 2e7},
     {"base_stiffness_2", 2e5, 2e7},    {"payload_mass", 0.1, 3.0},
     {"elbow_mass", 1.0, 5.0},          {"geometric_stiffness", 1, 1},
+    {"clearance", 5e-6, 5e-5},
 };
 #define NHIDDEN (int)(sizeof HIDDEN / sizeof HIDDEN[0])
 

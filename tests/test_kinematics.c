@@ -209,6 +209,31 @@ static void geometry_errors_move_the_platform(void **state)
     assert_true(dm_norm3(real.offset) > 1e-4 && dm_norm3(real.offset) < 1e-2);
 }
 
+/* Clearance: a hanging robot's rods are in tension under the platform's
+ * weight, every rod is 2c longer and the platform drops by 2c / |u_z| at the
+ * centre (u: rod direction); pushed up harder than its weight, it rises as
+ * much. */
+static void clearance_follows_the_load(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_pose down, up, nom;
+    const double c = 20e-6;
+    assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
+    assert_int_equal(dm_robot_set(&rb, "effects.clearance=20e-6", NULL), 0);
+    assert_int_equal(dm_kin_inverse(&rb, rb.home_m, &nom, NULL), 0);
+    double u[3];
+    dm_sub3(nom.B[0], nom.C[0], u);
+    double uz = fabs(u[2]) / dm_norm3(u);
+    const double Wdown[3] = {0, 0, -2.0}, Wup[3] = {0, 0, 30.0};
+    assert_int_equal(dm_kin_pose_loaded(&rb, rb.home_m, Wdown, &down, NULL), 0);
+    assert_int_equal(dm_kin_pose_loaded(&rb, rb.home_m, Wup, &up, NULL), 0);
+    /* first order in c: the exact geometry differs by O(c^2 / lb) */
+    assert_rel(down.offset[2], -2 * c / uz, 1e-3, "drop under tension");
+    assert_rel(up.offset[2], 2 * c / uz, 1e-3, "rise under compression");
+    assert_abs(down.offset[0], 0.0, 1e-12, "no sideways shift at the centre");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -219,6 +244,7 @@ int main(void)
         cmocka_unit_test(unreachable_is_detected),
         cmocka_unit_test(condition_number_symmetric_centre),
         cmocka_unit_test(geometry_errors_move_the_platform),
+        cmocka_unit_test(clearance_follows_the_load),
     };
     return cmocka_run_group_tests_name("kinematics", tests, NULL, NULL);
 }
