@@ -48,6 +48,11 @@ int dm_kin_pose(const dm_robot *robot, const double P[3], dm_pose *pose, dm_erro
 int dm_kin_pose_loaded(const dm_robot *robot, const double P[3], const double W[3],
                        dm_pose *pose, dm_error *err);
 
+/* Net force on the platform (N): (platform + payload mass) (g - a) + F.
+ * a or F may be NULL (zero). */
+void dm_kin_platform_force(const dm_robot *robot, const double a[3], const double F[3],
+                           double W[3]);
+
 /* Jacobian J (row-major 3x3) with alpha_dot = J * P_dot. Returns
  * DM_ENUMERIC at a serial singularity (an arm's motion does not change its
  * rod length). */

@@ -89,9 +89,8 @@ static int alloc_ws(run_ws *w, dm_error *err)
 static int pose_at(const run_ws *w, const double P[3], const double a[3], dm_pose *pose,
                    dm_error *err)
 {
-    double W[3], m = w->rb->platform_mass_kg + w->rb->effects.payload_kg;
-    for (int k = 0; k < 3; k++)
-        W[k] = m * (w->rb->gravity_ms2[k] - a[k]) + w->o.force_n[k];
+    double W[3];
+    dm_kin_platform_force(w->rb, a, w->o.force_n, W);
     return dm_kin_pose_loaded(w->rb, P, W, pose, err);
 }
 

@@ -189,10 +189,17 @@ static void rod_forces(const dm_pose *p, const double W[3], double N[3])
     memcpy(N, b, sizeof b);
 }
 
+void dm_kin_platform_force(const dm_robot *rb, const double a[3], const double F[3], double W[3])
+{
+    double m = rb->platform_mass_kg + rb->effects.payload_kg;
+    for (int k = 0; k < 3; k++)
+        W[k] = m * (rb->gravity_ms2[k] - (a ? a[k] : 0)) + (F ? F[k] : 0);
+}
+
 int dm_kin_pose(const dm_robot *rb, const double P[3], dm_pose *pose, dm_error *err)
 {
-    double W[3], m = rb->platform_mass_kg + rb->effects.payload_kg;
-    dm_scale3(m, rb->gravity_ms2, W);
+    double W[3];
+    dm_kin_platform_force(rb, NULL, NULL, W);
     return dm_kin_pose_loaded(rb, P, W, pose, err);
 }
 

@@ -339,9 +339,8 @@ static int predict_poses(const dm_robot *rb, const dm_dataset *d, int na, int nb
                 v += res.compliance[6 * j + s->comp] * s->force[j];
             if (rb->effects.clearance_m > 0) { /* the force may open clearances the other way */
                 dm_pose loaded;
-                double W[3], m = rb->platform_mass_kg + rb->effects.payload_kg;
-                for (int k = 0; k < 3; k++)
-                    W[k] = m * rb->gravity_ms2[k] + s->force[k];
+                double W[3];
+                dm_kin_platform_force(rb, NULL, s->force, W);
                 if (!dm_kin_pose_loaded(rb, s->P, W, &loaded, NULL))
                     v += loaded.offset[s->comp] - res.pose.offset[s->comp];
             }
