@@ -131,6 +131,10 @@ static void print_modes_table(const dm_robot *rb, const dm_analysis *an,
     printf("pose    P = (%g, %g, %g) m   arm angles (%.3f, %.3f, %.3f) deg   cond(J) %.3g%s\n",
            p->P[0], p->P[1], p->P[2], p->alpha[0] * 180 / M_PI, p->alpha[1] * 180 / M_PI,
            p->alpha[2] * 180 / M_PI, p->cond, res->near_singular ? "  NEAR-SINGULAR" : "");
+    if (dm_effects_geometry_errors(&rb->effects))
+        printf("real    geometry errors/clearance put the platform at commanded + (%.4g, %.4g, "
+               "%.4g) m\n",
+               p->offset[0], p->offset[1], p->offset[2]);
     printf("model   mesh %d,%d: %d DOF\n\n", an->model->na, an->model->nb, an->model->n);
     printf(" mode   freq (Hz)   platform share   direction\n");
     for (int j = 0; j < mo->k; j++)
@@ -165,6 +169,7 @@ static int print_modes_json(const dm_robot *rb, const dm_analysis *an,
     json_object_set_new(o, "source", json_string(rb->source));
     json_object_set_new(o, "pose_m", json_array_of(res->pose.P, 3));
     json_object_set_new(o, "arm_angles_rad", json_array_of(res->pose.alpha, 3));
+    json_object_set_new(o, "platform_offset_m", json_array_of(res->pose.offset, 3));
     json_object_set_new(o, "condition_number", json_real(res->pose.cond));
     json_object_set_new(o, "near_singular", json_boolean(res->near_singular));
     json_object_set_new(o, "mesh", json_pack("[ii]", an->model->na, an->model->nb));
