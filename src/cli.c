@@ -129,7 +129,7 @@ static void print_modes_table(const dm_robot *rb, const dm_analysis *an,
     const dm_modes *mo = res->modes;
     printf("robot   %s (%s)\n", rb->name, rb->source);
     printf("pose    P = (%g, %g, %g) m   arm angles (%.3f, %.3f, %.3f) deg   cond(J) %.3g%s\n",
-           p->P[0], p->P[1], p->P[2], p->alpha[0] * 180 / M_PI, p->alpha[1] * 180 / M_PI,
+           p->P[0] - p->offset[0], p->P[1] - p->offset[1], p->P[2] - p->offset[2], p->alpha[0] * 180 / M_PI, p->alpha[1] * 180 / M_PI,
            p->alpha[2] * 180 / M_PI, p->cond, res->near_singular ? "  NEAR-SINGULAR" : "");
     if (dm_effects_geometry_errors(&rb->effects))
         printf("real    geometry errors/clearance put the platform at commanded + (%.4g, %.4g, "
@@ -167,7 +167,9 @@ static int print_modes_json(const dm_robot *rb, const dm_analysis *an,
     json_t *o = json_object(), *modes = json_array(), *C = json_array();
     json_object_set_new(o, "robot", json_string(rb->name));
     json_object_set_new(o, "source", json_string(rb->source));
-    json_object_set_new(o, "pose_m", json_array_of(res->pose.P, 3));
+    double cmd[3] = {res->pose.P[0] - res->pose.offset[0], res->pose.P[1] - res->pose.offset[1],
+                     res->pose.P[2] - res->pose.offset[2]};
+    json_object_set_new(o, "pose_m", json_array_of(cmd, 3));
     json_object_set_new(o, "arm_angles_rad", json_array_of(res->pose.alpha, 3));
     json_object_set_new(o, "platform_offset_m", json_array_of(res->pose.offset, 3));
     json_object_set_new(o, "condition_number", json_real(res->pose.cond));
