@@ -325,18 +325,26 @@ static int anchor_index(const sweep_ctx *c, const int m[3], const int a[3])
     return (a[0] * m[1] + a[1]) * m[2] + a[2];
 }
 
+/* Match the k families with shapes `ref` to the current modes by MAC
+ * (w->assign) and store the matched shapes in dst (may be ref itself). */
+static void match_families(const sweep_ctx *c, worker *w, const double *ref,
+                           const dm_modes *modes, double *dst)
+{
+    dm_modal_mac_match(ref, c->k, modes, c->kc, w->an->model->M, c->n, w->assign, w->mac,
+                       w->mac_work);
+    for (int f = 0; f < c->k; f++)
+        memcpy(dst + (size_t)f * c->n, modes->phi + (size_t)w->assign[f] * c->n,
+               sizeof(double) * c->n);
+}
+
 /* Families at anchor `to`, continued from anchor `from` by MAC. */
 static int follow(sweep_ctx *c, worker *w, int from, int to)
 {
-    int n = c->n, k = c->k;
+    size_t block = (size_t)c->n * c->k;
     dm_pose_result res;
     if (dm_analysis_run(w->an, c->anchor_P[to], c->kc, &res, NULL))
         return 0;
-    dm_modal_mac_match(c->anchor_phi + (size_t)from * n * k, k, res.modes, c->kc, w->an->model->M,
-                       n, w->assign, w->mac, w->mac_work);
-    for (int f = 0; f < k; f++)
-        memcpy(c->anchor_phi + ((size_t)to * k + f) * n, res.modes->phi + (size_t)w->assign[f] * n,
-               sizeof(double) * n);
+    match_families(c, w, c->anchor_phi + from * block, res.modes, c->anchor_phi + to * block);
     c->anchor_ok[to] = 1;
     return 1;
 }
@@ -477,13 +485,9 @@ static void compute_point(const sweep_ctx *c, worker *w, const double P[3], dm_p
     if (an >= 0)
         ref = c->anchor_phi + (size_t)an * c->n * c->k;
     if (ref) {
-        dm_modal_mac_match(ref, c->k, res.modes, c->kc, w->an->model->M, c->n, w->assign,
-                           w->mac, w->mac_work);
-        for (int f = 0; f < c->k; f++) {
+        match_families(c, w, ref, res.modes, w->prev);
+        for (int f = 0; f < c->k; f++)
             r->tracked_hz[f] = res.modes->freq_hz[w->assign[f]];
-            memcpy(w->prev + (size_t)f * c->n, res.modes->phi + (size_t)w->assign[f] * c->n,
-                   sizeof(double) * c->n);
-        }
         w->have_prev = 1;
     }
     for (int d = 0; d < 3 && c->o.dynamic; d++) {
