@@ -319,12 +319,19 @@ static int predict_poses(const dm_robot *rb, const dm_dataset *d, int na, int nb
     if (!an)
         return err->code;
     dm_pose_result res;
+    dm_pose loaded;
     int rc = DM_OK, last = -1;
+    int clearance = d->kind == DM_DATA_STATIC && rb->effects.clearance_m > 0;
     for (int i = 0; i < d->n && !rc; i++) {
         const dm_sample *s = &d->s[i];
         if (s->pose_id != last) {
             dm_error perr;
             rc = dm_analysis_run(an, s->P, kmax, &res, &perr);
+            if (!rc && clearance) { /* the added force may open clearances the other way */
+                double W[3];
+                dm_kin_platform_force(rb, NULL, s->force, W);
+                rc = dm_kin_pose_loaded(rb, s->P, W, &loaded, &perr);
+            }
             if (rc)
                 rc = dm_fail(err, rc, "%s:%d: %s", d->source, s->line, perr.msg);
             last = s->pose_id;
@@ -337,13 +344,8 @@ static int predict_poses(const dm_robot *rb, const dm_dataset *d, int na, int nb
             double v = 0;
             for (int j = 0; j < 3; j++)
                 v += res.compliance[6 * j + s->comp] * s->force[j];
-            if (rb->effects.clearance_m > 0) { /* the force may open clearances the other way */
-                dm_pose loaded;
-                double W[3];
-                dm_kin_platform_force(rb, NULL, s->force, W);
-                if (!dm_kin_pose_loaded(rb, s->P, W, &loaded, NULL))
-                    v += loaded.offset[s->comp] - res.pose.offset[s->comp];
-            }
+            if (clearance)
+                v += loaded.offset[s->comp] - res.pose.offset[s->comp];
             pred[i] = v;
         }
     }
