@@ -332,25 +332,30 @@ static int element_map(const dm_element *e, double El[12][2 * DM_NODEMAP_MAX],
     return m;
 }
 
-/* X[idx, idx] += El' Ke El */
+/* X[idx, idx] += El' Ke El. El is block diagonal: rows 0-5 (node 0) reach
+ * only columns 0..m0-1, rows 6-11 only the rest, so each product runs over
+ * the six rows of its column's node. */
 static void scatter(double *X, int n, const double Ke[144],
-                    double El[12][2 * DM_NODEMAP_MAX], const int idx[], int m)
+                    double El[12][2 * DM_NODEMAP_MAX], const int idx[], int m, int m0)
 {
     double KE[12][2 * DM_NODEMAP_MAX];
     for (int r = 0; r < 12; r++)
         for (int j = 0; j < m; j++) {
+            int k0 = j < m0 ? 0 : 6;
             double s = 0;
-            for (int k = 0; k < 12; k++)
+            for (int k = k0; k < k0 + 6; k++)
                 s += Ke[r * 12 + k] * El[k][j];
             KE[r][j] = s;
         }
-    for (int a = 0; a < m; a++)
+    for (int a = 0; a < m; a++) {
+        int k0 = a < m0 ? 0 : 6;
         for (int b = 0; b < m; b++) {
             double s = 0;
-            for (int k = 0; k < 12; k++)
+            for (int k = k0; k < k0 + 6; k++)
                 s += El[k][a] * KE[k][b];
             X[(size_t)idx[b] * n + idx[a]] += s;
         }
+    }
 }
 
 void dm_model_add_element_load(const dm_model *md, const dm_element *e, const double a12[12],
@@ -456,7 +461,7 @@ static int add_geometric_stiffness(dm_model *md, dm_error *err)
             du += (El[6][j] - El[0][j]) * u[idx[j]];
         const dm_beam_props *p = &md->props[e->member];
         dm_beam_geometric(p, p->EA * du / e->length_m, e->length_m, KG);
-        scatter(md->K, n, KG, El, idx, m);
+        scatter(md->K, n, KG, El, idx, m, e->node[0].m);
     }
     return DM_OK;
 }
@@ -486,8 +491,8 @@ int dm_model_build(dm_model *md, const dm_pose *pose, dm_error *err)
         int m = element_map(el, El, idx);
         dm_beam_stiffness(&md->props[el->member], el->length_m, Ke);
         dm_beam_mass(&md->props[el->member], el->length_m, Me);
-        scatter(md->K, md->n, Ke, El, idx, m);
-        scatter(md->M, md->n, Me, El, idx, m);
+        scatter(md->K, md->n, Ke, El, idx, m, el->node[0].m);
+        scatter(md->M, md->n, Me, El, idx, m, el->node[0].m);
         dm_model_add_element_load(md, el, g12, md->F_gravity);
     }
     add_platform(md);

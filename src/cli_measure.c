@@ -2,6 +2,7 @@
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,14 +24,17 @@ static const char COMPARE_HELP[] =
 
 static const char DIAGNOSE_HELP[] =
     "usage: deltamap diagnose --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"
-    "                         [--sigma S] [--no-pairs] [--write-robot FILE] [--json]\n"
+    "                         [--sigma S] [--no-pairs] [--threads N]\n"
+    "                         [--write-robot FILE] [--json]\n"
     "\n"
     "Fits every candidate effect of MODEL.md §6 (actuator, joint and base springs,\n"
-    "payload, elbow masses, geometric stiffness; for tracker data also geometry\n"
-    "errors per chain and Rayleigh damping) on two thirds of the data, scores\n"
-    "it on the held-out third, ranks the effects, tries a second one, and says\n"
-    "what is wrong, the cause, the fitted values, and the held-out gain; or that\n"
-    "nothing beats the noise. --write-robot writes the extended robot file.\n";
+    "payload, elbow masses, geometric stiffness, clearance; for tracker data also\n"
+    "geometry errors per chain and Rayleigh damping alpha, beta) on two thirds of\n"
+    "the data, scores it on the held-out third, ranks the effects, tries a second\n"
+    "one, and says what is wrong, the cause, the fitted values, and the held-out\n"
+    "gain; or that nothing beats the noise; or which effects these data cannot\n"
+    "tell apart. Fits run on --threads N (default: all cores; the result does not\n"
+    "depend on it). --write-robot writes the extended robot file.\n";
 
 static const char SYNTH_HELP[] =
     "usage: deltamap synth --robot R --kind modal|static|tracker [--effect NAME=VALUE]...\n"
@@ -42,14 +46,15 @@ static const char SYNTH_HELP[] =
     "check whether an experiment can identify an effect before running it.\n"
     "Effects: actuator_stiffness, joint_stiffness, base_stiffness,\n"
     "base_stiffness_0/1/2 (N/m, isotropic), payload_mass, elbow_mass (kg),\n"
-    "geometric_stiffness=on, damping=ALPHA,BETA, and the geometry errors per chain\n"
+    "geometric_stiffness=on, damping_alpha (1/s), damping_beta (s), clearance (m),\n"
+    "and the geometry errors per chain\n"
     "error_arm_length, error_rod_length, error_base_radius, error_platform_radius\n"
     "(m), error_theta_deg, error_alpha0_deg (deg) as =C0,C1,C2.\n";
 
 typedef struct {
     const char *measured, *robot, *out, *write_robot;
     const char *sets[DM_CLI_MAXSET];
-    int nset, json, pairs, na, nb;
+    int nset, json, pairs, threads, na, nb;
     double sigma;       /* --sigma: noise level for samples that give none */
 } measure_args;
 
@@ -58,7 +63,7 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
     static const struct option lo[] = {
         {"measured", 1, 0, 'd'}, {"robot", 1, 0, 'r'}, {"out", 1, 0, 'o'},
         {"write-robot", 1, 0, 'w'}, {"set", 1, 0, 's'}, {"mesh", 1, 0, 'm'},
-        {"no-pairs", 0, 0, 'P'}, {"sigma", 1, 0, 'S'}, {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'},
+        {"no-pairs", 0, 0, 'P'}, {"threads", 1, 0, 'T'}, {"sigma", 1, 0, 'S'}, {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'},
         {0, 0, 0, 0}};
     int c;
     memset(a, 0, sizeof *a);
@@ -73,6 +78,10 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
         case 'w': a->write_robot = optarg; break;
         case 'j': a->json = 1; break;
         case 'P': a->pairs = 0; break;
+        case 'T':
+            if (dm_cli_parse_int(optarg, 1, 1024, &a->threads))
+                return dm_cli_usage(cmd, "--threads takes a whole number >= 1", optarg);
+            break;
         case 'S':
             if (dm_cli_parse_list(optarg, &a->sigma, 1) || !(a->sigma > 0))
                 return dm_cli_usage(cmd, "--sigma takes the noise level > 0 (Hz or m)", optarg);
@@ -317,6 +326,19 @@ static void print_values(const dm_fit *f)
     }
 }
 
+/* The best single effect that is not part of the verdict. */
+static const dm_fit *runner_up(const dm_diagnosis *dg)
+{
+    for (int r = 0; r < dg->nrank; r++) {
+        int in_verdict = 0;
+        for (int i = 0; i < dg->best.ncand; i++)
+            in_verdict |= dg->rank[r].cand[0] == dg->best.cand[i];
+        if (!in_verdict && dg->rank[r].ok)
+            return &dg->rank[r];
+    }
+    return NULL;
+}
+
 static void print_diagnosis(const dm_dataset *d, const dm_robot *rb, const dm_diagnosis *dg)
 {
     const char *unit = d->kind == DM_DATA_MODAL ? "Hz" : "m";
@@ -355,15 +377,25 @@ static void print_diagnosis(const dm_dataset *d, const dm_robot *rb, const dm_di
         print_values(&dg->best);
         printf(".\n          Held-out RMS %.4g -> %.4g %s, gain %.1f %%.", dg->base_held_rms,
                dg->best.held_rms, unit, dg->best.gain_percent);
-        if (dg->nrank > 1)
-            printf(" Runner-up: %s (gain %.1f %%).", dg->rank[dg->best.ncand > 1 ? 2 : 1].cand[0]->name,
-                   dg->rank[dg->best.ncand > 1 ? 2 : 1].gain_percent);
+        const dm_fit *ru = runner_up(dg);
+        if (ru)
+            printf(" Runner-up: %s (gain %.1f %%).", ru->cand[0]->name, ru->gain_percent);
         printf("\n");
+        if (dg->ntie) {
+            printf("          These data cannot tell %s from", dg->rank[0].cand[0]->name);
+            for (int t = 0; t < dg->ntie; t++)
+                printf("%s %s", t ? (t + 1 < dg->ntie ? "," : " or") : "",
+                       dg->rank[dg->tie[t]].cand[0]->name);
+            printf(" (scores within %g): they move the data alike; data of another\n"
+                   "          kind, or poses where they differ, would separate them.\n",
+                   DM_DIAG_TIE);
+        }
     }
 }
 
 int dm_cli_diagnose(int argc, char **argv)
 {
+    int all_cores = omp_get_max_threads(); /* before BLAS is made serial (it sets OpenMP's too) */
     dm_cli_serial_blas();
     measure_args a;
     int rc = parse("diagnose", DIAGNOSE_HELP, argc, argv, &a);
@@ -373,7 +405,7 @@ int dm_cli_diagnose(int argc, char **argv)
     dm_robot rb, fixed;
     dm_error err;
     dm_diagnosis dg;
-    dm_diagnose_opts o = {a.na, a.nb, a.pairs};
+    dm_diagnose_opts o = {a.na, a.nb, a.pairs, a.threads ? a.threads : all_cores};
     if ((rc = load(&a, &d, &rb, &err)))
         return dm_cli_report(&err);
     if ((rc = dm_diagnose(&rb, &d, &o, &dg, &err))) {
@@ -404,6 +436,10 @@ int dm_cli_diagnose(int argc, char **argv)
         json_object_set_new(o2, "baseline_held_out_chi2", json_real(dg.base_held_chi2));
         json_object_set_new(o2, "held_out_samples", json_integer(dg.n_held));
         json_object_set_new(o2, "best", fit_json(&dg.best));
+        json_t *ties = json_array();
+        for (int t = 0; dg.found && t < dg.ntie; t++)
+            json_array_append_new(ties, json_string(dg.rank[dg.tie[t]].cand[0]->name));
+        json_object_set_new(o2, "indistinguishable_from", ties);
         json_object_set_new(o2, "ranking", rank);
         json_dumpf(o2, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
         putchar('\n');

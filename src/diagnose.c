@@ -4,6 +4,7 @@
 #include <cminpack.h>
 #include <lapacke.h>
 #include <math.h>
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -35,10 +36,15 @@ static const dm_candidate CANDIDATES[] = {
     {"error_platform_radius", "m", 0, 1, K_TRACK, 3, 1},
     {"error_theta_deg", "deg", 0, 1, K_TRACK, 3, 1},
     {"error_alpha0_deg", "deg", 0, 1, K_TRACK, 3, 1},
-    /* Rayleigh alpha (1/s), beta (s): decay of the vibration a tracker sees */
-    {"damping", "1/s, s", -6.0, -2.0, K_TRACK, 2, 0},
+    /* Rayleigh C = alpha M + beta K: the decay of the vibration a tracker
+     * sees. Two candidates, so that each fit is one-dimensional and a pair
+     * finds both; the ranges span modal damping ratios 1e-4 to 1 at the
+     * presets' first modes (50-200 Hz). */
+    {"damping_alpha", "1/s", -1.0, 3.0, K_TRACK, 1, 0},
+    {"damping_beta", "s", -6.0, -2.0, K_TRACK, 1, 0},
 };
 #define NCAND ((int)(sizeof CANDIDATES / sizeof CANDIDATES[0]))
+_Static_assert(NCAND <= DM_DIAG_MAXCAND, "dm_diagnosis.rank holds every candidate");
 
 const dm_candidate *dm_candidates(int *count)
 {
@@ -63,13 +69,9 @@ int dm_effect_apply(dm_robot *rb, const char *name, const double *v, dm_error *e
         return dm_fail(err, DM_EINVAL, "'%s' is not a candidate effect", name);
     if (!strcmp(name, "geometric_stiffness"))
         snprintf(set, sizeof set, "effects.geometric_stiffness=on");
-    else if (!strcmp(name, "damping")) {
-        snprintf(set, sizeof set, "damping.alpha=%.17g", v[0]);
-        int rc = dm_robot_set(rb, set, err);
-        if (rc)
-            return rc;
-        snprintf(set, sizeof set, "damping.beta=%.17g", v[1]);
-    } else if (!strncmp(name, "base_stiffness", 14))
+    else if (!strncmp(name, "damping_", 8))
+        snprintf(set, sizeof set, "damping.%s=%.17g", name + 8, v[0]);
+    else if (!strncmp(name, "base_stiffness", 14))
         snprintf(set, sizeof set, "effects.%s=%.17g,%.17g,%.17g", name, v[0], v[0], v[0]);
     else if (c->nparam == 3)
         snprintf(set, sizeof set, "effects.%s=%.17g,%.17g,%.17g", name, v[0], v[1], v[2]);
@@ -91,14 +93,23 @@ int dm_fit_apply(const dm_robot *rb, const dm_fit *f, dm_robot *out, dm_error *e
 
 /* ---- evaluation ---------------------------------------------------------------- */
 
+/* What every fit reads and no fit writes: shared by the worker threads. */
 typedef struct {
     const dm_robot *rb;
     const dm_dataset *d;
     const dm_diagnose_opts *o;
     const char *held;        /* per sample: 1 = held out */
-    double *pred, *w;        /* predictions; weights 1/sigma */
-    int ncand;
+    const double *w;         /* weights 1/sigma */
+} shared;
+
+/* One fit: its effects, the leading `nfixed` of them held at `fixed`, and
+ * its own prediction buffer. */
+typedef struct {
+    const shared *s;
+    double *pred;
+    int ncand, nfixed;
     const dm_candidate *cand[2];
+    double fixed[2][3];
     int failed;
 } problem;
 
@@ -112,40 +123,44 @@ static void split_samples(const dm_dataset *d, char *held)
 /* Predictions with the given effect values (physical units). */
 static int predict_with(problem *p, double value[2][3], dm_error *err)
 {
-    dm_robot rb = *p->rb;
+    dm_robot rb = *p->s->rb;
     int rc = DM_OK;
     for (int i = 0; i < p->ncand && !rc; i++)
         rc = dm_effect_apply(&rb, p->cand[i]->name, value[i], err);
     if (!rc)
-        rc = dm_predict(&rb, p->d, p->o->na, p->o->nb, p->pred, err);
+        rc = dm_predict(&rb, p->s->d, p->s->o->na, p->s->o->nb, p->pred, err);
     return rc;
 }
 
-static double chi2(const problem *p, int want_held)
+static double chi2(const shared *s, const double *pred, int want_held)
 {
-    double s = 0;
-    for (int i = 0; i < p->d->n; i++)
-        if (p->held[i] == want_held) {
-            double r = (p->d->s[i].value - p->pred[i]) * p->w[i];
-            s += r * r;
+    double sum = 0;
+    for (int i = 0; i < s->d->n; i++)
+        if (s->held[i] == want_held) {
+            double r = (s->d->s[i].value - pred[i]) * s->w[i];
+            sum += r * r;
         }
-    return s;
+    return sum;
 }
 
-/* Parameters x (log10, or as they are for linear candidates) to values.
- * log10 parameters stay within two decades of their search range: beyond
+/* log10 parameters stay within two decades of their search range: beyond
  * it the data cannot see them and the search would only wander. */
+static double from_log(const dm_candidate *c, double x)
+{
+    return pow(10.0, fmin(c->hi + 2, fmax(c->lo - 2, x)));
+}
+
+/* Free parameters x (log10, or as they are for linear candidates) to the
+ * values of all effects. */
 static void to_values(const problem *p, const double *x, double value[2][3])
 {
     for (int i = 0, j = 0; i < p->ncand; i++) {
         const dm_candidate *c = p->cand[i];
-        double lo = c->lo - 2, hi = c->hi + 2;
-        if (c->nparam == 2) /* damping: alpha and beta share one wide band */
-            lo = -8, hi = 3;
         for (int k = 0; k < 3; k++)
-            value[i][k] = k >= c->nparam ? 1.0
-                          : c->linear    ? x[j++]
-                                         : pow(10.0, fmin(hi, fmax(lo, x[j++])));
+            value[i][k] = i < p->nfixed   ? p->fixed[i][k]
+                          : k >= c->nparam ? 1.0
+                          : c->linear      ? x[j++]
+                                           : from_log(c, x[j++]);
     }
 }
 
@@ -155,6 +170,7 @@ static int residuals(void *user, int m, int n, const double *x, double *fvec, in
     (void)iflag;
     (void)n;
     problem *p = user;
+    const shared *s = p->s;
     double value[2][3];
     to_values(p, x, value);
     if (predict_with(p, value, NULL)) {
@@ -163,53 +179,45 @@ static int residuals(void *user, int m, int n, const double *x, double *fvec, in
             fvec[i] = 1e3; /* unphysical region: steer the search away */
         return 0;
     }
-    for (int i = 0, k = 0; i < p->d->n; i++)
-        if (!p->held[i])
-            fvec[k++] = (p->d->s[i].value - p->pred[i]) * p->w[i];
+    for (int i = 0, k = 0; i < s->d->n; i++)
+        if (!s->held[i])
+            fvec[k++] = (s->d->s[i].value - p->pred[i]) * s->w[i];
     return 0;
 }
 
-static int count_train(const problem *p)
+static double sum_squares(const double *f, int m)
 {
-    int m = 0;
-    for (int i = 0; i < p->d->n; i++)
-        m += !p->held[i];
-    return m;
+    double q = 0;
+    for (int i = 0; i < m; i++)
+        q += f[i] * f[i];
+    return q;
 }
 
-/* Coarse scan of log10 values of one parameter: a start for LM that is
- * not trapped where the data cannot see the parameter (a spring far too
- * stiff). */
-static double scan_start(problem *p, double *x, int j, const dm_candidate *c, int m, double *fvec)
+/* Coarse scan of the log10 values of a free parameter: a start for LM
+ * that is not trapped where the data cannot see it (a spring far too
+ * stiff, damping far too light). */
+static void scan_start(problem *p, double *x, const dm_candidate *c, int m, double *fvec)
 {
     double best = INFINITY, bx = 0.5 * (c->lo + c->hi);
     for (int s = 0; s <= 12; s++) {
-        x[j] = c->lo + (c->hi - c->lo) * s / 12.0;
+        x[0] = c->lo + (c->hi - c->lo) * s / 12.0;
         residuals(p, m, 1, x, fvec, 1);
-        double q = 0;
-        for (int i = 0; i < m; i++)
-            q += fvec[i] * fvec[i];
+        double q = sum_squares(fvec, m);
         if (q < best) {
             best = q;
-            bx = x[j];
+            bx = x[0];
         }
     }
-    x[j] = bx;
-    return best;
+    x[0] = bx;
 }
 
-/* Parameter uncertainties from the Jacobian at the optimum (forward
- * differences), scaled by the reduced chi-square when above 1:
- * cov = s (J'J)^-1. */
-static void uncertainties(problem *p, const double *x, int n, int m, double *sig)
+/* Forward-difference Jacobian J (m x n, column-major) of the residuals at
+ * x, whose residuals are f0. */
+static void jacobian(problem *p, const double *x, int n, int m, const double *f0, double *f1,
+                     double *J)
 {
-    double *f0 = malloc(sizeof(double) * m), *f1 = malloc(sizeof(double) * m);
-    double *J = malloc(sizeof(double) * m * n), xx[DM_DIAG_MAXP], A[DM_DIAG_MAXP * DM_DIAG_MAXP];
+    double xx[DM_DIAG_MAXP];
     memcpy(xx, x, sizeof(double) * n);
-    residuals(p, m, n, xx, f0, 1);
-    double c2 = 0;
-    for (int i = 0; i < m; i++)
-        c2 += f0[i] * f0[i];
     for (int j = 0; j < n; j++) {
         double h = 1e-4 * fmax(1e-3, fabs(x[j]));
         xx[j] = x[j] + h;
@@ -218,6 +226,11 @@ static void uncertainties(problem *p, const double *x, int n, int m, double *sig
         for (int i = 0; i < m; i++)
             J[(size_t)j * m + i] = (f1[i] - f0[i]) / h;
     }
+}
+
+/* A = J'J (n x n) */
+static void normal_matrix(const double *J, int m, int n, double *A)
+{
     for (int a = 0; a < n; a++)
         for (int b = 0; b < n; b++) {
             double v = 0;
@@ -225,95 +238,270 @@ static void uncertainties(problem *p, const double *x, int n, int m, double *sig
                 v += J[(size_t)a * m + i] * J[(size_t)b * m + i];
             A[b * n + a] = v;
         }
+}
+
+/* 1-sigma uncertainties: cov = s (J'J)^-1, s = reduced chi-square when
+ * above 1 (the model misfits beyond the noise). */
+static void covariance(const double *J, int m, int n, double c2, double *sig)
+{
+    double A[DM_DIAG_MAXP * DM_DIAG_MAXP];
+    normal_matrix(J, m, n, A);
     double scale = fmax(1.0, c2 / (m > n ? m - n : 1));
     int ok = !LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', n, A, n) &&
              !LAPACKE_dpotri(LAPACK_COL_MAJOR, 'U', n, A, n);
     for (int j = 0; j < n; j++)
         sig[j] = ok && A[j * n + j] > 0 ? sqrt(scale * A[j * n + j]) : INFINITY;
+}
+
+/* Uncertainties at the optimum x of a nonlinear fit. */
+static void uncertainties(problem *p, const double *x, int n, int m, double *sig)
+{
+    double *f0 = malloc(sizeof(double) * m), *f1 = malloc(sizeof(double) * m);
+    double *J = malloc(sizeof(double) * m * n);
+    for (int j = 0; j < n; j++)
+        sig[j] = INFINITY;
+    if (f0 && f1 && J) {
+        residuals(p, m, n, x, f0, 1);
+        jacobian(p, x, n, m, f0, f1, J);
+        covariance(J, m, n, sum_squares(f0, m), sig);
+    }
     free(f0);
     free(f1);
     free(J);
 }
 
-static void score_fit(problem *p, const dm_diagnosis *dg, dm_fit *f, int nparam)
+/* Geometry errors move the data almost linearly: one Jacobian, then
+ * Gauss-Newton steps with it (chord method) until the step is below a
+ * thousandth of the uncertainty: about 7 predictions where LM takes 30. */
+static void chord_fit(problem *p, double *x, int n, int m, double *sig)
 {
-    f->held_chi2 = chi2(p, 1);
-    f->train_chi2 = chi2(p, 0);
+    double *f = malloc(sizeof(double) * m), *f1 = malloc(sizeof(double) * m);
+    double *J = malloc(sizeof(double) * m * n), A[DM_DIAG_MAXP * DM_DIAG_MAXP];
+    for (int j = 0; j < n; j++)
+        sig[j] = INFINITY;
+    if (!f || !f1 || !J) {
+        free(f), free(f1), free(J);
+        return;
+    }
+    residuals(p, m, n, x, f, 1);
+    jacobian(p, x, n, m, f, f1, J);
+    normal_matrix(J, m, n, A);
+    double inv_sigma[DM_DIAG_MAXP]; /* rough: sqrt of J'J's diagonal */
+    for (int j = 0; j < n; j++)
+        inv_sigma[j] = sqrt(A[j * n + j]);
+    int ok = !LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', n, A, n);
+    double best = sum_squares(f, m);
+    for (int it = 0; ok && it < 8; it++) {
+        double g[DM_DIAG_MAXP], xn[DM_DIAG_MAXP], big = 0;
+        for (int j = 0; j < n; j++) { /* g = -J'f, then (J'J) dx = g */
+            g[j] = 0;
+            for (int i = 0; i < m; i++)
+                g[j] -= J[(size_t)j * m + i] * f[i];
+        }
+        LAPACKE_dpotrs(LAPACK_COL_MAJOR, 'U', n, 1, A, n, g, n);
+        for (int j = 0; j < n; j++) {
+            xn[j] = x[j] + g[j];
+            big = fmax(big, fabs(g[j]) * inv_sigma[j]); /* step / sigma */
+        }
+        residuals(p, m, n, xn, f1, 1);
+        double q = sum_squares(f1, m);
+        if (!(q <= best)) /* no better: the chord has done what it can */
+            break;
+        best = q;
+        memcpy(x, xn, sizeof(double) * n);
+        memcpy(f, f1, sizeof(double) * m);
+        if (big < 1e-3)
+            break;
+    }
+    covariance(J, m, n, best, sig);
+    free(f);
+    free(f1);
+    free(J);
+}
+
+/* Held-out misfit on the scale of a log-likelihood: the chi-square when
+ * sigma is known; otherwise N ln(chi2/N), the Gaussian likelihood with the
+ * variance profiled out (chi2 is then in units of the baseline's RMS). */
+static double held_score(const dm_diagnosis *dg, double held_chi2)
+{
+    double n = dg->n_held;
+    return dg->sigma_known ? held_chi2 : n * log(fmax(held_chi2, 1e-300) / n);
+}
+
+static void score_fit(const problem *p, const dm_diagnosis *dg, dm_fit *f, int nparam)
+{
+    const shared *s = p->s;
+    f->held_chi2 = chi2(s, p->pred, 1);
+    f->train_chi2 = chi2(s, p->pred, 0);
     double ms = 0;
-    for (int i = 0; i < p->d->n; i++)
-        if (p->held[i]) {
-            double r = p->d->s[i].value - p->pred[i];
+    for (int i = 0; i < s->d->n; i++)
+        if (s->held[i]) {
+            double r = s->d->s[i].value - p->pred[i];
             ms += r * r;
         }
     f->held_rms = sqrt(ms / dg->n_held);
     double excess = dg->sigma_known ? dg->base_held_chi2 - dg->n_held : dg->base_held_chi2;
     double drop = dg->base_held_chi2 - f->held_chi2;
     f->gain_percent = excess > 0 ? 100.0 * drop / excess : 0.0;
-    f->score = f->held_chi2 + nparam * log((double)dg->n_held);
+    f->score = held_score(dg, f->held_chi2) + nparam * log((double)dg->n_held);
 }
 
-/* Fit one or two effects: a coarse scan for one log parameter, then
- * Levenberg-Marquardt. start: values to start from (NULL: scan / defaults). */
+static int count_train(const shared *s)
+{
+    int m = 0;
+    for (int i = 0; i < s->d->n; i++)
+        m += !s->held[i];
+    return m;
+}
+
+/* Fit the free effects of p (those after the first nfixed): a coarse scan
+ * for a lone log parameter, then Levenberg-Marquardt. start: values of
+ * the free effects to start from (NULL: scan / defaults). Every fit owns
+ * its buffers, so fits run in parallel. */
 static void fit(problem *p, const dm_diagnosis *dg, double start[2][3], dm_fit *f)
 {
-    int m = count_train(p), n = 0;
-    double x[DM_DIAG_MAXP], value[2][3];
-    for (int i = 0; i < p->ncand; i++)
-        for (int k = 0; k < p->cand[i]->nparam; k++)
-            x[n++] = start ? (p->cand[i]->linear ? start[i][k] : log10(start[i][k]))
-                     : p->cand[i]->linear ? 0.0
-                     : p->cand[i]->nparam == 2 ? (k ? -4.0 : -1.0) /* damping: beta 1e-4 */
-                                               : 0.5 * (p->cand[i]->lo + p->cand[i]->hi);
-    double *fvec = malloc(sizeof(double) * m);
-    int *iwa = malloc(sizeof(int) * DM_DIAG_MAXP);
-    int lwa = m * DM_DIAG_MAXP + 5 * DM_DIAG_MAXP + m;
-    double *wa = malloc(sizeof(double) * lwa);
+    int m = count_train(p->s), n = 0, ntotal = 0;
+    double x[DM_DIAG_MAXP], value[2][3] = {{0}};
+    for (int i = 0; i < p->ncand; i++) {
+        const dm_candidate *c = p->cand[i];
+        ntotal += c->nparam;
+        for (int k = 0; i >= p->nfixed && k < c->nparam; k++)
+            x[n++] = start    ? (c->linear ? start[i][k] : log10(start[i][k]))
+                     : c->linear ? 0.0
+                                 : 0.5 * (c->lo + c->hi);
+    }
     memset(f, 0, sizeof *f);
     f->ncand = p->ncand;
     memcpy(f->cand, p->cand, sizeof f->cand);
+    int lwa = m * DM_DIAG_MAXP + 5 * DM_DIAG_MAXP + m;
+    double *fvec = malloc(sizeof(double) * m), *wa = malloc(sizeof(double) * lwa);
+    int iwa[DM_DIAG_MAXP];
+    p->pred = malloc(sizeof(double) * p->s->d->n);
     p->failed = 0;
-    if (n == 1 && !start && !p->cand[0]->linear)
-        scan_start(p, x, 0, p->cand[0], m, fvec);
-    if (n > 0)
-        lmdif1(residuals, p, m, n, x, fvec, 1e-8, iwa, wa, lwa);
+    if (!fvec || !wa || !p->pred) {
+        f->held_chi2 = f->score = INFINITY;
+        free(fvec), free(wa), free(p->pred);
+        return;
+    }
+    const dm_candidate *lone = n == 1 ? p->cand[p->ncand - 1] : NULL;
+    if (lone && !start && !lone->linear)
+        scan_start(p, x, lone, m, fvec);
     double sig[DM_DIAG_MAXP] = {0};
-    if (n > 0)
+    int linear = n > 0;
+    for (int i = p->nfixed; i < p->ncand; i++)
+        linear &= p->cand[i]->linear;
+    if (linear) {
+        chord_fit(p, x, n, m, sig);
+    } else if (n > 0) {
+        lmdif1(residuals, p, m, n, x, fvec, 1e-8, iwa, wa, lwa);
         uncertainties(p, x, n, m, sig);
+    }
     to_values(p, x, value);
-    for (int i = 0, j = 0; i < p->ncand; i++)
+    for (int i = p->nfixed, j = 0; i < p->ncand; i++)
         for (int k = 0; k < p->cand[i]->nparam; k++, j++)
             f->sigma[i][k] = p->cand[i]->linear ? sig[j] : value[i][k] * log(10.0) * sig[j];
     memcpy(f->value, value, sizeof value);
     f->ok = predict_with(p, value, NULL) == DM_OK;
     if (f->ok)
-        score_fit(p, dg, f, n);
+        score_fit(p, dg, f, ntotal);
     else
         f->held_chi2 = f->score = INFINITY;
     free(fvec);
-    free(iwa);
     free(wa);
+    free(p->pred);
+    p->pred = NULL;
 }
 
+/* Best score first; equal scores in candidate-table order, so the ranking
+ * does not depend on the thread count. */
 static int by_score(const void *a, const void *b)
 {
     const dm_fit *x = a, *y = b;
-    return (x->score > y->score) - (x->score < y->score);
+    if (x->score != y->score)
+        return (x->score > y->score) - (x->score < y->score);
+    for (int i = 0; i < 2; i++) {
+        const dm_candidate *cx = i < x->ncand ? x->cand[i] : NULL;
+        const dm_candidate *cy = i < y->ncand ? y->cand[i] : NULL;
+        if (cx != cy)
+            return (cx > cy) - (cx < cy);
+    }
+    return 0;
+}
+
+static int thread_count(const dm_diagnose_opts *o)
+{
+    return o->threads > 0 ? o->threads : omp_get_max_threads();
+}
+
+/* Single effects: every candidate the data can see, fitted on its own. */
+static void rank_singles(const shared *s, dm_diagnosis *dg)
+{
+    int idx[NCAND], nc = 0;
+    for (int c = 0; c < NCAND; c++)
+        if (CANDIDATES[c].kinds & (1u << s->d->kind))
+            idx[nc++] = c;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(s->o))
+    for (int j = 0; j < nc; j++) {
+        problem p = {.s = s, .ncand = 1, .cand = {&CANDIDATES[idx[j]], NULL}};
+        fit(&p, dg, NULL, &dg->rank[j]);
+    }
+    dg->nrank = nc;
+    qsort(dg->rank, nc, sizeof dg->rank[0], by_score);
+}
+
+/* Forward selection of a second effect: every other candidate is fitted on
+ * top of the best one held fixed (a screen as cheap as a single fit); the
+ * two best screened are refitted jointly, and a pair replaces the single
+ * effect when it lowers the score by more than `need`. */
+#define PAIR_REFITS 2
+static void add_second_effect(const shared *s, dm_diagnosis *dg, double need)
+{
+    dm_fit screen[DM_DIAG_MAXCAND], joint[PAIR_REFITS];
+    const dm_fit *one = &dg->rank[0];
+    int ns = 0, idx[DM_DIAG_MAXCAND];
+    for (int r = 1; r < dg->nrank; r++)
+        if (dg->rank[r].ok && one->cand[0]->nparam + dg->rank[r].cand[0]->nparam <= DM_DIAG_MAXP)
+            idx[ns++] = r;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(s->o))
+    for (int j = 0; j < ns; j++) {
+        problem p = {.s = s, .ncand = 2, .nfixed = 1, .cand = {one->cand[0], dg->rank[idx[j]].cand[0]}};
+        memcpy(p.fixed[0], one->value[0], sizeof p.fixed[0]);
+        fit(&p, dg, NULL, &screen[j]);
+    }
+    qsort(screen, ns, sizeof screen[0], by_score);
+    int nj = ns < PAIR_REFITS ? ns : PAIR_REFITS;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(s->o))
+    for (int j = 0; j < nj; j++) {
+        problem p = {.s = s, .ncand = 2, .cand = {screen[j].cand[0], screen[j].cand[1]}};
+        fit(&p, dg, screen[j].value, &joint[j]);
+    }
+    for (int j = 0; j < nj; j++)
+        if (joint[j].ok && joint[j].score < dg->best.score - (dg->best.ncand == 1 ? need : 0))
+            dg->best = joint[j];
+}
+
+/* Candidates whose single-effect score is within DM_DIAG_TIE of the best:
+ * the data cannot tell them apart. */
+static void find_ties(dm_diagnosis *dg)
+{
+    dg->ntie = 0;
+    for (int r = 1; r < dg->nrank && dg->ntie < DM_DIAG_MAXCAND; r++)
+        if (dg->rank[r].ok && dg->rank[r].score - dg->rank[0].score < DM_DIAG_TIE)
+            dg->tie[dg->ntie++] = r;
 }
 
 int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts *o,
                 dm_diagnosis *dg, dm_error *err)
 {
     memset(dg, 0, sizeof *dg);
-    problem p = {.rb = rb, .d = d, .o = o};
     char *held = malloc(d->n);
-    p.pred = malloc(sizeof(double) * d->n);
-    p.w = malloc(sizeof(double) * d->n);
-    if (!held || !p.pred || !p.w) {
-        free(held), free(p.pred), free(p.w);
+    double *pred = malloc(sizeof(double) * d->n), *w = malloc(sizeof(double) * d->n);
+    if (!held || !pred || !w) {
+        free(held), free(pred), free(w);
         return dm_fail(err, DM_ENOMEM, "out of memory");
     }
+    shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w};
     split_samples(d, held);
-    p.held = held;
     dg->sigma_known = 1;
     for (int i = 0; i < d->n; i++) {
         dg->n_held += held[i];
@@ -322,55 +510,35 @@ int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts 
     dg->n_train = d->n - dg->n_held;
     int rc = (dg->n_held < 3 || dg->n_train < 3)
                  ? dm_fail(err, DM_EINVAL, "%s: too little data to hold a third out", d->source)
-                 : dm_predict(rb, d, o->na, o->nb, p.pred, err);
+                 : dm_predict(rb, d, o->na, o->nb, pred, err);
     if (!rc) {
-        double ms = 0; /* without sigma: unit weights scaled by the baseline RMS */
+        double ms = 0, hs = 0; /* without sigma: unit weights scaled by the baseline RMS */
+        for (int i = 0; i < d->n; i++) {
+            double r2 = (d->s[i].value - pred[i]) * (d->s[i].value - pred[i]);
+            ms += r2;
+            hs += held[i] ? r2 : 0;
+        }
         for (int i = 0; i < d->n; i++)
-            ms += (d->s[i].value - p.pred[i]) * (d->s[i].value - p.pred[i]);
-        for (int i = 0; i < d->n; i++)
-            p.w[i] = dg->sigma_known ? 1.0 / d->s[i].sigma : 1.0 / sqrt(ms / d->n + 1e-300);
-        dg->base_train_chi2 = chi2(&p, 0);
-        dg->base_held_chi2 = chi2(&p, 1);
-        double hs = 0;
-        for (int i = 0; i < d->n; i++)
-            if (held[i])
-                hs += (d->s[i].value - p.pred[i]) * (d->s[i].value - p.pred[i]);
+            w[i] = dg->sigma_known ? 1.0 / d->s[i].sigma : 1.0 / sqrt(ms / d->n + 1e-300);
+        dg->base_train_chi2 = chi2(&s, pred, 0);
+        dg->base_held_chi2 = chi2(&s, pred, 1);
         dg->base_held_rms = sqrt(hs / dg->n_held);
         dg->significant = dg->sigma_known
                               ? dg->base_held_chi2 > dg->n_held + 4 * sqrt(2.0 * dg->n_held)
                               : 1;
-        for (int c = 0; c < NCAND; c++) {
-            if (!(CANDIDATES[c].kinds & (1u << d->kind)))
-                continue;
-            p.ncand = 1;
-            p.cand[0] = &CANDIDATES[c];
-            fit(&p, dg, NULL, &dg->rank[dg->nrank++]);
-        }
-        qsort(dg->rank, dg->nrank, sizeof dg->rank[0], by_score);
+        rank_singles(&s, dg);
         dg->best = dg->rank[0];
         double need = 9 + log((double)dg->n_held);
-        /* the baseline's score is its held-out chi-square (no parameters) */
-        dg->found = dg->significant && dg->best.ok && dg->base_held_chi2 - dg->best.score > need;
-        for (int c = 1; c < dg->nrank && o->pairs && dg->found; c++) {
-            dm_fit pair;
-            double start[2][3];
-            memcpy(start[0], dg->best.value[0], sizeof start[0]);
-            memcpy(start[1], dg->rank[c].value[0], sizeof start[1]);
-            p.ncand = 2;
-            p.cand[0] = dg->best.cand[0];
-            p.cand[1] = dg->rank[c].cand[0];
-            if (p.cand[0] == p.cand[1] || !dg->rank[c].ok ||
-                p.cand[0]->nparam + p.cand[1]->nparam > DM_DIAG_MAXP)
-                continue;
-            fit(&p, dg, start, &pair);
-            if (pair.ok && pair.score < dg->best.score - need && dg->best.ncand == 1)
-                dg->best = pair;
-            else if (pair.ok && dg->best.ncand == 2 && pair.score < dg->best.score)
-                dg->best = pair;
+        dg->base_score = held_score(dg, dg->base_held_chi2); /* no parameters */
+        dg->found = dg->significant && dg->best.ok && dg->base_score - dg->best.score > need;
+        if (dg->found) {
+            find_ties(dg);
+            if (o->pairs)
+                add_second_effect(&s, dg, need);
         }
     }
     free(held);
-    free(p.pred);
-    free(p.w);
+    free(pred);
+    free(w);
     return rc;
 }

@@ -260,10 +260,20 @@ static void add_segment(dm_trajectory *tr, const double from[3], const double to
     tr->duration_s += T;
 }
 
+/* dwell=S (optional, >= 0): hold still at the end, where a move's residual
+ * vibration rings down. */
+static int dwell_field(const char *list, const char *spec, double *dwell, dm_error *err)
+{
+    int rc = num_field(list, "dwell", spec, 1, dwell, 0, err);
+    if (!rc && !(*dwell >= 0))
+        rc = dm_fail(err, DM_EINVAL, "path '%s': dwell must be >= 0 s", spec);
+    return rc;
+}
+
 static int make_p2p(const char *spec, const char *list, dm_trajectory *tr, dm_error *err)
 {
-    static const char *const allowed[] = {"from", "to", "duration", "law", NULL};
-    double a[3], b[3], T = 0;
+    static const char *const allowed[] = {"from", "to", "duration", "law", "dwell", NULL};
+    double a[3], b[3], T = 0, dwell = 0;
     dm_motion_law law;
     int rc = check_fields(list, allowed, spec, err);
     if (!rc) rc = num_field(list, "from", spec, 3, a, 1, err);
@@ -271,12 +281,15 @@ static int make_p2p(const char *spec, const char *list, dm_trajectory *tr, dm_er
     if (!rc) rc = num_field(list, "duration", spec, 1, &T, 1, err);
     if (!rc) rc = positive(T, "duration", spec, err);
     if (!rc) rc = law_field(list, spec, &law, err);
+    if (!rc) rc = dwell_field(list, spec, &dwell, err);
     if (rc)
         return rc;
     memset(tr, 0, sizeof *tr);
     snprintf(tr->name, sizeof tr->name, "%s", spec);
     tr->kind = DM_PATH_SEGMENTS;
     add_segment(tr, a, b, T, law);
+    if (dwell > 0)
+        add_segment(tr, b, b, dwell, law);
     return DM_OK;
 }
 
@@ -285,8 +298,8 @@ static int make_p2p(const char *spec, const char *list, dm_trajectory *tr, dm_er
 static int make_pick(const char *spec, const char *list, const dm_robot *rb,
                      dm_trajectory *tr, dm_error *err)
 {
-    static const char *const allowed[] = {"start", "duration", "law", "axis", NULL};
-    double p0[3] = {0, 0, 0}, T = 0;
+    static const char *const allowed[] = {"start", "duration", "law", "axis", "dwell", NULL};
+    double p0[3] = {0, 0, 0}, T = 0, dwell = 0;
     char axis[8] = "x";
     dm_motion_law law;
     if (rb) {
@@ -298,6 +311,7 @@ static int make_pick(const char *spec, const char *list, const dm_robot *rb,
     if (!rc) rc = num_field(list, "duration", spec, 1, &T, 1, err);
     if (!rc) rc = positive(T, "duration", spec, err);
     if (!rc) rc = law_field(list, spec, &law, err);
+    if (!rc) rc = dwell_field(list, spec, &dwell, err);
     if (rc)
         return rc;
     field(list, "axis", axis, sizeof axis);
@@ -319,6 +333,8 @@ static int make_pick(const char *spec, const char *list, const dm_robot *rb,
     add_segment(tr, p1, p2, T * sqrt(across) / wsum, law);
     add_segment(tr, p2, p3, T * sqrt(up) / wsum, law);
     tr->duration_s = T;
+    if (dwell > 0)
+        add_segment(tr, p3, p3, dwell, law);
     return DM_OK;
 }
 

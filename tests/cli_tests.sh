@@ -150,6 +150,16 @@ contains out "no significant discrepancy"
 expect 0 "synth tracker" "$DM" synth --robot zheng2017 --kind tracker --noise 1e-7 --seed 1 --mesh 1,1 --path "circle:centre=0,0,-0.4;radius=0.03;rate=6.283;duration=0.1" --out "$TMP/track.csv"
 expect 0 "compare tracker" "$DM" compare --measured "$TMP/track.csv" --mesh 1,1 --sigma 1e-7 --json
 json_true "d['kind'] == 'tracker' and d['exceeds_noise'] is False"
+# base and platform radius errors move a tracked platform alike: a tie, said so
+expect 0 "synth radius errors" "$DM" synth --robot zheng2017 --kind tracker --noise 2e-6 --seed 3 --mesh 1,1 --effect error_base_radius=1e-4,-2e-4,1.5e-4 --path "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=0.1" --out "$TMP/radius.csv"
+expect 0 "diagnose tie" "$DM" diagnose --measured "$TMP/radius.csv" --mesh 1,1 --sigma 2e-6 --no-pairs --threads 2
+contains out "cannot tell"
+expect 0 "diagnose tie json" "$DM" diagnose --measured "$TMP/radius.csv" --mesh 1,1 --sigma 2e-6 --no-pairs --json
+json_true "sorted([d['cause']] + d['indistinguishable_from']) == ['error_base_radius', 'error_platform_radius']"
+expect 1 "diagnose threads" "$DM" diagnose --measured "$TMP/radius.csv" --threads 0
+contains err "--threads"
+expect 2 "negative dwell" "$DM" trajectory --robot zheng2017 --path "p2p:from=0,0,-0.4;to=0.01,0,-0.4;duration=0.1;dwell=-1"
+contains err "dwell must be >= 0"
 printf '# robot: zheng2017\nx,y,z,mode,freq_hz\n0,0,-0.4,1,84\n0,0,-0.4,x,90\n' >"$TMP/bad1.csv"
 expect 2 "bad cell" "$DM" compare --measured "$TMP/bad1.csv"
 contains err "bad1.csv:4: column 4 (mode)"

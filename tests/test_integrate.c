@@ -200,6 +200,31 @@ static void free_vibration_decays_at_modal_rate(void **state)
     dm_analysis_free(an);
 }
 
+/* dwell=S appends S seconds standing still at the end of a move. */
+static void p2p_dwell_holds_still(void **state)
+{
+    (void)state;
+    dm_trajectory tr;
+    double P[3], v[3], a[3];
+    assert_int_equal(dm_traj_make("p2p:from=0,0,-0.4;to=0.02,0.01,-0.41;duration=0.05;"
+                                  "law=bangbang;dwell=0.03", NULL, &tr, NULL), 0);
+    assert_abs(tr.duration_s, 0.08, 1e-15, "move + dwell");
+    for (double t = 0.05; t <= 0.08; t += 0.0075) {
+        dm_traj_eval(&tr, t, P, v, a);
+        const double to[3] = {0.02, 0.01, -0.41};
+        for (int k = 0; k < 3; k++) {
+            assert_abs(P[k], to[k], 1e-15, "position at t = %g", t);
+            assert_abs(v[k], 0, 1e-12, "velocity at t = %g", t);
+            assert_abs(a[k], 0, 1e-9, "acceleration at t = %g", t);
+        }
+    }
+    dm_traj_eval(&tr, 0.025, P, v, a); /* mid-move: still moving */
+    assert_true(v[0] > 0.1);
+    assert_int_not_equal(dm_traj_make("p2p:from=0,0,-0.4;to=0.02,0,-0.4;duration=0.05;dwell=-1",
+                                      NULL, &tr, NULL), 0);
+    dm_traj_free(&tr);
+}
+
 /* A constant nominal acceleration held long enough, with damping, settles
  * to K^-1 (F_gravity + F_inertial) on the frozen pose. */
 static void inertial_load_settles_to_static(void **state)
@@ -424,6 +449,7 @@ int main(void)
         cmocka_unit_test(free_vibration_decays_at_modal_rate),
         cmocka_unit_test(inertial_load_settles_to_static),
         cmocka_unit_test(unreachable_path_named_time),
+        cmocka_unit_test(p2p_dwell_holds_still),
         cmocka_unit_test(standard_move_matches_cvode),
         cmocka_unit_test(standard_move_undamped_and_quasi_static),
         cmocka_unit_test(chen2018_truncation_figure),
