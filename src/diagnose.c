@@ -106,6 +106,7 @@ typedef struct {
  * its own prediction buffer. */
 typedef struct {
     const shared *s;
+    dm_dataset view;         /* the data fitted: all, or a tracker run's first part */
     double *pred;
     int ncand, nfixed;
     const dm_candidate *cand[2];
@@ -128,7 +129,7 @@ static int predict_with(problem *p, double value[2][3], dm_error *err)
     for (int i = 0; i < p->ncand && !rc; i++)
         rc = dm_effect_apply(&rb, p->cand[i]->name, value[i], err);
     if (!rc)
-        rc = dm_predict(&rb, p->s->d, p->s->o->na, p->s->o->nb, p->pred, err);
+        rc = dm_predict(&rb, &p->view, p->s->o->na, p->s->o->nb, p->pred, err);
     return rc;
 }
 
@@ -179,7 +180,7 @@ static int residuals(void *user, int m, int n, const double *x, double *fvec, in
             fvec[i] = 1e3; /* unphysical region: steer the search away */
         return 0;
     }
-    for (int i = 0, k = 0; i < s->d->n; i++)
+    for (int i = 0, k = 0; i < p->view.n; i++)
         if (!s->held[i])
             fvec[k++] = (s->d->s[i].value - p->pred[i]) * s->w[i];
     return 0;
@@ -196,11 +197,12 @@ static double sum_squares(const double *f, int m)
 /* Coarse scan of the log10 values of a free parameter: a start for LM
  * that is not trapped where the data cannot see it (a spring far too
  * stiff, damping far too light). */
-static void scan_start(problem *p, double *x, const dm_candidate *c, int m, double *fvec)
+static void scan_start(problem *p, double *x, const dm_candidate *c, int m, double *fvec,
+                       int steps)
 {
     double best = INFINITY, bx = 0.5 * (c->lo + c->hi);
-    for (int s = 0; s <= 12; s++) {
-        x[0] = c->lo + (c->hi - c->lo) * s / 12.0;
+    for (int s = 0; s <= steps; s++) {
+        x[0] = c->lo + (c->hi - c->lo) * s / steps;
         residuals(p, m, 1, x, fvec, 1);
         double q = sum_squares(fvec, m);
         if (q < best) {
@@ -253,21 +255,34 @@ static void covariance(const double *J, int m, int n, double c2, double *sig)
         sig[j] = ok && A[j * n + j] > 0 ? sqrt(scale * A[j * n + j]) : INFINITY;
 }
 
-/* Uncertainties at the optimum x of a nonlinear fit. */
-static void uncertainties(problem *p, const double *x, int n, int m, double *sig)
+/* Levenberg-Marquardt (cminpack lmdif) from x; uncertainties from the
+ * R factor of its last Jacobian (covar), so they cost no predictions.
+ * Tolerances 1e-6 on log10 values are far below any uncertainty; the
+ * evaluation cap stops a search on a plateau the data cannot see. */
+static void lm_fit(problem *p, double *x, int n, int m, double *sig)
 {
-    double *f0 = malloc(sizeof(double) * m), *f1 = malloc(sizeof(double) * m);
-    double *J = malloc(sizeof(double) * m * n);
+    double *fvec = malloc(sizeof(double) * m), *fjac = malloc(sizeof(double) * m * n);
+    double *wa4 = malloc(sizeof(double) * m);
+    double diag[DM_DIAG_MAXP], qtf[DM_DIAG_MAXP], wa1[DM_DIAG_MAXP], wa2[DM_DIAG_MAXP],
+        wa3[DM_DIAG_MAXP];
+    int ipvt[DM_DIAG_MAXP], nfev = 0;
     for (int j = 0; j < n; j++)
         sig[j] = INFINITY;
-    if (f0 && f1 && J) {
-        residuals(p, m, n, x, f0, 1);
-        jacobian(p, x, n, m, f0, f1, J);
-        covariance(J, m, n, sum_squares(f0, m), sig);
+    if (fvec && fjac && wa4) {
+        int info = lmdif(residuals, p, m, n, x, fvec, 1e-6, 1e-6, 0.0, 25 * (n + 1), 0.0, diag,
+                         1, 100.0, 0, &nfev, fjac, m, ipvt, qtf, wa1, wa2, wa3, wa4);
+        if (info > 0) {
+            double c2 = sum_squares(fvec, m), scale = fmax(1.0, c2 / (m > n ? m - n : 1));
+            covar(n, fjac, m, ipvt, 1e-12, wa1);
+            for (int j = 0; j < n; j++) {
+                double c = fjac[(size_t)j * m + j];
+                sig[j] = c > 0 ? sqrt(scale * c) : INFINITY; /* 0: not determined */
+            }
+        }
     }
-    free(f0);
-    free(f1);
-    free(J);
+    free(fvec);
+    free(fjac);
+    free(wa4);
 }
 
 /* Geometry errors move the data almost linearly: one Jacobian, then
@@ -276,7 +291,7 @@ static void uncertainties(problem *p, const double *x, int n, int m, double *sig
 static void chord_fit(problem *p, double *x, int n, int m, double *sig)
 {
     double *f = malloc(sizeof(double) * m), *f1 = malloc(sizeof(double) * m);
-    double *J = malloc(sizeof(double) * m * n), A[DM_DIAG_MAXP * DM_DIAG_MAXP];
+    double *J = calloc((size_t)m * n, sizeof(double)), A[DM_DIAG_MAXP * DM_DIAG_MAXP];
     for (int j = 0; j < n; j++)
         sig[j] = INFINITY;
     if (!f || !f1 || !J) {
@@ -346,25 +361,54 @@ static void score_fit(const problem *p, const dm_diagnosis *dg, dm_fit *f, int n
     f->score = held_score(dg, f->held_chi2) + nparam * log((double)dg->n_held);
 }
 
-static int count_train(const shared *s)
+static int count_train(const problem *p)
 {
     int m = 0;
-    for (int i = 0; i < s->d->n; i++)
-        m += !s->held[i];
+    for (int i = 0; i < p->view.n; i++)
+        m += !p->s->held[i];
     return m;
 }
 
+/* The data up to `share` of the training time (tracker samples are in
+ * time order, three components per time), or all of it (share 1). */
+static void set_window(problem *p, double share)
+{
+    const dm_dataset *d = p->s->d;
+    p->view = *d;
+    if (share >= 1)
+        return;
+    double T = 0;
+    for (int i = 0; i < d->n; i++)
+        if (!p->s->held[i])
+            T = fmax(T, d->s[i].t);
+    int n = 0;
+    while (n < d->n && d->s[n].t <= share * T)
+        n++;
+    p->view.n = n;
+    p->view.npose = n / 3;
+}
+
+/* A ringing response is a phase-wrapped function of a stiffness or a
+ * mass: over a whole tracker run the misfit has wells narrower than any
+ * affordable scan. Fitted first on the run's first quarter (where the
+ * phase has had no time to wrap), then on half, then on all of it, each
+ * stage starts in the right well, and the short stages are cheap. */
+static const double WINDOWS[] = {0.25, 0.5, 1.0};
+#define NWINDOWS (int)(sizeof WINDOWS / sizeof WINDOWS[0])
+
 /* Fit the free effects of p (those after the first nfixed): a coarse scan
- * for a lone log parameter, then Levenberg-Marquardt. start: values of
- * the free effects to start from (NULL: scan / defaults). Every fit owns
- * its buffers, so fits run in parallel. */
+ * for a lone log parameter, then Levenberg-Marquardt (tracker data: on
+ * growing windows), or the chord method for geometry errors. start:
+ * values of the free effects to start from (NULL: scan / defaults). Every
+ * fit owns its buffers, so fits run in parallel. */
 static void fit(problem *p, const dm_diagnosis *dg, double start[2][3], dm_fit *f)
 {
-    int m = count_train(p->s), n = 0, ntotal = 0;
-    double x[DM_DIAG_MAXP], value[2][3] = {{0}};
+    int n = 0, ntotal = 0, linear = 1;
+    double x[DM_DIAG_MAXP], value[2][3] = {{0}}, sig[DM_DIAG_MAXP] = {0};
     for (int i = 0; i < p->ncand; i++) {
         const dm_candidate *c = p->cand[i];
         ntotal += c->nparam;
+        linear &= i < p->nfixed || c->linear;
         for (int k = 0; i >= p->nfixed && k < c->nparam; k++)
             x[n++] = start    ? (c->linear ? start[i][k] : log10(start[i][k]))
                      : c->linear ? 0.0
@@ -373,29 +417,28 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][3], dm_fit *
     memset(f, 0, sizeof *f);
     f->ncand = p->ncand;
     memcpy(f->cand, p->cand, sizeof f->cand);
-    int lwa = m * DM_DIAG_MAXP + 5 * DM_DIAG_MAXP + m;
-    double *fvec = malloc(sizeof(double) * m), *wa = malloc(sizeof(double) * lwa);
-    int iwa[DM_DIAG_MAXP];
+    set_window(p, 1.0);
+    double *fvec = malloc(sizeof(double) * count_train(p));
     p->pred = malloc(sizeof(double) * p->s->d->n);
     p->failed = 0;
-    if (!fvec || !wa || !p->pred) {
+    if (!fvec || !p->pred) {
         f->held_chi2 = f->score = INFINITY;
-        free(fvec), free(wa), free(p->pred);
+        free(fvec), free(p->pred);
         return;
     }
-    const dm_candidate *lone = n == 1 ? p->cand[p->ncand - 1] : NULL;
-    if (lone && !start && !lone->linear)
-        scan_start(p, x, lone, m, fvec);
-    double sig[DM_DIAG_MAXP] = {0};
-    int linear = n > 0;
-    for (int i = p->nfixed; i < p->ncand; i++)
-        linear &= p->cand[i]->linear;
-    if (linear) {
-        chord_fit(p, x, n, m, sig);
-    } else if (n > 0) {
-        lmdif1(residuals, p, m, n, x, fvec, 1e-8, iwa, wa, lwa);
-        uncertainties(p, x, n, m, sig);
+    const dm_candidate *lone = n == 1 && !linear && !start ? p->cand[p->ncand - 1] : NULL;
+    int staged = p->s->d->kind == DM_DATA_TRACKER && !linear && !start && n > 0;
+    for (int w = staged ? 0 : NWINDOWS - 1; w < NWINDOWS && n > 0; w++) {
+        set_window(p, WINDOWS[w]);
+        int m = count_train(p);
+        if (lone && w == (staged ? 0 : NWINDOWS - 1)) /* a short window affords a finer scan */
+            scan_start(p, x, lone, m, fvec, staged ? 24 : 12);
+        if (linear)
+            chord_fit(p, x, n, m, sig);
+        else
+            lm_fit(p, x, n, m, sig);
     }
+    set_window(p, 1.0);
     to_values(p, x, value);
     for (int i = p->nfixed, j = 0; i < p->ncand; i++)
         for (int k = 0; k < p->cand[i]->nparam; k++, j++)
@@ -407,7 +450,6 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][3], dm_fit *
     else
         f->held_chi2 = f->score = INFINITY;
     free(fvec);
-    free(wa);
     free(p->pred);
     p->pred = NULL;
 }
