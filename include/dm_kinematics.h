@@ -43,7 +43,9 @@ int dm_kin_pose(const dm_robot *robot, const double P[3], dm_pose *pose, dm_erro
 /* The same under a net force W (N) on the platform (its weight, inertia,
  * an added force). With joint clearance c each rod's effective length is
  * lb + 2c in tension and lb - 2c in compression, the rod forces following
- * from the platform's equilibrium (rods as two-force members). dm_kin_pose
+ * from the platform's equilibrium (rods as two-force members); with
+ * actuator-joint clearance each arm slides by c_axial along its axis and by
+ * c_radial across it, the way the rods' pull on it points. dm_kin_pose
  * uses the weight of the platform and payload. */
 int dm_kin_pose_loaded(const dm_robot *robot, const double P[3], const double W[3],
                        dm_pose *pose, dm_error *err);

@@ -58,11 +58,17 @@ typedef struct dm_effects {
     double err_base_radius_m[3], err_platform_radius_m[3];
     double err_theta_rad[3], err_alpha0_rad[3];
     double clearance_m;                   /* radial clearance of each rod-end ball joint */
+    /* clearance of each actuator's revolute joint: the arm slides along its
+     * axis (axial) and across it (radial) the way the joint is loaded */
+    double actuator_clearance_axial_m, actuator_clearance_radial_m;
 } dm_effects;
 
 /* Does the robot have any geometry error (then the real pose differs from
  * the commanded one)? */
 int dm_effects_geometry_errors(const dm_effects *effects);
+
+/* Has the robot any joint clearance (a dead band that flips with the load)? */
+int dm_effects_clearance(const dm_effects *effects);
 
 /* Does chain i sit on a compliant base (its arm root gets three
  * translations tied to ground by springs)? Chains without springs stay rigid. */

@@ -46,8 +46,9 @@ static const char SYNTH_HELP[] =
     "check whether an experiment can identify an effect before running it.\n"
     "Effects: actuator_stiffness, joint_stiffness, base_stiffness,\n"
     "base_stiffness_0/1/2 (N/m, isotropic), payload_mass, elbow_mass (kg),\n"
-    "geometric_stiffness=on, damping_alpha (1/s), damping_beta (s), clearance (m),\n"
-    "and the geometry errors per chain\n"
+    "geometric_stiffness=on, damping_alpha (1/s), damping_beta (s), clearance,\n"
+    "actuator_clearance_axial, actuator_clearance_radial (m), and the geometry\n"
+    "errors per chain\n"
     "error_arm_length, error_rod_length, error_base_radius, error_platform_radius\n"
     "(m), error_theta_deg, error_alpha0_deg (deg) as =C0,C1,C2.\n";
 

@@ -29,6 +29,10 @@ static const dm_candidate CANDIDATES[] = {
     {"geometric_stiffness", "", 0, 0, ALL, 0, 0},
     /* joint clearance: jumps when a force flips a rod's load */
     {"clearance", "m", -7.0, -3.0, K_STATIC | K_TRACK, 1, 0},
+    /* axial play of the actuator joints; their radial play shifts each arm
+     * along the rods' pull, which to first order is rod-end clearance of
+     * half its size: `clearance` stands for both */
+    {"actuator_clearance_axial", "m", -7.0, -3.0, K_STATIC | K_TRACK, 1, 0},
     /* geometry errors move the platform: only a tracker sees them */
     {"error_arm_length", "m", 0, 1, K_TRACK, 3, 1},
     {"error_rod_length", "m", 0, 1, K_TRACK, 3, 1},
@@ -65,7 +69,9 @@ int dm_effect_apply(dm_robot *rb, const char *name, const double *v, dm_error *e
 {
     char set[256];
     const dm_candidate *c = dm_candidate_find(name);
-    if (!c)
+    /* radial actuator play is an effect (for synth) but not a candidate */
+    int one_value = !c && !strcmp(name, "actuator_clearance_radial");
+    if (!c && !one_value)
         return dm_fail(err, DM_EINVAL, "'%s' is not a candidate effect", name);
     if (!strcmp(name, "geometric_stiffness"))
         snprintf(set, sizeof set, "effects.geometric_stiffness=on");
@@ -73,7 +79,7 @@ int dm_effect_apply(dm_robot *rb, const char *name, const double *v, dm_error *e
         snprintf(set, sizeof set, "damping.%s=%.17g", name + 8, v[0]);
     else if (!strncmp(name, "base_stiffness", 14))
         snprintf(set, sizeof set, "effects.%s=%.17g,%.17g,%.17g", name, v[0], v[0], v[0]);
-    else if (c->nparam == 3)
+    else if (!one_value && c->nparam == 3)
         snprintf(set, sizeof set, "effects.%s=%.17g,%.17g,%.17g", name, v[0], v[1], v[2]);
     else
         snprintf(set, sizeof set, "effects.%s=%.17g", name, v[0]);

@@ -105,17 +105,25 @@ int dm_kin_inverse(const dm_robot *rb, const double P[3], dm_pose *pose, dm_erro
     return DM_OK;
 }
 
-static int forward_lb(const dm_robot *rb, int real, const double alpha[3], const double dlb[3],
+/* What joint clearances do to each chain: extra rod length, and a shift of
+ * the whole arm (its revolute joint's play). */
+typedef struct {
+    double dlb[3];
+    double shift[3][3];
+} chain_play;
+
+static int forward_lb(const dm_robot *rb, int real, const double alpha[3], const chain_play *play,
                       double P[2][3]);
 
 static int forward(const dm_robot *rb, int real, const double alpha[3], double P[2][3])
 {
-    const double none[3] = {0, 0, 0};
-    return forward_lb(rb, real, alpha, none, P);
+    chain_play none;
+    memset(&none, 0, sizeof none);
+    return forward_lb(rb, real, alpha, &none, P);
 }
 
-/* Forward kinematics with extra rod lengths dlb (clearance). */
-static int forward_lb(const dm_robot *rb, int real, const double alpha[3], const double dlb[3],
+/* Forward kinematics with the chains' clearance play. */
+static int forward_lb(const dm_robot *rb, int real, const double alpha[3], const chain_play *play,
                       double P[2][3])
 {
     /* Each chain: |P - S_i| = lb_i with S_i = B_i - r_i e_i. Subtracting the
@@ -130,7 +138,8 @@ static int forward_lb(const dm_robot *rb, int real, const double alpha[3], const
         dm_scale3(g.R, e, A);
         elbow_at(&g, A, e, alpha[i] + g.alpha0, B);
         dm_axpy3(B, -g.r, e, S[i]);
-        lb2[i] = (g.lb + dlb[i]) * (g.lb + dlb[i]);
+        dm_axpy3(S[i], 1.0, play->shift[i], S[i]);
+        lb2[i] = (g.lb + play->dlb[i]) * (g.lb + play->dlb[i]);
     }
     double n1[3], n2[3], dir[3];
     dm_sub3(S[1], S[0], n1);
@@ -203,19 +212,45 @@ int dm_kin_pose(const dm_robot *rb, const double P[3], dm_pose *pose, dm_error *
     return dm_kin_pose_loaded(rb, P, W, pose, err);
 }
 
+/* Clearances open the way the joints are loaded (rod forces N from the
+ * platform's equilibrium under W). Rod-end balls: each rod 2c longer in
+ * tension, 2c shorter in compression. Actuator joint: the arm takes the
+ * rods' pull F = -N u at its elbow; its revolute joint lets it slide by
+ * c_axial along the axis t the way F.t points, and by c_radial across the
+ * axis along F's part normal to t. */
+static void clearance_play(const dm_robot *rb, const dm_pose *pose, const double W[3],
+                           chain_play *play)
+{
+    const dm_effects *ef = &rb->effects;
+    double N[3];
+    rod_forces(pose, W, N);
+    for (int i = 0; i < 3; i++) {
+        double u[3], F[3], t[3], Fn[3];
+        play->dlb[i] = 2 * ef->clearance_m * (N[i] >= 0 ? 1.0 : -1.0);
+        dm_sub3(pose->B[i], pose->C[i], u);
+        dm_scale3(-N[i] / dm_norm3(u), u, F);
+        dm_copy3(pose->t[i], t);
+        double Ft = dm_dot3(F, t);
+        dm_axpy3(F, -Ft, t, Fn);
+        double fn = dm_norm3(Fn);
+        dm_scale3(ef->actuator_clearance_axial_m * (Ft >= 0 ? 1.0 : -1.0), t, play->shift[i]);
+        if (fn > 0)
+            dm_axpy3(play->shift[i], ef->actuator_clearance_radial_m / fn, Fn, play->shift[i]);
+    }
+}
+
 int dm_kin_pose_loaded(const dm_robot *rb, const double P[3], const double W[3], dm_pose *pose,
                        dm_error *err)
 {
     int rc = dm_kin_inverse(rb, P, pose, err);
     if (rc || !dm_effects_geometry_errors(&rb->effects))
         return rc;
-    double sol[2][3], alpha[3], dlb[3] = {0, 0, 0}, N[3];
-    if (rb->effects.clearance_m > 0) {
-        rod_forces(pose, W, N);
-        for (int i = 0; i < 3; i++)
-            dlb[i] = 2 * rb->effects.clearance_m * (N[i] >= 0 ? 1.0 : -1.0);
-    }
-    int n = forward_lb(rb, 1, pose->alpha, dlb, sol);
+    double sol[2][3], alpha[3];
+    chain_play play;
+    memset(&play, 0, sizeof play);
+    if (dm_effects_clearance(&rb->effects))
+        clearance_play(rb, pose, W, &play);
+    int n = forward_lb(rb, 1, pose->alpha, &play, sol);
     if (n == 0)
         return dm_fail(err, DM_EUNREACHABLE,
                        "pose (%g, %g, %g) m: the real robot (with its geometry errors) cannot "

@@ -321,7 +321,7 @@ static int predict_poses(const dm_robot *rb, const dm_dataset *d, int na, int nb
     dm_pose_result res;
     dm_pose loaded;
     int rc = DM_OK, last = -1;
-    int clearance = d->kind == DM_DATA_STATIC && rb->effects.clearance_m > 0;
+    int clearance = d->kind == DM_DATA_STATIC && dm_effects_clearance(&rb->effects);
     for (int i = 0; i < d->n && !rc; i++) {
         const dm_sample *s = &d->s[i];
         if (s->pose_id != last) {

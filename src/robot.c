@@ -84,6 +84,8 @@ static const key_spec KEYS[] = {
     {"effects", "base_stiffness_2", KEY_VEC3_NONNEG, R_OFF(effects.base_stiffness_n_per_m[2]), 0, "N/m"},
     {"effects", "geometric_stiffness", KEY_ONOFF, R_OFF(effects.geometric_stiffness), 0, ""},
     {"effects", "clearance", KEY_POSITIVE, R_OFF(effects.clearance_m), 0, "m"},
+    {"effects", "actuator_clearance_axial", KEY_POSITIVE, R_OFF(effects.actuator_clearance_axial_m), 0, "m"},
+    {"effects", "actuator_clearance_radial", KEY_POSITIVE, R_OFF(effects.actuator_clearance_radial_m), 0, "m"},
     {"effects", "error_arm_length", KEY_VEC3, R_OFF(effects.err_arm_length_m), 0, "m"},
     {"effects", "error_rod_length", KEY_VEC3, R_OFF(effects.err_rod_length_m), 0, "m"},
     {"effects", "error_base_radius", KEY_VEC3, R_OFF(effects.err_base_radius_m), 0, "m"},
@@ -247,7 +249,8 @@ static int handler(void *user, const char *section, const char *name, const char
             return key_error(st, st->line, section, name,
                              "not a model extension (actuator_stiffness, joint_stiffness, "
                              "payload_mass, payload_offset, elbow_mass, base_stiffness[_0|_1|_2], "
-                             "geometric_stiffness, clearance, error_arm_length, error_rod_length, "
+                             "geometric_stiffness, clearance, actuator_clearance_axial, "
+                             "actuator_clearance_radial, error_arm_length, error_rod_length, "
                              "error_base_radius, error_platform_radius, error_theta_deg, "
                              "error_alpha0_deg)");
     int known_section = 0;
@@ -359,7 +362,13 @@ int dm_effects_geometry_errors(const dm_effects *e)
         if (e->err_arm_length_m[i] || e->err_rod_length_m[i] || e->err_base_radius_m[i] ||
             e->err_platform_radius_m[i] || e->err_theta_rad[i] || e->err_alpha0_rad[i])
             return 1;
-    return e->clearance_m > 0;
+    return dm_effects_clearance(e);
+}
+
+int dm_effects_clearance(const dm_effects *e)
+{
+    return e->clearance_m > 0 || e->actuator_clearance_axial_m > 0 ||
+           e->actuator_clearance_radial_m > 0;
 }
 
 int dm_effects_base_compliant(const dm_effects *e, int i)
@@ -611,6 +620,10 @@ static void write_effects(FILE *out, const dm_effects *e)
     fprintf(out, "geometric_stiffness = %s\n", e->geometric_stiffness ? "on" : "off");
     if (e->clearance_m > 0)
         fprintf(out, "clearance = %.17g\n", e->clearance_m);
+    if (e->actuator_clearance_axial_m > 0)
+        fprintf(out, "actuator_clearance_axial = %.17g\n", e->actuator_clearance_axial_m);
+    if (e->actuator_clearance_radial_m > 0)
+        fprintf(out, "actuator_clearance_radial = %.17g\n", e->actuator_clearance_radial_m);
     const struct {
         const char *key;
         const double *v;

@@ -20,7 +20,7 @@ static const hidden HIDDEN[] = {
     {"base_stiffness", 2e5, 2e7},      {"base_stiffness_0", 2e5, 2e7},
     {"base_stiffness_2", 2e5, 2e7},    {"payload_mass", 0.1, 3.0},
     {"elbow_mass", 1.0, 5.0},          {"geometric_stiffness", 1, 1},
-    {"clearance", 5e-6, 5e-5},
+    {"clearance", 5e-6, 5e-5},         {"actuator_clearance_axial", 5e-6, 5e-5},
 };
 #define NHIDDEN (int)(sizeof HIDDEN / sizeof HIDDEN[0])
 
@@ -204,6 +204,26 @@ static void two_effects_are_both_found(void **state)
     dm_dataset_free(&d);
 }
 
+/* Radial play c_r of the actuator joints shifts each arm along the rods'
+ * pull: to first order rod-end clearance c_r / 2, the candidate that
+ * stands for it (docs/model-choices.md). */
+static void radial_actuator_play_reads_as_clearance(void **state)
+{
+    (void)state;
+    const char *name = "actuator_clearance_radial";
+    const double cr = 2e-5;
+    dm_dataset d;
+    dm_diagnosis dg;
+    double ratio;
+    make_data(DM_DATA_STATIC, &name, &cr, 1, 31, &d, &ratio);
+    diagnose(&d, 0, &dg);
+    assert_true(dg.found);
+    assert_string_equal(dg.best.cand[0]->name, "clearance");
+    assert_rel(dg.best.value[0][0], cr / 2, 0.10, "clearance standing for radial play");
+    assert_true(dg.best.gain_percent >= 80.0);
+    dm_dataset_free(&d);
+}
+
 /* Fits run in parallel; every number of the diagnosis, ranking and pair
  * included, is the same on one thread and on three. */
 static void diagnosis_does_not_depend_on_threads(void **state)
@@ -237,8 +257,9 @@ static void diagnosis_does_not_depend_on_threads(void **state)
  * the structure, and a move along one axis leaves a small payload and a
  * softer joint nearly alike. Two seeds per effect.
  * Base and platform radius errors move the platform alike (only R - r
- * enters the kinematics): the diagnosis must name one and report the
- * other as indistinguishable, with R - r recovered. */
+ * enters the kinematics), and when one mode rings Rayleigh alpha and beta
+ * both just set its damping ratio: the diagnosis may name either twin, and
+ * must then report the other as indistinguishable. */
 #define CIRCLE "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=0.1"
 #define RINGDOWN "p2p:from=-0.03,-0.02,-0.41;to=0.03,0.02,-0.39;duration=0.05;law=bangbang;dwell=0.05"
 
@@ -246,7 +267,7 @@ typedef struct {
     const char *name;
     double lo, hi;    /* per chain: |value| uniform in [lo, hi], either sign; else log-uniform */
     const char *path;
-    const char *twin; /* an effect these data cannot tell from this one (sign -1) */
+    const char *twin; /* an effect these data may not tell from this one */
 } tracked;
 
 static const tracked TRACKED[] = {
@@ -257,6 +278,7 @@ static const tracked TRACKED[] = {
     {"error_base_radius", 1e-4, 3e-4, CIRCLE, "error_platform_radius"},
     {"error_platform_radius", 1e-4, 3e-4, CIRCLE, "error_base_radius"},
     {"clearance", 1e-5, 4e-5, CIRCLE, NULL},
+    {"actuator_clearance_axial", 2e-4, 5e-4, CIRCLE, NULL}, /* seen through the rods' small tilt along the axis */
     {"actuator_stiffness", 2e3, 2e5, RINGDOWN, NULL},
     {"joint_stiffness", 2e5, 2e7, RINGDOWN, NULL},
     {"base_stiffness", 2e5, 2e7, RINGDOWN, NULL},
@@ -264,8 +286,8 @@ static const tracked TRACKED[] = {
     {"payload_mass", 0.1, 3.0, RINGDOWN, NULL},
     {"elbow_mass", 2.0, 5.0, RINGDOWN, NULL},
     {"geometric_stiffness", 1, 1, RINGDOWN, NULL},
-    {"damping_alpha", 20, 300, RINGDOWN, NULL},
-    {"damping_beta", 6e-4, 3e-3, RINGDOWN, NULL},
+    {"damping_alpha", 20, 300, RINGDOWN, "damping_beta"},
+    {"damping_beta", 6e-4, 3e-3, RINGDOWN, "damping_alpha"},
 };
 #define NTRACKED (int)(sizeof TRACKED / sizeof TRACKED[0])
 
@@ -285,6 +307,16 @@ static int is_tie(const dm_diagnosis *dg, const char *name)
     return 0;
 }
 
+static const dm_fit *fit_of(const dm_diagnosis *dg, const char *name)
+{
+    for (int r = 0; r < dg->nrank; r++)
+        if (!strcmp(dg->rank[r].cand[0]->name, name))
+            return &dg->rank[r];
+    return NULL;
+}
+
+/* The hidden effect is named first, or its twin is and the diagnosis says
+ * the two tie; either way the hidden effect's own fit recovers it. */
 static void tracker_case(const tracked *t, uint64_t seed)
 {
     const dm_candidate *c = dm_candidate_find(t->name);
@@ -296,24 +328,22 @@ static void tracker_case(const tracked *t, uint64_t seed)
     make_tracker_data(t->name, v, t->path, seed, &d, &ratio);
     diagnose(&d, 0, &dg);
     const char *found = dg.found ? dg.best.cand[0]->name : "nothing";
-    double sign = 1;
-    if (t->twin && !strcmp(found, t->twin)) { /* the twin named: the original must tie */
-        assert_true(is_tie(&dg, t->name));
-        sign = -1;
-    } else if (t->twin) {
-        assert_true(is_tie(&dg, t->twin));
-    }
-    if (strcmp(found, t->name) && sign > 0)
+    int twin_named = t->twin && !strcmp(found, t->twin);
+    if (strcmp(found, t->name) && !twin_named)
         print_error("tracker, hidden %s = %g (effect %.1f x noise), seed %d: found %s\n", t->name,
                     v[0], ratio, (int)seed, found);
     assert_true(dg.found);
-    assert_string_equal(dg.best.cand[0]->name, sign > 0 ? t->name : t->twin);
+    if (twin_named)
+        assert_true(is_tie(&dg, t->name));
+    else
+        assert_string_equal(found, t->name);
+    const dm_fit *own = fit_of(&dg, t->name);
+    assert_non_null(own);
     for (int k = 0; k < c->nparam; k++) {
-        assert_rel(sign * dg.best.value[0][k], v[k], 0.10, "%s (%d of %d)", t->name, k + 1, c->nparam);
-        double vk = sign * v[k];
-        assert_calibrated(&dg.best, k, &vk);
+        assert_rel(own->value[0][k], v[k], 0.10, "%s (%d of %d)", t->name, k + 1, c->nparam);
+        assert_calibrated(own, k, &v[k]);
     }
-    assert_true(dg.best.gain_percent >= 80.0);
+    assert_true(own->gain_percent >= 80.0 && dg.best.gain_percent >= 80.0);
     dm_dataset_free(&d);
 }
 
@@ -334,6 +364,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(two_effects_are_both_found),
         cmocka_unit_test(hidden_effects_in_modal_surveys),
         cmocka_unit_test(hidden_effects_in_static_surveys),
+        cmocka_unit_test(radial_actuator_play_reads_as_clearance),
         cmocka_unit_test(diagnosis_does_not_depend_on_threads),
         cmocka_unit_test(hidden_effects_in_tracker_runs),
     };

@@ -234,6 +234,72 @@ static void clearance_follows_the_load(void **state)
     assert_abs(down.offset[0], 0.0, 1e-12, "no sideways shift at the centre");
 }
 
+/* 3x3 solve by Cramer's rule (row-major A): independent of the library. */
+static void solve3(const double A[9], const double b[3], double x[3])
+{
+    double det = A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) +
+                 A[2] * (A[3] * A[7] - A[4] * A[6]);
+    for (int c = 0; c < 3; c++) {
+        double M[9];
+        memcpy(M, A, sizeof M);
+        for (int r = 0; r < 3; r++)
+            M[3 * r + c] = b[r];
+        x[c] = (M[0] * (M[4] * M[8] - M[5] * M[7]) - M[1] * (M[3] * M[8] - M[5] * M[6]) +
+                M[2] * (M[3] * M[7] - M[4] * M[6])) / det;
+    }
+}
+
+/* Actuator-joint clearance: each arm slides by d_i = c_a sign(F.t) t
+ * (axial) or c_r F_n / |F_n| (radial), F = -N u the rods' pull on the
+ * elbow, N from the platform's equilibrium. To first order the chains close
+ * where u_i . dP = u_i . d_i. Off the centre (there u.t = 0), under a
+ * load with a sideways part, and reversed when the load is. */
+static void actuator_clearance_follows_the_load(void **state)
+{
+    (void)state;
+    const char *keys[2] = {"effects.actuator_clearance_axial=20e-6",
+                           "effects.actuator_clearance_radial=20e-6"};
+    const double c = 20e-6;
+    for (int kind = 0; kind < 2; kind++)
+        for (int flip = 0; flip < 2; flip++) {
+            dm_robot rb;
+            dm_pose nom, real;
+            assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
+            assert_int_equal(dm_robot_set(&rb, keys[kind], NULL), 0);
+            const double P[3] = {rb.home_m[0] + 0.05, rb.home_m[1] + 0.03, rb.home_m[2]};
+            const double s = flip ? -1 : 1, W[3] = {8 * s, -5 * s, -30 * s};
+            assert_int_equal(dm_kin_inverse(&rb, P, &nom, NULL), 0);
+            assert_int_equal(dm_kin_pose_loaded(&rb, P, W, &real, NULL), 0);
+            double U[9], u[3][3], N[3], mW[3] = {-W[0], -W[1], -W[2]}, b[3], dP[3];
+            for (int i = 0; i < 3; i++) {
+                dm_sub3(nom.B[i], nom.C[i], u[i]);
+                dm_scale3(1 / dm_norm3(u[i]), u[i], u[i]);
+                for (int k = 0; k < 3; k++)
+                    U[3 * k + i] = u[i][k]; /* columns u_i: sum N_i u_i = -W */
+            }
+            solve3(U, mW, N);
+            for (int i = 0; i < 3; i++) {
+                double F[3], Fn[3], d[3];
+                dm_scale3(-N[i], u[i], F);
+                double Ft = dm_dot3(F, nom.t[i]);
+                assert_true(fabs(Ft) > 1e-3 * dm_norm3(F)); /* the axial sign is defined */
+                dm_axpy3(F, -Ft, nom.t[i], Fn);
+                if (kind == 0)
+                    dm_scale3(c * (Ft > 0 ? 1 : -1), nom.t[i], d);
+                else
+                    dm_scale3(c / dm_norm3(Fn), Fn, d);
+                b[i] = dm_dot3(u[i], d);
+                for (int k = 0; k < 3; k++)
+                    U[3 * i + k] = u[i][k]; /* rows u_i: u_i . dP = u_i . d_i */
+            }
+            solve3(U, b, dP);
+            for (int k = 0; k < 3; k++) /* first order in c: O(c^2 / lb) left */
+                assert_abs(real.offset[k], dP[k], 1e-3 * dm_norm3(dP), "%s, load %+g, axis %d",
+                           keys[kind], s, k);
+            assert_true(dm_norm3(dP) > 0.05 * c); /* axial: ~0.1 c here (rods nearly normal to t) */
+        }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -245,6 +311,7 @@ int main(void)
         cmocka_unit_test(condition_number_symmetric_centre),
         cmocka_unit_test(geometry_errors_move_the_platform),
         cmocka_unit_test(clearance_follows_the_load),
+        cmocka_unit_test(actuator_clearance_follows_the_load),
     };
     return cmocka_run_group_tests_name("kinematics", tests, NULL, NULL);
 }
