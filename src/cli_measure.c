@@ -387,8 +387,7 @@ static void print_diagnosis(const dm_dataset *d, const dm_robot *rb, const dm_di
             for (int t = 0; t < dg->ntie; t++)
                 printf("%s %s", t ? (t + 1 < dg->ntie ? "," : " or") : "",
                        dg->rank[dg->tie[t]].cand[0]->name);
-            printf(" (scores within %g): they move the data alike; data of another\n"
-                   "          kind, or poses where they differ, would separate them.\n",
+            printf("\n          (scores within %g): either explains them; other data must decide.\n",
                    DM_DIAG_TIE);
         }
     }

@@ -1,8 +1,9 @@
 #!/bin/sh
 # The worked case of docs/diagnosis.md: a zheng2017 robot whose frame under
 # chain 1 is compliant (the "measured" data are synthetic, so the truth is
-# known), found from a modal survey, checked on a static survey.
-#   tools/diagnosis_demo.sh [DELTAMAP]      (about three minutes on 2 cores)
+# known), found from a modal survey, checked on a static survey; then two
+# laser-tracker runs (damping from a ring-down, a tie from a circle).
+#   tools/diagnosis_demo.sh [DELTAMAP]      (about a minute on 2 cores)
 set -e
 cd "$(dirname "$0")/.."
 DM=${1:-build/deltamap}
