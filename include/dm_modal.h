@@ -10,9 +10,10 @@
 #include "dm_error.h"
 
 typedef enum {
-    /* Cholesky of M, reduction to standard form (dsygst), MRRR eigensolver
-     * for the k lowest pairs only (dsyevr range 'I'), back-substitution.
-     * Default: measured fastest for k << n (see make bench). */
+    /* Cholesky of M, reduction to standard form (dsygst), the k lowest
+     * pairs only (dsyevr range 'I'; up to 96 DOF dsterf for the eigenvalues
+     * and dstein for k vectors), back-substitution. Default: measured
+     * fastest for k << n (see make bench). */
     DM_EIGEN_PARTIAL = 0,
     /* All pairs by divide and conquer (dsygvd); the reference. */
     DM_EIGEN_ALL = 1
