@@ -365,6 +365,11 @@ static void print_diagnosis(const dm_dataset *d, const dm_robot *rb, const dm_di
     if (!dg->significant)
         printf("no significant discrepancy: the baseline fits the held-out data within the "
                "noise; nothing to fix.\n");
+    else if (!dg->found && !dg->sigma_known)
+        printf("no candidate effect explains the residuals (RMS %.4g %s) better than chance.\n"
+               "          The file gives no sigma, so whether they exceed the noise is unknown: "
+               "give --sigma.\n",
+               dg->base_held_rms, unit);
     else if (!dg->found)
         printf("the model misses something (held-out chi2/N %.3g), but no candidate effect "
                "beats the noise; the cause is outside the candidates.\n",

@@ -156,6 +156,10 @@ expect 0 "diagnose tie" "$DM" diagnose --measured "$TMP/radius.csv" --mesh 1,1 -
 contains out "cannot tell"
 expect 0 "diagnose tie json" "$DM" diagnose --measured "$TMP/radius.csv" --mesh 1,1 --sigma 2e-6 --no-pairs --json
 json_true "sorted([d['cause']] + d['indistinguishable_from']) == ['error_base_radius', 'error_platform_radius']"
+# noise only, no sigma in the file: nothing named, and no claim about the noise
+expect 0 "synth tracker noise" "$DM" synth --robot zheng2017 --kind tracker --noise 2e-6 --seed 4 --mesh 1,1 --path "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=0.1" --out "$TMP/tnull.csv"
+expect 0 "diagnose tracker null" "$DM" diagnose --measured "$TMP/tnull.csv" --mesh 1,1 --no-pairs
+contains out "give --sigma"
 expect 1 "diagnose threads" "$DM" diagnose --measured "$TMP/radius.csv" --threads 0
 contains err "--threads"
 expect 2 "negative dwell" "$DM" trajectory --robot zheng2017 --path "p2p:from=0,0,-0.4;to=0.01,0,-0.4;duration=0.1;dwell=-1"
