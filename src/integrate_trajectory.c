@@ -32,6 +32,11 @@ typedef struct {
     dm_static *statics;
     dm_stepper *stepper, *ref_stepper;
     double *x, *xd, *xr, *xrd, *F0, *F1, *xout;
+    /* the pose the model, modes and factor were last made for: a step at
+     * the very same pose (a robot standing still) reuses them */
+    dm_pose frozen;
+    int have_frozen;
+    const dm_modes *mo, *mo_all;
 } run_ws;
 
 static void free_ws(run_ws *w)
@@ -118,8 +123,10 @@ static int load_at(const run_ws *w, double t, double *F, dm_error *err)
 }
 
 /* Output displacement: the state, plus with quasi_static the static part of
- * the dropped modes, K^-1 F - sum_j phi_j phi_j' F / omega_j^2. */
-static int output_state(run_ws *w, const dm_modes *mo, const double *F, dm_error *err)
+ * the dropped modes, K^-1 F - sum_j phi_j phi_j' F / omega_j^2. K is
+ * factored again only when the model changed (refactor). */
+static int output_state(run_ws *w, const dm_modes *mo, const double *F, int refactor,
+                        dm_error *err)
 {
     int n = w->n;
     memcpy(w->xout, w->x, sizeof(double) * n);
@@ -127,7 +134,7 @@ static int output_state(run_ws *w, const dm_modes *mo, const double *F, dm_error
         return DM_OK;
     double *s = w->F0 == F ? w->F1 : w->F0; /* scratch that is not F */
     memcpy(s, F, sizeof(double) * n);
-    int rc = dm_static_factor(w->statics, w->md->K, err);
+    int rc = refactor ? dm_static_factor(w->statics, w->md->K, err) : DM_OK;
     if (!rc)
         rc = dm_static_solve(w->statics, s, 1, err);
     if (rc)
@@ -199,12 +206,22 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     double t0 = j * w->o.dt_s, t1 = j + 1 == nsteps ? tr->duration_s : (j + 1) * w->o.dt_s;
     double h = t1 - t0, P[3], v[3], a[3];
     dm_pose pose;
-    const dm_modes *mo, *mo_all = NULL;
     dm_integ_sample s;
     dm_traj_eval(tr, t0, P, v, a);
+    memset(&pose, 0, sizeof pose); /* compared bytewise below */
     int rc = pose_at(w, P, a, &pose, err);
-    if (!rc) rc = dm_model_build(w->md, &pose, err);
-    if (!rc) rc = dm_modal_solve(w->modal, w->md->K, w->md->M, w->ksolve, &mo, err);
+    /* the same pose bit for bit gives the same model, modes and factor */
+    int fresh = !w->have_frozen || memcmp(&pose, &w->frozen, sizeof pose);
+    if (!rc && fresh) {
+        w->have_frozen = 0;
+        rc = dm_model_build(w->md, &pose, err);
+        if (!rc) rc = dm_modal_solve(w->modal, w->md->K, w->md->M, w->ksolve, &w->mo, err);
+        if (!rc && w->ref_stepper)
+            rc = dm_modal_solve(w->modal_all, w->md->K, w->md->M, w->n, &w->mo_all, err);
+        w->frozen = pose;
+        w->have_frozen = !rc;
+    }
+    const dm_modes *mo = w->mo;
     if (!rc && j == 0) {
         rc = initial_state(w, err);
         if (!rc) {
@@ -215,14 +232,11 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     }
     if (!rc) rc = load_at(w, t0, w->F0, err);
     if (!rc) rc = load_at(w, t1, w->F1, err);
-    if (!rc && w->ref_stepper) {
-        rc = dm_modal_solve(w->modal_all, w->md->K, w->md->M, w->n, &mo_all, err);
-        if (!rc)
-            rc = dm_stepper_advance(w->ref_stepper, w->md, mo_all, w->n, w->F0, w->F1, h, w->xr,
-                                    w->xrd, err);
-    }
+    if (!rc && w->ref_stepper)
+        rc = dm_stepper_advance(w->ref_stepper, w->md, w->mo_all, w->n, w->F0, w->F1, h, w->xr,
+                                w->xrd, err);
     if (!rc) rc = dm_stepper_advance(w->stepper, w->md, mo, w->k, w->F0, w->F1, h, w->x, w->xd, err);
-    if (!rc) rc = output_state(w, mo, w->F1, err);
+    if (!rc) rc = output_state(w, mo, w->F1, fresh, err);
     if (rc)
         return rc;
     fill_sample(w, t1, w->xout, mo, &s);
