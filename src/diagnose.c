@@ -117,7 +117,6 @@ typedef struct {
     int ncand, nfixed;
     const dm_candidate *cand[2];
     double fixed[2][3];
-    int failed;
 } problem;
 
 static void split_samples(const dm_dataset *d, char *held)
@@ -181,7 +180,6 @@ static int residuals(void *user, int m, int n, const double *x, double *fvec, in
     double value[2][3];
     to_values(p, x, value);
     if (predict_with(p, value, NULL)) {
-        p->failed = 1;
         for (int i = 0; i < m; i++)
             fvec[i] = 1e3; /* unphysical region: steer the search away */
         return 0;
@@ -248,17 +246,11 @@ static void normal_matrix(const double *J, int m, int n, double *A)
         }
 }
 
-/* 1-sigma uncertainties: cov = s (J'J)^-1, s = reduced chi-square when
- * above 1 (the model misfits beyond the noise). */
-static void covariance(const double *J, int m, int n, double c2, double *sig)
+/* Scale of the covariance: the reduced chi-square when above 1 (the model
+ * misfits beyond the noise), else 1. */
+static double misfit_scale(double c2, int m, int n)
 {
-    double A[DM_DIAG_MAXP * DM_DIAG_MAXP];
-    normal_matrix(J, m, n, A);
-    double scale = fmax(1.0, c2 / (m > n ? m - n : 1));
-    int ok = !LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', n, A, n) &&
-             !LAPACKE_dpotri(LAPACK_COL_MAJOR, 'U', n, A, n);
-    for (int j = 0; j < n; j++)
-        sig[j] = ok && A[j * n + j] > 0 ? sqrt(scale * A[j * n + j]) : INFINITY;
+    return fmax(1.0, c2 / (m > n ? m - n : 1));
 }
 
 /* Levenberg-Marquardt (cminpack lmdif) from x; uncertainties from the
@@ -278,7 +270,7 @@ static void lm_fit(problem *p, double *x, int n, int m, double *sig)
         int info = lmdif(residuals, p, m, n, x, fvec, 1e-6, 1e-6, 0.0, 25 * (n + 1), 0.0, diag,
                          1, 100.0, 0, &nfev, fjac, m, ipvt, qtf, wa1, wa2, wa3, wa4);
         if (info > 0) {
-            double c2 = sum_squares(fvec, m), scale = fmax(1.0, c2 / (m > n ? m - n : 1));
+            double scale = misfit_scale(sum_squares(fvec, m), m, n);
             covar(n, fjac, m, ipvt, 1e-12, wa1);
             for (int j = 0; j < n; j++) {
                 double c = fjac[(size_t)j * m + j];
@@ -334,7 +326,10 @@ static void chord_fit(problem *p, double *x, int n, int m, double *sig)
         if (big < 1e-3)
             break;
     }
-    covariance(J, m, n, best, sig);
+    /* 1-sigma uncertainties: cov = scale (J'J)^-1, from the factor in A */
+    if (ok && !LAPACKE_dpotri(LAPACK_COL_MAJOR, 'U', n, A, n))
+        for (int j = 0; j < n; j++)
+            sig[j] = A[j * n + j] > 0 ? sqrt(misfit_scale(best, m, n) * A[j * n + j]) : INFINITY;
     free(f);
     free(f1);
     free(J);
@@ -426,7 +421,6 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][3], dm_fit *
     set_window(p, 1.0);
     double *fvec = malloc(sizeof(double) * count_train(p));
     p->pred = malloc(sizeof(double) * p->s->d->n);
-    p->failed = 0;
     if (!fvec || !p->pred) {
         f->held_chi2 = f->score = INFINITY;
         free(fvec), free(p->pred);
