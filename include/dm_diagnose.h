@@ -36,7 +36,9 @@ const dm_candidate *dm_candidates(int *count);
 const dm_candidate *dm_candidate_find(const char *name);
 
 /* Apply effect `name` with its parameter values v[nparam] (ignored for
- * switches) to a robot. */
+ * switches) to a robot. A name that is not a candidate is set as the robot
+ * file's [effects] key of that name with the value v[0] (so every effect
+ * can be synthesised); the robot-file parser refuses unknown keys. */
 int dm_effect_apply(dm_robot *robot, const char *name, const double *v, dm_error *err);
 
 typedef struct dm_fit {

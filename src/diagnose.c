@@ -69,17 +69,13 @@ int dm_effect_apply(dm_robot *rb, const char *name, const double *v, dm_error *e
 {
     char set[256];
     const dm_candidate *c = dm_candidate_find(name);
-    /* radial actuator play is an effect (for synth) but not a candidate */
-    int one_value = !c && !strcmp(name, "actuator_clearance_radial");
-    if (!c && !one_value)
-        return dm_fail(err, DM_EINVAL, "'%s' is not a candidate effect", name);
     if (!strcmp(name, "geometric_stiffness"))
         snprintf(set, sizeof set, "effects.geometric_stiffness=on");
     else if (!strncmp(name, "damping_", 8))
         snprintf(set, sizeof set, "damping.%s=%.17g", name + 8, v[0]);
     else if (!strncmp(name, "base_stiffness", 14))
         snprintf(set, sizeof set, "effects.%s=%.17g,%.17g,%.17g", name, v[0], v[0], v[0]);
-    else if (!one_value && c->nparam == 3)
+    else if (c && c->nparam == 3)
         snprintf(set, sizeof set, "effects.%s=%.17g,%.17g,%.17g", name, v[0], v[1], v[2]);
     else
         snprintf(set, sizeof set, "effects.%s=%.17g", name, v[0]);

@@ -160,6 +160,8 @@ json_true "sorted([d['cause']] + d['indistinguishable_from']) == ['error_base_ra
 expect 0 "synth tracker noise" "$DM" synth --robot zheng2017 --kind tracker --noise 2e-6 --seed 4 --mesh 1,1 --path "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=0.1" --out "$TMP/tnull.csv"
 expect 0 "diagnose tracker null" "$DM" diagnose --measured "$TMP/tnull.csv" --mesh 1,1 --no-pairs
 contains out "give --sigma"
+expect 2 "synth unknown effect" "$DM" synth --robot zheng2017 --kind static --effect bogus=1 --poses 3
+contains err "not a model extension"
 expect 1 "diagnose threads" "$DM" diagnose --measured "$TMP/radius.csv" --threads 0
 contains err "--threads"
 expect 2 "negative dwell" "$DM" trajectory --robot zheng2017 --path "p2p:from=0,0,-0.4;to=0.01,0,-0.4;duration=0.1;dwell=-1"
