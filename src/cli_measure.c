@@ -258,13 +258,20 @@ int dm_cli_compare(int argc, char **argv)
     if (a.out) {
         dm_cli_out out;
         if ((rc = dm_cli_out_open(&out, a.out, &err)) == DM_OK) {
-            fprintf(out.f, "line,x,y,z,group,measured,predicted,residual,normalised\n");
+            /* modal: the mode rank; deflections and tracker errors: the axis
+             * (0, 1, 2 = x, y, z); tracker data also the time */
+            int modal = d.kind == DM_DATA_MODAL, tracker = d.kind == DM_DATA_TRACKER;
+            fprintf(out.f, "line,%sx,y,z,%s,measured,predicted,residual,normalised\n",
+                    tracker ? "t," : "", modal ? "mode" : "axis");
             for (int i = 0; i < d.n; i++) {
                 const dm_sample *s = &d.s[i];
                 double r = s->value - pred[i];
-                fprintf(out.f, "%d,%.9g,%.9g,%.9g,%d,%.12g,%.12g,%.6g,%.6g\n", s->line, s->P[0],
-                        s->P[1], s->P[2], d.kind == DM_DATA_MODAL ? s->mode : s->comp, s->value,
-                        pred[i], r, s->sigma > 0 ? r / s->sigma : r);
+                fprintf(out.f, "%d,", s->line);
+                if (tracker)
+                    fprintf(out.f, "%.9g,", s->t);
+                fprintf(out.f, "%.9g,%.9g,%.9g,%d,%.12g,%.12g,%.6g,%.6g\n", s->P[0], s->P[1],
+                        s->P[2], modal ? s->mode : s->comp, s->value, pred[i], r,
+                        s->sigma > 0 ? r / s->sigma : r);
             }
             rc = dm_cli_out_commit(&out, &err);
         }

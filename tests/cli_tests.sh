@@ -148,6 +148,8 @@ json_true "d['cause'] is None and d['causes'] == []"
 expect 0 "diagnose text" "$DM" diagnose --measured "$TMP/null.csv" --mesh 1,1
 contains out "no significant discrepancy"
 expect 0 "synth tracker" "$DM" synth --robot zheng2017 --kind tracker --noise 1e-7 --seed 1 --mesh 1,1 --path "circle:centre=0,0,-0.4;radius=0.03;rate=6.283;duration=0.1" --out "$TMP/track.csv"
+expect 0 "compare tracker csv" "$DM" compare --measured "$TMP/track.csv" --mesh 1,1 --sigma 1e-7 --out "$TMP/tres.csv"
+if head -1 "$TMP/tres.csv" | grep -q "^line,t,x,y,z,axis,measured,predicted,residual,normalised$"; then ok; else bad "tracker residuals header"; fi
 expect 0 "compare tracker" "$DM" compare --measured "$TMP/track.csv" --mesh 1,1 --sigma 1e-7 --json
 json_true "d['kind'] == 'tracker' and d['exceeds_noise'] is False"
 # base and platform radius errors move a tracked platform alike: a tie, said so
@@ -189,6 +191,8 @@ if [ -x .venv/bin/python ]; then
     if [ -s "$TMP/run.png" ]; then ok; else bad "no trajectory plot"; fi
     expect 0 "plot compare" .venv/bin/python tools/plot_compare.py "$TMP/res.csv" -o "$TMP/res.png"
     if [ -s "$TMP/res.png" ]; then ok; else bad "no compare plot"; fi
+    expect 0 "plot tracker residuals" .venv/bin/python tools/plot_compare.py "$TMP/tres.csv" -o "$TMP/tres.png"
+    if [ -s "$TMP/tres.png" ]; then ok; else bad "no tracker residual plot"; fi
     expect 0 "plot study" .venv/bin/python tools/plot_study.py "$TMP/study.csv" -o "$TMP/study.png"
     if [ -s "$TMP/study.png" ]; then ok; else bad "no study plot"; fi
 else

@@ -35,6 +35,10 @@ $PY tools/plot_compare.py $D/modal-residuals-extended.csv -o docs/img/diagnosis-
 RING="p2p:from=-0.03,-0.02,-0.41;to=0.03,0.02,-0.39;duration=0.05;law=bangbang;dwell=0.05"
 $DM synth --robot zheng2017 --kind tracker --effect damping_beta=1.2e-3 --noise 2e-6 \
     --seed 9 --mesh 2,2 --path "$RING" --out $D/tracker.csv
+$DM compare --measured $D/tracker.csv --sigma 2e-6 --mesh 2,2 --out $D/tracker-residuals.csv \
+    > $D/tracker-compare.txt
+$PY tools/plot_compare.py $D/tracker-residuals.csv -o docs/img/diagnosis-tracker.png \
+    --title "zheng2017 baseline against a tracked ring-down (damping too light)"
 $DM diagnose --measured $D/tracker.csv --sigma 2e-6 --mesh 2,2 > $D/tracker-diagnose.txt
 $DM synth --robot zheng2017 --kind tracker --effect error_base_radius=1e-4,-2e-4,1.5e-4 \
     --noise 2e-6 --seed 3 --mesh 2,2 \
