@@ -131,6 +131,8 @@ static const char *label(const dm_dataset *d, const dm_sample *s, char *buf, siz
 {
     if (d->kind == DM_DATA_MODAL)
         snprintf(buf, n, "mode %d", s->mode);
+    else if (d->kind == DM_DATA_TRACKER) /* when, too: a run's error is a story in time */
+        snprintf(buf, n, "%c at t = %.4g s", "xyz"[s->comp], s->t);
     else
         snprintf(buf, n, "%c", "xyz"[s->comp]);
     return buf;
