@@ -24,9 +24,36 @@ static const hidden HIDDEN[] = {
 };
 #define NHIDDEN (int)(sizeof HIDDEN / sizeof HIDDEN[0])
 
-/* Synthetic data with effects applied and measurement noise: fixed by kind,
- * except for a switch (geometric stiffness), which has no magnitude to draw,
- * where it is an eighth of what the switch does. *ratio: effect RMS / noise. */
+/* Measurement noise on synthetic data d made by the extended robot: the
+ * effect (RMS of d against the baseline `base`) must be at least five times
+ * `noise` (checked); for a switch (geometric stiffness), which has no
+ * magnitude to draw, the noise is an eighth of what the switch does.
+ * *ratio: effect RMS / noise. */
+static void add_noise(const dm_robot *base, const char *name, double value, double noise,
+                      uint64_t seed, dm_dataset *d, double *ratio)
+{
+    double *pred = malloc(sizeof(double) * d->n), ms = 0;
+    assert_int_equal(dm_predict(base, d, 1, 1, pred, NULL), 0);
+    for (int i = 0; i < d->n; i++)
+        ms += (d->s[i].value - pred[i]) * (d->s[i].value - pred[i]);
+    double effect = sqrt(ms / d->n);
+    if (!strcmp(name, "geometric_stiffness"))
+        noise = effect / 8;
+    *ratio = effect / noise;
+    if (*ratio < 5.0)
+        print_error("%s = %g moves the %s data by only %.2g x the noise\n", name, value,
+                    dm_data_kind_name(d->kind), *ratio);
+    assert_true(*ratio >= 5.0); /* the drawn magnitude is in the visible range */
+    dm_rng rng = {seed * 977 + 13};
+    for (int i = 0; i < d->n; i++) {
+        d->s[i].value += noise * dm_rng_normal(&rng);
+        d->s[i].sigma = noise;
+    }
+    free(pred);
+}
+
+/* Surveys (12 poses, 6 modes) with effects names[i] = values[i] and noise
+ * 0.02 Hz on frequencies, 50 nm on deflections. */
 static void make_data(dm_data_kind kind, const char *const *names, const double *values, int n,
                       uint64_t seed, dm_dataset *d, double *ratio)
 {
@@ -40,29 +67,11 @@ static void make_data(dm_data_kind kind, const char *const *names, const double 
     }
     dm_synth_opts o = {.kind = kind, .npose = 12, .modes = 6, .noise = 0, .seed = seed, .na = 1, .nb = 1};
     assert_int_equal(dm_synthesize(&rb, &o, d, &err), 0);
-    double *pred = malloc(sizeof(double) * d->n), ms = 0;
-    assert_int_equal(dm_predict(&base, d, 1, 1, pred, NULL), 0);
-    for (int i = 0; i < d->n; i++)
-        ms += (d->s[i].value - pred[i]) * (d->s[i].value - pred[i]);
-    dm_rng rng = {seed * 977 + 13};
-    double effect = sqrt(ms / d->n), noise = kind == DM_DATA_MODAL ? 0.02 : 5e-8;
-    if (n == 1 && !strcmp(names[0], "geometric_stiffness"))
-        noise = effect / 8;
-    *ratio = effect / noise;
-    if (*ratio < 5.0)
-        print_error("%s = %g moves the %s data by only %.2g x the noise\n", names[0], values[0],
-                    dm_data_kind_name(kind), *ratio);
-    assert_true(*ratio >= 5.0); /* the drawn magnitude is in the visible range */
-    for (int i = 0; i < d->n; i++) {
-        d->s[i].value += noise * dm_rng_normal(&rng);
-        d->s[i].sigma = noise;
-    }
-    free(pred);
+    add_noise(&base, names[0], values[0], kind == DM_DATA_MODAL ? 0.02 : 5e-8, seed, d, ratio);
 }
 
 /* Tracker data along `path` with effect `name` = v (per chain for three
- * parameters) and noise 2 um; *ratio: effect RMS / noise, checked >= 5
- * (for the switch, geometric stiffness, the noise is an eighth of it). */
+ * parameters) and noise 2 um. */
 static void make_tracker_data(const char *name, const double v[3], const char *path,
                               uint64_t seed, dm_dataset *d, double *ratio)
 {
@@ -73,21 +82,7 @@ static void make_tracker_data(const char *name, const double v[3], const char *p
     dm_synth_opts o = {.kind = DM_DATA_TRACKER, .noise = 0, .seed = seed, .na = 1, .nb = 1,
                        .path = path};
     assert_int_equal(dm_synthesize(&rb, &o, d, NULL), 0);
-    double *pred = malloc(sizeof(double) * d->n), ms = 0;
-    assert_int_equal(dm_predict(&base, d, 1, 1, pred, NULL), 0);
-    for (int i = 0; i < d->n; i++)
-        ms += (d->s[i].value - pred[i]) * (d->s[i].value - pred[i]);
-    double effect = sqrt(ms / d->n), noise = strcmp(name, "geometric_stiffness") ? 2e-6 : effect / 8;
-    *ratio = effect / noise;
-    if (*ratio < 5.0)
-        print_error("%s = %g moves the tracker data by only %.2g x the noise\n", name, v[0], *ratio);
-    assert_true(*ratio >= 5.0);
-    dm_rng rng = {seed * 977 + 13};
-    for (int i = 0; i < d->n; i++) {
-        d->s[i].value += noise * dm_rng_normal(&rng);
-        d->s[i].sigma = noise;
-    }
-    free(pred);
+    add_noise(&base, name, v[0], 2e-6, seed, d, ratio);
 }
 
 /* The stated uncertainty means something: the fitted value k of the first
