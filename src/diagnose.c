@@ -102,6 +102,7 @@ typedef struct {
     const dm_diagnose_opts *o;
     const char *held;        /* per sample: 1 = held out */
     const double *w;         /* weights 1/sigma */
+    double train_end_s;      /* tracker: time of the last training sample */
 } shared;
 
 /* One fit: its effects, the leading `nfixed` of them held at `fixed`, and
@@ -374,12 +375,8 @@ static void set_window(problem *p, double share)
     p->view = *d;
     if (share >= 1)
         return;
-    double T = 0;
-    for (int i = 0; i < d->n; i++)
-        if (!p->s->held[i])
-            T = fmax(T, d->s[i].t);
     int n = 0;
-    while (n < d->n && d->s[n].t <= share * T)
+    while (n < d->n && d->s[n].t <= share * p->s->train_end_s)
         n++;
     p->view.n = n;
     p->view.npose = n / 3;
@@ -544,6 +541,8 @@ int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts 
     for (int i = 0; i < d->n; i++) {
         dg->n_held += held[i];
         dg->sigma_known &= d->s[i].sigma > 0;
+        if (!held[i])
+            s.train_end_s = fmax(s.train_end_s, d->s[i].t);
     }
     dg->n_train = d->n - dg->n_held;
     int rc = (dg->n_held < 3 || dg->n_train < 3)
