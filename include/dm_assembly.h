@@ -10,20 +10,23 @@
  * and M = sum (T_e S_e)' M_e (T_e S_e), likewise K (Chen eq. 13–21).
  *
  * Order of U: chain 0, 1, 2 (arm-root DOFs when the model extensions give
- * it any; arm nodes 1..na; then rod +d and rod -d, each: upper-end DOFs,
- * interior nodes, lower-end DOFs), then the 6 platform DOFs (dx, dy, dz,
- * ex, ey, ez) last.
+ * it any; arm nodes 1..na; the upper ends of rods +d and -d; the two rods'
+ * interior nodes interleaved, node k of +d then node k of -d; the two
+ * lower ends), then the 6 platform DOFs (dx, dy, dz, ex, ey, ez) last.
+ * Chains touch each other only through the platform, so M and K are
+ * block-arrow matrices (dm_arrow): a banded block per chain (half-bandwidth
+ * 17 at any mesh with nb >= 2) and the platform as the border.
  *
  * Model extensions (MODEL.md §6, robot [effects]): actuator springs and
  * compliant bases add arm-root DOFs and springs to ground; joint springs
  * give each rod end its own translations tied to its short-bar point;
  * payload and elbow masses add mass and weight; geometric stiffness adds
- * K_G from the axial forces of a linear static gravity solve. Matrices are dense n x n,
- * column-major. A dm_model is one thread's workspace; the robot it points
- * to is read-only. */
+ * K_G from the axial forces of a linear static gravity solve. A dm_model
+ * is one thread's workspace; the robot it points to is read-only. */
 #ifndef DM_ASSEMBLY_H
 #define DM_ASSEMBLY_H
 
+#include "dm_arrow.h"
 #include "dm_beam.h"
 #include "dm_error.h"
 #include "dm_kinematics.h"
@@ -64,9 +67,12 @@ typedef struct dm_model {
     dm_beam_props props[2]; /* arm, rod */
     double platform_mass[36]; /* 6x6 rigid mass of platform (+ payload) */
     dm_pose pose;
-    double *M, *K;          /* n x n column-major (K includes K_G when enabled) */
+    dm_arrow_layout layout; /* of M and K */
+    dm_arrow M, K;          /* block-arrow (K includes K_G when enabled) */
+    dm_arrow_pattern pattern; /* their structural non-zeros (after the first build) */
+    int have_pattern;
     double *F_gravity;      /* n: consistent gravity load */
-    double *work;           /* n x n scratch (geometric stiffness pre-solve) */
+    dm_arrow_chol *gs_factor; /* geometric stiffness: factor of the elastic K */
     double *u_static;       /* n: its static gravity displacement */
 } dm_model;
 
@@ -85,6 +91,15 @@ int dm_model_build(dm_model *model, const dm_pose *pose, dm_error *err);
  * F += (T S)' M_e T a12. Used for gravity and for inertial loads. */
 void dm_model_add_element_load(const dm_model *model, const dm_element *e,
                                const double a12[12], double *F);
+
+/* The full n x n matrices, column-major (either may be NULL): the dense
+ * oracle for tests, and the input of the dense eigen solvers. */
+void dm_model_dense(const dm_model *model, double *K, double *M);
+
+/* Y = M X and Y = K X for a block of q vectors, interleaved (the q values
+ * of DOF i at X[i q ...]; q = 1: one plain vector). X and Y must differ. */
+void dm_model_mult_M(const dm_model *model, const double *X, int q, double *Y);
+void dm_model_mult_K(const dm_model *model, const double *X, int q, double *Y);
 
 /* Global 6-vector of a node given reduced DOFs U. */
 void dm_nodemap_apply(const dm_nodemap *map, const double *U, double out[6]);

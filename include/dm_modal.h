@@ -10,14 +10,26 @@
 #include "dm_error.h"
 
 typedef enum {
-    /* Cholesky of M, reduction to standard form (dsygst), the k lowest
-     * pairs only (dsyevr range 'I'; up to 96 DOF dsterf for the eigenvalues
-     * and dstein for k vectors), back-substitution. Default: measured
-     * fastest for k << n (see make bench). */
+    /* Default. Block subspace iteration with Rayleigh-Ritz on the
+     * block-arrow Cholesky factor of K (the one statics use), warm-started
+     * from the previous solve of the same workspace, converged on residual
+     * norms and checked by a Sturm count; a dense cold start when there is
+     * no previous solve or the check fails. Models of at most
+     * DM_MODAL_DENSE_MAX DOF use DM_EIGEN_DENSE (measured faster there). */
     DM_EIGEN_PARTIAL = 0,
-    /* All pairs by divide and conquer (dsygvd); the reference. */
-    DM_EIGEN_ALL = 1
+    /* All pairs by divide and conquer (dsygvd) on the dense matrices; the
+     * reference. */
+    DM_EIGEN_ALL = 1,
+    /* The k lowest pairs on the dense matrices: Cholesky of M, dsygst,
+     * dsyevr on the index range (up to 96 DOF dsterf for the eigenvalues
+     * and dstein for k vectors), back-substitution. */
+    DM_EIGEN_DENSE = 2,
+    /* DM_EIGEN_PARTIAL's subspace iteration at any size (tests, bench). */
+    DM_EIGEN_SUBSPACE = 3
 } dm_eigen_method;
+
+/* DM_EIGEN_PARTIAL solves models up to this size densely (make bench). */
+#define DM_MODAL_DENSE_MAX 60
 
 typedef enum {
     DM_DIR_X = 0, DM_DIR_Y, DM_DIR_Z, DM_DIR_RX, DM_DIR_RY, DM_DIR_RZ
@@ -34,14 +46,41 @@ typedef struct dm_modes {
     int *direction;          /* k: dm_direction with the largest platform energy */
 } dm_modes;
 
-/* Workspace for n-DOF models and up to kmax modes. */
-dm_modal *dm_modal_alloc(int n, int kmax, dm_eigen_method method, dm_error *err);
+/* Workspace for models of `model`'s size and up to kmax modes. */
+dm_modal *dm_modal_alloc(const dm_model *model, int kmax, dm_eigen_method method,
+                         dm_error *err);
 void dm_modal_free(dm_modal *ws);
 
-/* The k lowest modes of (K, M); K and M are not modified. The returned
+/* The k lowest modes of the model (its K and M are not modified). The
+ * subspace methods need `factor`, the Cholesky factor of the same K
+ * (dm_static_factor); the dense ones ignore it (may be NULL). The returned
  * dm_modes points into the workspace and is valid until the next solve. */
-int dm_modal_solve(dm_modal *ws, const double *K, const double *M, int k,
+struct dm_static;
+int dm_modal_solve(dm_modal *ws, const dm_model *model, const struct dm_static *factor, int k,
                    const dm_modes **modes, dm_error *err);
+
+/* The next solve starts cold (a sweep tile's first point: results must
+ * not depend on which tile a thread did before). */
+void dm_modal_forget(dm_modal *ws);
+
+/* Start the next solve from these ncol vectors (n x ncol, column-major)
+ * instead of the previous solution (tests: a start that misses a mode must
+ * be caught by the Sturm count). */
+int dm_modal_set_start(dm_modal *ws, const double *X, int ncol, dm_error *err);
+
+/* How the last solve went. */
+typedef struct dm_modal_stats {
+    int iterations;     /* applications of K^-1 M (0: dense) */
+    int rounds;         /* Rayleigh-Ritz projections */
+    int warm;           /* started from a previous solution */
+    int fallback;       /* the warm start failed (no convergence, or the
+                           Sturm count found a mode it missed): cold */
+    int subspace;       /* vectors iterated */
+    int converged;      /* modes proven: the Sturm count below sigma */
+    double sigma;       /* the Sturm shift (rad^2/s^2) */
+    double residual;    /* largest relative residual of the converged modes */
+} dm_modal_stats;
+void dm_modal_last_stats(const dm_modal *ws, dm_modal_stats *stats);
 
 /* Platform share and dominant direction of each mode of `model`. */
 void dm_modal_platform_share(dm_modal *ws, const dm_model *model);
@@ -54,8 +93,8 @@ const char *dm_direction_name(int direction);
  * at most once, greedily by decreasing MAC:
  *   MAC(a, b) = (a' M b)^2 / ((a' M a)(b' M b)), M = this pose's mass matrix.
  * assign[i] = index of the mode for reference i, mac[i] its MAC. work needs
- * n*kc + kr*kc doubles. */
+ * n*kr + kr*kc doubles. */
 void dm_modal_mac_match(const double *ref, int kr, const dm_modes *modes, int kc,
-                        const double *M, int n, int *assign, double *mac, double *work);
+                        const dm_model *model, int *assign, double *mac, double *work);
 
 #endif

@@ -1,4 +1,5 @@
-/* The per-pose pipeline: kinematics, assembly, eigen solve, statics. */
+/* The per-pose pipeline: kinematics, assembly, one factorization of K,
+ * statics, eigen solve. */
 #include "dm_analysis.h"
 
 #include <math.h>
@@ -18,9 +19,9 @@ dm_analysis *dm_analysis_alloc(const dm_robot *robot, int na, int nb, int kmax,
         if (kmax > an->model->n)
             kmax = an->model->n;
         an->kmax = kmax;
-        an->modal = dm_modal_alloc(an->model->n, kmax, method, err);
+        an->modal = dm_modal_alloc(an->model, kmax, method, err);
         if (an->modal)
-            an->statics = dm_static_alloc(an->model->n, err);
+            an->statics = dm_static_alloc(an->model, err);
     }
     if (!an->statics) {
         dm_analysis_free(an);
@@ -45,15 +46,16 @@ int dm_analysis_run(dm_analysis *an, const double P[3], int k, dm_pose_result *r
     int rc = dm_kin_pose(an->robot, P, &res->pose, err);
     if (!rc)
         rc = dm_model_build(an->model, &res->pose, err);
+    /* one factorization of K: statics, then the eigen solve on it */
     if (!rc)
-        rc = dm_modal_solve(an->modal, an->model->K, an->model->M, k, &res->modes, err);
-    if (!rc)
-        rc = dm_static_factor(an->statics, an->model->K, err);
+        rc = dm_static_factor(an->statics, an->model, err);
     if (!rc)
         rc = dm_static_platform_error(an->statics, an->model, an->model->F_gravity,
                                       res->static_error, err);
     if (!rc)
         rc = dm_static_compliance(an->statics, an->model, res->compliance, err);
+    if (!rc)
+        rc = dm_modal_solve(an->modal, an->model, an->statics, k, &res->modes, err);
     if (rc)
         return rc;
     dm_modal_platform_share(an->modal, an->model);

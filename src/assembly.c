@@ -1,7 +1,8 @@
 /* Frozen-configuration assembly (MODEL.md §2). */
 #include "dm_assembly.h"
 
-#include <lapacke.h>
+#include <assert.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -9,6 +10,12 @@
 
 /* ---- DOF numbering -------------------------------------------------------- */
 
+/* Inside a chain: arm-root DOFs (model extensions), arm nodes 1..na, the
+ * two upper rod ends, then the two rods' interior nodes interleaved (node
+ * k of rod +d, node k of rod -d, k = 1..nb-1), then the two lower ends.
+ * The rods run side by side from the elbow to the platform, so the
+ * half-bandwidth is that of two nodes (17) whatever the mesh; numbering
+ * one rod after the other made it grow with nb (35 at mesh 4,4). */
 static int chain_size(const dm_model *md, int i)
 {
     return md->root_dofs[i] + 6 * md->na + 2 * (2 * md->end_dofs + 6 * (md->nb - 1));
@@ -17,20 +24,65 @@ static int chain_size(const dm_model *md, int i)
 /* First DOF of arm node k (1..na) in chain i. */
 static int arm_node_dof(const dm_model *md, int i, int k)
 {
+    assert(k >= 1 && k <= md->na);
     return md->chain_dof[i] + md->root_dofs[i] + 6 * (k - 1);
 }
 
-/* First DOF of rod s (0: +d, 1: -d) in chain i: the upper end's DOFs come
- * first, then interior nodes 1..nb-1, then the lower end's. */
-static int rod_dof(const dm_model *md, int i, int s)
+/* Own DOFs of the upper end of rod s (0: +d, 1: -d). */
+static int upper_end_dof(const dm_model *md, int i, int s)
 {
-    return md->chain_dof[i] + md->root_dofs[i] + 6 * md->na +
-           s * (2 * md->end_dofs + 6 * (md->nb - 1));
+    return md->chain_dof[i] + md->root_dofs[i] + 6 * md->na + s * md->end_dofs;
 }
 
+/* Interior node k (1..nb-1) of rod s. */
 static int interior_dof(const dm_model *md, int i, int s, int k)
 {
-    return rod_dof(md, i, s) + md->end_dofs + 6 * (k - 1);
+    assert(k >= 1 && k < md->nb);
+    return upper_end_dof(md, i, 0) + 2 * md->end_dofs + 12 * (k - 1) + 6 * s;
+}
+
+/* Own DOFs of the lower end of rod s. */
+static int lower_end_dof(const dm_model *md, int i, int s)
+{
+    return upper_end_dof(md, i, 0) + 2 * md->end_dofs + 12 * (md->nb - 1) + s * md->end_dofs;
+}
+
+/* Span (last DOF - first DOF) of up to three DOF ranges [from, from + len);
+ * ranges with len 0 are absent. */
+static int span3(const int from[3], const int len[3])
+{
+    int lo = 1 << 30, hi = -1;
+    for (int j = 0; j < 3; j++)
+        if (len[j] > 0) {
+            lo = from[j] < lo ? from[j] : lo;
+            hi = from[j] + len[j] - 1 > hi ? from[j] + len[j] - 1 : hi;
+        }
+    return hi < 0 ? 0 : hi - lo;
+}
+
+static int imax(int a, int b) { return a > b ? a : b; }
+
+/* Half-bandwidth of chain i: the widest element (or spring) in the chain's
+ * own DOFs. An upper rod end reaches the elbow (through the short bar, or
+ * through the joint spring); a lower end reaches only the platform, which
+ * is the border. */
+static int chain_half_bandwidth(const dm_model *md, int i)
+{
+    int kd = 0, e = md->end_dofs, nb = md->nb, elbow = arm_node_dof(md, i, md->na);
+    for (int k = 0; k < md->na; k++) {
+        int from[3] = {k ? arm_node_dof(md, i, k) : md->chain_dof[i], arm_node_dof(md, i, k + 1), 0};
+        int len[3] = {k ? 6 : md->root_dofs[i], 6, 0};
+        kd = imax(kd, span3(from, len));
+    }
+    for (int r = 0; r < 2; r++)
+        for (int k = 0; k < nb; k++) {
+            int from[3] = {k ? interior_dof(md, i, r, k) : upper_end_dof(md, i, r),
+                           k + 1 < nb ? interior_dof(md, i, r, k + 1) : lower_end_dof(md, i, r),
+                           elbow};
+            int len[3] = {k ? 6 : e, k + 1 < nb ? 6 : e, k == 0 ? 6 : 0};
+            kd = imax(kd, span3(from, len));
+        }
+    return kd;
 }
 
 static void set_layout(dm_model *md, const dm_robot *robot, int na, int nb)
@@ -53,6 +105,19 @@ static void set_layout(dm_model *md, const dm_robot *robot, int na, int nb)
         md->elbow_dof[i] = arm_node_dof(md, i, na);
 }
 
+/* The block-arrow layout of M and K: one banded block per chain, the
+ * platform's 6 DOFs as the border. */
+static void arrow_layout(const dm_model *md, dm_arrow_layout *lay)
+{
+    int nbk[3], kd[3];
+    for (int i = 0; i < 3; i++) {
+        nbk[i] = chain_size(md, i);
+        kd[i] = chain_half_bandwidth(md, i);
+    }
+    dm_arrow_layout_make(lay, nbk, kd);
+    assert(lay->border == md->platform_dof && lay->n == md->n);
+}
+
 int dm_model_dofs(const dm_robot *robot, int na, int nb)
 {
     dm_model md;
@@ -73,18 +138,22 @@ dm_model *dm_model_alloc(const dm_robot *robot, int na, int nb, dm_error *err)
     }
     const dm_effects *fx = &robot->effects;
     set_layout(md, robot, na, nb);
+    arrow_layout(md, &md->layout);
     md->nelem = 3 * (na + 2 * nb);
-    size_t nn = (size_t)md->n * (size_t)md->n;
     md->elem = calloc((size_t)md->nelem, sizeof *md->elem);
-    md->M = calloc(nn, sizeof *md->M);
-    md->K = calloc(nn, sizeof *md->K);
     md->F_gravity = calloc((size_t)md->n, sizeof *md->F_gravity);
-    if (fx->geometric_stiffness) {
-        md->work = malloc(nn * sizeof *md->work);
+    int rc = md->elem && md->F_gravity ? DM_OK : DM_ENOMEM;
+    if (!rc)
+        rc = dm_arrow_init(&md->K, &md->layout, NULL);
+    if (!rc)
+        rc = dm_arrow_init(&md->M, &md->layout, NULL);
+    if (!rc && fx->geometric_stiffness) {
+        md->gs_factor = calloc(1, sizeof *md->gs_factor);
         md->u_static = malloc((size_t)md->n * sizeof *md->u_static);
+        rc = md->gs_factor && md->u_static ? dm_arrow_chol_init(md->gs_factor, &md->layout, NULL)
+                                           : DM_ENOMEM;
     }
-    if (!md->elem || !md->M || !md->K || !md->F_gravity ||
-        (fx->geometric_stiffness && (!md->work || !md->u_static))) {
+    if (rc) {
         dm_fail(err, DM_ENOMEM, "out of memory for a %d-DOF model", md->n);
         dm_model_free(md);
         return NULL;
@@ -99,10 +168,13 @@ void dm_model_free(dm_model *md)
     if (!md)
         return;
     free(md->elem);
-    free(md->M);
-    free(md->K);
+    dm_arrow_release(&md->M);
+    dm_arrow_release(&md->K);
+    dm_arrow_pattern_release(&md->pattern);
     free(md->F_gravity);
-    free(md->work);
+    if (md->gs_factor)
+        dm_arrow_chol_release(md->gs_factor);
+    free(md->gs_factor);
     free(md->u_static);
     free(md);
 }
@@ -269,7 +341,7 @@ static void add_joint_spring(dm_model *md, int ref_dof, const double s[3], int o
             double v = 0;
             for (int r = 0; r < 3; r++)
                 v += D[r][a] * D[r][b];
-            md->K[(size_t)idx[b] * md->n + idx[a]] += kj * v;
+            dm_arrow_add(&md->K, idx[a], idx[b], kj * v);
         }
 }
 
@@ -283,8 +355,8 @@ static int build_rod(dm_model *md, int i, int s, dm_element *e, dm_error *err)
     dm_axpy3(p->C[i], 1.0, bar, bottom);
     dm_sub3(p->C[i], p->P, plat_arm); /* P -> lower end: r_i e_i + bar */
     dm_axpy3(plat_arm, 1.0, bar, plat_arm);
-    int base = rod_dof(md, i, s), nb = md->nb;
-    int lower = interior_dof(md, i, s, nb);
+    int base = upper_end_dof(md, i, s), nb = md->nb;
+    int lower = lower_end_dof(md, i, s);
     for (int k = 0; k < nb; k++, e++) {
         double x1[3], x2[3];
         lerp3(top, bottom, (double)k / nb, x1);
@@ -332,13 +404,16 @@ static int element_map(const dm_element *e, double El[12][2 * DM_NODEMAP_MAX],
     return m;
 }
 
-/* X[idx, idx] += El' Ke El. El is block diagonal: rows 0-5 (node 0) reach
- * only columns 0..m0-1, rows 6-11 only the rest, so each product runs over
- * the six rows of its column's node. */
-static void scatter(double *X, int n, const double Ke[144],
-                    double El[12][2 * DM_NODEMAP_MAX], const int idx[], int m, int m0)
+/* X[idx, idx] += El' Ke El, the half that X stores (dm_arrow_add keeps
+ * entry (i, j) when j is a platform DOF, or i >= j inside a chain). El is
+ * block diagonal: rows 0-5 (node 0) reach only columns 0..m0-1, rows 6-11
+ * only the rest, so each product runs over the six rows of its column's
+ * node. */
+static void scatter(dm_arrow *X, const double Ke[144], double El[12][2 * DM_NODEMAP_MAX],
+                    const int idx[], int m, int m0)
 {
     double KE[12][2 * DM_NODEMAP_MAX];
+    int border = X->lay.border;
     for (int r = 0; r < 12; r++)
         for (int j = 0; j < m; j++) {
             int k0 = j < m0 ? 0 : 6;
@@ -350,10 +425,12 @@ static void scatter(double *X, int n, const double Ke[144],
     for (int a = 0; a < m; a++) {
         int k0 = a < m0 ? 0 : 6;
         for (int b = 0; b < m; b++) {
+            if (!(idx[b] >= border || (idx[a] < border && idx[a] >= idx[b])))
+                continue; /* the mirrored entry, which X does not store */
             double s = 0;
             for (int k = k0; k < k0 + 6; k++)
                 s += El[k][a] * KE[k][b];
-            X[(size_t)idx[b] * n + idx[a]] += s;
+            dm_arrow_add(X, idx[a], idx[b], s);
         }
     }
 }
@@ -409,10 +486,10 @@ static void add_platform(dm_model *md)
         for (int b = 0; b < 6; b++)
             for (int r = 0; r < 3; r++)
                 MP[6 * b + a] += fx->payload_kg * S[r][a] * S[r][b];
-    int p = md->platform_dof, n = md->n;
+    int p = md->platform_dof;
     for (int c = 0; c < 6; c++)
         for (int r = 0; r < 6; r++)
-            md->M[(size_t)(p + c) * n + p + r] += MP[6 * c + r];
+            dm_arrow_add(&md->M, p + r, p + c, MP[6 * c + r]);
     dm_scale3(fx->payload_kg, rb->gravity_ms2, mg);
     for (int k = 0; k < 3; k++)
         md->F_gravity[p + k] += rb->platform_mass_kg * rb->gravity_ms2[k];
@@ -425,17 +502,16 @@ static void add_platform(dm_model *md)
 static void add_root_springs_and_elbow_masses(dm_model *md)
 {
     const dm_effects *fx = &md->robot->effects;
-    int n = md->n;
     for (int i = 0; i < 3; i++) {
         int d = md->chain_dof[i];
         if (dm_effects_base_compliant(fx, i))
             for (int k = 0; k < 3; k++, d++)
-                md->K[(size_t)d * n + d] += fx->base_stiffness_n_per_m[i][k];
+                dm_arrow_add(&md->K, d, d, fx->base_stiffness_n_per_m[i][k]);
         if (fx->actuator_stiffness_nm_per_rad > 0)
-            md->K[(size_t)d * n + d] += fx->actuator_stiffness_nm_per_rad;
+            dm_arrow_add(&md->K, d, d, fx->actuator_stiffness_nm_per_rad);
         int b = arm_node_dof(md, i, md->na);
         for (int k = 0; k < 3 && fx->elbow_mass_kg > 0; k++) {
-            md->M[(size_t)(b + k) * n + b + k] += fx->elbow_mass_kg;
+            dm_arrow_add(&md->M, b + k, b + k, fx->elbow_mass_kg);
             md->F_gravity[b + k] += fx->elbow_mass_kg * md->robot->gravity_ms2[k];
         }
     }
@@ -446,12 +522,11 @@ static void add_root_springs_and_elbow_masses(dm_model *md)
 static int add_geometric_stiffness(dm_model *md, dm_error *err)
 {
     int n = md->n;
-    double *L = md->work, *u = md->u_static;
-    memcpy(L, md->K, sizeof(double) * n * n);
+    double *u = md->u_static;
     memcpy(u, md->F_gravity, sizeof(double) * n);
-    if (LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', n, L, n) ||
-        LAPACKE_dpotrs(LAPACK_COL_MAJOR, 'L', n, 1, L, n, u, n))
+    if (dm_arrow_chol_factor(md->gs_factor, &md->K, NULL))
         return dm_fail(err, DM_ENUMERIC, "geometric stiffness: static gravity solve failed");
+    dm_arrow_chol_solve(md->gs_factor, u, 1);
     for (int k = 0; k < md->nelem; k++) {
         const dm_element *e = &md->elem[k];
         double El[12][2 * DM_NODEMAP_MAX], KG[144], du = 0;
@@ -461,21 +536,25 @@ static int add_geometric_stiffness(dm_model *md, dm_error *err)
             du += (El[6][j] - El[0][j]) * u[idx[j]];
         const dm_beam_props *p = &md->props[e->member];
         dm_beam_geometric(p, p->EA * du / e->length_m, e->length_m, KG);
-        scatter(md->K, n, KG, El, idx, m, e->node[0].m);
+        scatter(&md->K, KG, El, idx, m, e->node[0].m);
     }
     return DM_OK;
 }
 
 int dm_model_build(dm_model *md, const dm_pose *pose, dm_error *err)
 {
-    size_t nn = (size_t)md->n * (size_t)md->n;
     md->pose = *pose;
-    memset(md->M, 0, nn * sizeof *md->M);
-    memset(md->K, 0, nn * sizeof *md->K);
+    dm_arrow_zero(&md->M);
+    dm_arrow_zero(&md->K);
+    /* the first build records which entries the assembly touches: the
+     * pattern is the same at every pose */
+    int first = !md->have_pattern, rc = DM_OK;
+    if (first && ((rc = dm_arrow_record(&md->K, err)) || (rc = dm_arrow_record(&md->M, err))))
+        return rc;
     memset(md->F_gravity, 0, (size_t)md->n * sizeof *md->F_gravity);
     dm_element *e = md->elem;
     for (int i = 0; i < 3; i++) {
-        int rc = build_arm(md, i, e, err);
+        rc = build_arm(md, i, e, err);
         e += md->na;
         for (int s = 0; s < 2 && !rc; s++, e += md->nb)
             rc = build_rod(md, i, s, e, err);
@@ -491,13 +570,37 @@ int dm_model_build(dm_model *md, const dm_pose *pose, dm_error *err)
         int m = element_map(el, El, idx);
         dm_beam_stiffness(&md->props[el->member], el->length_m, Ke);
         dm_beam_mass(&md->props[el->member], el->length_m, Me);
-        scatter(md->K, md->n, Ke, El, idx, m, el->node[0].m);
-        scatter(md->M, md->n, Me, El, idx, m, el->node[0].m);
+        scatter(&md->K, Ke, El, idx, m, el->node[0].m);
+        scatter(&md->M, Me, El, idx, m, el->node[0].m);
         dm_model_add_element_load(md, el, g12, md->F_gravity);
     }
     add_platform(md);
     add_root_springs_and_elbow_masses(md);
     if (md->robot->effects.geometric_stiffness)
-        return add_geometric_stiffness(md, err);
-    return DM_OK;
+        rc = add_geometric_stiffness(md, err);
+    if (!rc && first) {
+        if ((rc = dm_arrow_pattern_make(&md->pattern, &md->K, &md->M, err)))
+            return rc;
+        md->K.pattern = md->M.pattern = &md->pattern;
+        md->have_pattern = 1;
+    }
+    return rc;
+}
+
+void dm_model_dense(const dm_model *md, double *K, double *M)
+{
+    if (K)
+        dm_arrow_to_dense(&md->K, K);
+    if (M)
+        dm_arrow_to_dense(&md->M, M);
+}
+
+void dm_model_mult_M(const dm_model *md, const double *X, int q, double *Y)
+{
+    dm_arrow_mult(&md->M, X, q, Y);
+}
+
+void dm_model_mult_K(const dm_model *md, const double *X, int q, double *Y)
+{
+    dm_arrow_mult(&md->K, X, q, Y);
 }

@@ -259,9 +259,9 @@ static int advance_modal(dm_stepper *st, const dm_model *md, const dm_modes *mo,
     const double *Phi = mo->phi;
     set_damping(st, md);
     /* q = Phi' M x, qd = Phi' M xd, f = Phi' F */
-    cblas_dsymv(CblasColMajor, CblasUpper, n, 1.0, md->M, n, x, 1, 0.0, st->Mx, 1);
+    dm_model_mult_M(md, x, 1, st->Mx);
     cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, st->Mx, 1, 0.0, st->q, 1);
-    cblas_dsymv(CblasColMajor, CblasUpper, n, 1.0, md->M, n, xd, 1, 0.0, st->Mx, 1);
+    dm_model_mult_M(md, xd, 1, st->Mx);
     cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, st->Mx, 1, 0.0, st->qd, 1);
     cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, F0, 1, 0.0, st->f0, 1);
     cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, F1, 1, 0.0, st->f1, 1);
@@ -300,8 +300,7 @@ static int advance_full(dm_stepper *st, const dm_model *md, const double *F0, co
 {
     int n = st->n, rc;
     set_damping(st, md);
-    memcpy(st->Mfac, md->M, sizeof(double) * n * n);
-    memcpy(st->Minv_K, md->K, sizeof(double) * n * n);
+    dm_model_dense(md, st->Minv_K, st->Mfac);
     memcpy(st->b0, F0, sizeof(double) * n);
     memcpy(st->b1, F1, sizeof(double) * n);
     if (LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', n, st->Mfac, n) ||

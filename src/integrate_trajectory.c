@@ -65,13 +65,13 @@ static int alloc_ws(run_ws *w, dm_error *err)
     int n = w->n = w->md->n;
     w->k = (o->k <= 0 || o->k > n) ? n : o->k;
     w->ksolve = w->k > o->nfreq ? w->k : (o->nfreq < n ? o->nfreq : n);
-    w->modal = dm_modal_alloc(n, w->ksolve, DM_EIGEN_PARTIAL, err);
-    w->statics = w->modal ? dm_static_alloc(n, err) : NULL;
+    w->modal = dm_modal_alloc(w->md, w->ksolve, DM_EIGEN_PARTIAL, err);
+    w->statics = w->modal ? dm_static_alloc(w->md, err) : NULL;
     w->stepper = w->statics ? dm_stepper_alloc(n, w->k, o->method, o->rtol, o->atol, err) : NULL;
     if (!w->stepper)
         return err ? err->code : DM_ENOMEM;
     if (o->reference) {
-        w->modal_all = dm_modal_alloc(n, n, DM_EIGEN_ALL, err);
+        w->modal_all = dm_modal_alloc(w->md, n, DM_EIGEN_ALL, err);
         w->ref_stepper = w->modal_all ? dm_stepper_alloc(n, n, DM_ODE_CLOSED_FORM, 0, 0, err) : NULL;
         if (!w->ref_stepper)
             return err ? err->code : DM_ENOMEM;
@@ -123,10 +123,9 @@ static int load_at(const run_ws *w, double t, double *F, dm_error *err)
 }
 
 /* Output displacement: the state, plus with quasi_static the static part of
- * the dropped modes, K^-1 F - sum_j phi_j phi_j' F / omega_j^2. K is
- * factored again only when the model changed (refactor). */
-static int output_state(run_ws *w, const dm_modes *mo, const double *F, int refactor,
-                        dm_error *err)
+ * the dropped modes, K^-1 F - sum_j phi_j phi_j' F / omega_j^2, with the
+ * factor of K made with the step's model. */
+static int output_state(run_ws *w, const dm_modes *mo, const double *F, dm_error *err)
 {
     int n = w->n;
     memcpy(w->xout, w->x, sizeof(double) * n);
@@ -134,9 +133,7 @@ static int output_state(run_ws *w, const dm_modes *mo, const double *F, int refa
         return DM_OK;
     double *s = w->F0 == F ? w->F1 : w->F0; /* scratch that is not F */
     memcpy(s, F, sizeof(double) * n);
-    int rc = refactor ? dm_static_factor(w->statics, w->md->K, err) : DM_OK;
-    if (!rc)
-        rc = dm_static_solve(w->statics, s, 1, err);
+    int rc = dm_static_solve(w->statics, s, 1, err); /* factored with the step's model */
     if (rc)
         return rc;
     for (int j = 0; j < w->k; j++) {
@@ -188,9 +185,7 @@ static int initial_state(run_ws *w, dm_error *err)
     const double no_torque[3] = {0, 0, 0};
     memcpy(w->x, w->md->F_gravity, sizeof(double) * w->n);
     dm_loads_add_platform_wrench(w->md, w->o.force_n, no_torque, w->x);
-    int rc = dm_static_factor(w->statics, w->md->K, err);
-    if (!rc)
-        rc = dm_static_solve(w->statics, w->x, 1, err);
+    int rc = dm_static_solve(w->statics, w->x, 1, err); /* factored with the step's model */
     memcpy(w->xr, w->x, sizeof(double) * w->n);
     return rc;
 }
@@ -215,9 +210,10 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     if (!rc && fresh) {
         w->have_frozen = 0;
         rc = dm_model_build(w->md, &pose, err);
-        if (!rc) rc = dm_modal_solve(w->modal, w->md->K, w->md->M, w->ksolve, &w->mo, err);
+        if (!rc) rc = dm_static_factor(w->statics, w->md, err);
+        if (!rc) rc = dm_modal_solve(w->modal, w->md, w->statics, w->ksolve, &w->mo, err);
         if (!rc && w->ref_stepper)
-            rc = dm_modal_solve(w->modal_all, w->md->K, w->md->M, w->n, &w->mo_all, err);
+            rc = dm_modal_solve(w->modal_all, w->md, NULL, w->n, &w->mo_all, err);
         w->frozen = pose;
         w->have_frozen = !rc;
     }
@@ -236,7 +232,7 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
         rc = dm_stepper_advance(w->ref_stepper, w->md, w->mo_all, w->n, w->F0, w->F1, h, w->xr,
                                 w->xrd, err);
     if (!rc) rc = dm_stepper_advance(w->stepper, w->md, mo, w->k, w->F0, w->F1, h, w->x, w->xd, err);
-    if (!rc) rc = output_state(w, mo, w->F1, fresh, err);
+    if (!rc) rc = output_state(w, mo, w->F1, err);
     if (rc)
         return rc;
     fill_sample(w, t1, w->xout, mo, &s);

@@ -1,24 +1,73 @@
-/* Generalized symmetric-definite eigenproblem with LAPACK (MODEL.md §4). */
+/* Generalized symmetric-definite eigenproblem K phi = lambda M phi
+ * (MODEL.md §4): subspace iteration on the block-arrow factor of K, and the
+ * dense LAPACK paths (reference, cold start, small models). */
 #include "dm_modal.h"
 
+#include <assert.h>
 #include <cblas.h>
 #include <lapacke.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "dm_static.h"
+
 struct dm_modal {
-    int n, kmax;
+    int n, kmax, q;
     dm_eigen_method method;
-    double *A, *B;           /* copies of K and M, overwritten by LAPACK */
-    double *w, *Z;           /* eigenvalues (n), eigenvectors (n x n) */
+    /* dense path */
+    double *A, *B;           /* K and M expanded, overwritten by LAPACK */
+    double *w, *Z;           /* eigenvalues (n), eigenvectors (n x kdense, or n x n) */
     double *work;
     lapack_int *iwork, *isuppz;
     lapack_int lwork, liwork;
     double *d, *e, *tau, *dd, *ee; /* small models: tridiagonal T = Q' C Q and a copy */
     lapack_int *iblock, *isplit, *ifail;
+    int kdense;              /* most pairs the dense partial path computes */
+    /* subspace path: blocks of q vectors, interleaved (see dm_arrow.h) */
+    int qmax;                /* most vectors a subspace may hold */
+    int nl;                  /* of the q, converged and locked */
+    double *XL;              /* n x nl, column-major: the locked Ritz vectors */
+    double *C;               /* nl x q: their M-products with the active block */
+    double *X, *MX, *T, *MT, *Y; /* active block, n x (q - nl): Ritz vectors, M X,
+                                    A X, M A X, filter */
+    double *Kt, *Mt, *theta, *res, *scale; /* projections, Ritz values, residuals */
+    double *phi;             /* n x kmax, column-major: the modes handed out */
+    double *swork;
+    lapack_int *siwork, slwork, sliwork;
+    dm_arrow_ldl ldl;        /* Sturm counts */
+    int have_start;
+    dm_modal_stats stats;
     dm_modes modes;
 };
+
+/* ---- tuning (each measured with make bench; see docs/model-choices.md) --- */
+
+/* Most vectors a subspace may hold for k wanted modes. */
+static int subspace_max(int n, int k)
+{
+    int q = 2 * k + 4;
+    return q < n - 1 ? q : n - 1;
+}
+
+/* Relative residual ||x - theta K^-1 M x||_M (x M-normalised) at which a
+ * Ritz pair counts as converged. To first order it bounds the relative
+ * error of the eigenvalue, and squared over the relative gap to the rest
+ * of the spectrum (Kato-Temple; for a cluster, the gap around it): 1e-8
+ * leaves eigenvalues within ~1e-14 and invariant subspaces within ~1e-6
+ * rad. */
+#define CONVERGED 1e-8
+/* Ritz values closer than this (relative) form a cluster that the wanted
+ * set must not cut: the Sturm shift goes into the first wider gap. */
+#define CLUSTER_GAP 1e-3
+/* The subspace is sized at a cold start so that the first eigenvalue
+ * outside it is at least this many times the last wanted one: the filter
+ * then damps what is outside by T_d(1 + 2 gamma), gamma >= 7. */
+#define SUBSPACE_RATIO 8.0
+/* A warm start from a neighbouring pose is assumed this far off. */
+#define WARM_ERROR 1e-2
+#define MAX_DEGREE 8
+#define MAX_ROUNDS 8
 
 /* Below this size LAPACK's tridiagonal stage for a few pairs (bisection
  * and inverse iteration inside dsyevr) costs more than the reduction; all
@@ -27,27 +76,33 @@ struct dm_modal {
  * slower beyond n ~ 100 (see make bench). */
 #define DM_SMALL_MODEL 96
 
-static int small_model(const dm_modal *ws)
+static int uses_subspace(const dm_modal *ws)
 {
-    return ws->method == DM_EIGEN_PARTIAL && ws->n <= DM_SMALL_MODEL;
+    return ws->method == DM_EIGEN_SUBSPACE ||
+           (ws->method == DM_EIGEN_PARTIAL && ws->n > DM_MODAL_DENSE_MAX && ws->qmax > ws->kmax + 1);
 }
 
-static int query_workspace(dm_modal *ws)
+static int small_model(const dm_modal *ws)
+{
+    return ws->method != DM_EIGEN_ALL && ws->n <= DM_SMALL_MODEL;
+}
+
+/* ---- allocation ------------------------------------------------------------ */
+
+static int query_dense(dm_modal *ws)
 {
     double wq;
-    lapack_int iq, n = ws->n, m;
+    lapack_int iq, n = ws->n, m, k = ws->kdense;
     lapack_int info;
     if (ws->method == DM_EIGEN_ALL)
         info = LAPACKE_dsygvd_work(LAPACK_COL_MAJOR, 1, 'V', 'U', n, ws->A, n, ws->B, n,
                                    ws->w, &wq, -1, &iq, -1);
     else
-        info = LAPACKE_dsyevr_work(LAPACK_COL_MAJOR, 'V', 'I', 'U', n, ws->A, n, 0, 0, 1,
-                                   ws->kmax, 0.0, &m, ws->w, ws->Z, n, ws->isuppz, &wq, -1,
-                                   &iq, -1);
+        info = LAPACKE_dsyevr_work(LAPACK_COL_MAJOR, 'V', 'I', 'U', n, ws->A, n, 0, 0, 1, k,
+                                   0.0, &m, ws->w, ws->Z, n, ws->isuppz, &wq, -1, &iq, -1);
     ws->lwork = (lapack_int)wq + 1;
     ws->liwork = iq;
     if (!info && small_model(ws)) { /* dsytrd, dormtr, dstein (5n, n) need room too */
-        lapack_int k = ws->kmax;
         info = LAPACKE_dsytrd_work(LAPACK_COL_MAJOR, 'U', n, ws->A, n, ws->w, ws->w, ws->w, &wq, -1);
         ws->lwork = fmax(ws->lwork, wq + 1);
         if (!info)
@@ -59,44 +114,91 @@ static int query_workspace(dm_modal *ws)
     return (int)info;
 }
 
-dm_modal *dm_modal_alloc(int n, int kmax, dm_eigen_method method, dm_error *err)
+static int query_subspace(dm_modal *ws)
 {
+    double wq;
+    lapack_int iq, q = ws->qmax;
+    lapack_int info = LAPACKE_dsygvd_work(LAPACK_COL_MAJOR, 1, 'V', 'U', q, ws->Kt, q, ws->Mt, q,
+                                          ws->theta, &wq, -1, &iq, -1);
+    ws->slwork = (lapack_int)wq + 1;
+    ws->sliwork = iq;
+    return (int)info;
+}
+
+static int alloc_dense(dm_modal *ws)
+{
+    int n = ws->n;
+    size_t nn = (size_t)n * n, nz = ws->method == DM_EIGEN_ALL ? nn : (size_t)n * ws->kdense;
+    ws->A = malloc(nn * sizeof(double));
+    ws->B = malloc(nn * sizeof(double));
+    ws->Z = malloc(nz * sizeof(double));
+    ws->w = malloc((size_t)n * sizeof(double));
+    ws->isuppz = malloc(2 * (size_t)n * sizeof(lapack_int));
+    ws->d = malloc(5 * (size_t)n * sizeof(double)); /* d, e, tau, dd, ee */
+    ws->iblock = malloc(3 * (size_t)n * sizeof(lapack_int)); /* iblock, isplit, ifail */
+    if (!ws->A || !ws->B || !ws->Z || !ws->w || !ws->isuppz || !ws->d || !ws->iblock ||
+        query_dense(ws))
+        return DM_ENOMEM;
+    ws->e = ws->d + n, ws->tau = ws->e + n, ws->dd = ws->tau + n, ws->ee = ws->dd + n;
+    ws->isplit = ws->iblock + n, ws->ifail = ws->isplit + n;
+    ws->work = malloc((size_t)ws->lwork * sizeof(double));
+    ws->iwork = malloc((size_t)ws->liwork * sizeof(lapack_int));
+    return ws->work && ws->iwork ? DM_OK : DM_ENOMEM;
+}
+
+static int alloc_subspace(dm_modal *ws, const dm_model *md)
+{
+    size_t nq = (size_t)ws->n * ws->qmax, qq = (size_t)ws->qmax * ws->qmax;
+    double **nbuf[] = {&ws->X, &ws->MX, &ws->T, &ws->MT, &ws->Y, &ws->XL};
+    for (size_t i = 0; i < sizeof nbuf / sizeof nbuf[0]; i++)
+        if (!(*nbuf[i] = malloc(nq * sizeof(double))))
+            return DM_ENOMEM;
+    ws->Kt = malloc(qq * sizeof(double));
+    ws->Mt = malloc(qq * sizeof(double));
+    ws->theta = malloc((size_t)ws->qmax * sizeof(double));
+    ws->res = malloc((size_t)ws->qmax * sizeof(double));
+    ws->scale = malloc((size_t)ws->qmax * sizeof(double));
+    ws->C = malloc(qq * sizeof(double));
+    ws->phi = malloc((size_t)ws->n * ws->kmax * sizeof(double));
+    if (!ws->Kt || !ws->Mt || !ws->theta || !ws->res || !ws->scale || !ws->phi || !ws->C ||
+        query_subspace(ws))
+        return DM_ENOMEM;
+    ws->swork = malloc((size_t)ws->slwork * sizeof(double));
+    ws->siwork = malloc((size_t)ws->sliwork * sizeof(lapack_int));
+    if (!ws->swork || !ws->siwork)
+        return DM_ENOMEM;
+    return dm_arrow_ldl_init(&ws->ldl, &md->layout, NULL);
+}
+
+dm_modal *dm_modal_alloc(const dm_model *md, int kmax, dm_eigen_method method, dm_error *err)
+{
+    int n = md->n;
     if (n < 1 || kmax < 1 || kmax > n) {
         dm_fail(err, DM_EINVAL, "modes: asked for %d modes of a %d-DOF model", kmax, n);
         return NULL;
     }
     dm_modal *ws = calloc(1, sizeof *ws);
-    size_t nn = (size_t)n * n;
-    if (ws) {
+    int rc = ws ? DM_OK : DM_ENOMEM;
+    if (!rc) {
         ws->n = n;
         ws->kmax = kmax;
         ws->method = method;
-        ws->A = malloc(nn * sizeof(double));
-        ws->B = malloc(nn * sizeof(double));
-        ws->Z = malloc(nn * sizeof(double));
-        ws->w = malloc((size_t)n * sizeof(double));
-        ws->isuppz = malloc(2 * (size_t)n * sizeof(lapack_int));
+        ws->qmax = subspace_max(n, kmax);
+        /* the dense partial path also starts the subspace iteration: it
+         * computes one pair more than a subspace holds, to size it */
+        ws->kdense = uses_subspace(ws) ? ws->qmax + 1 : kmax;
         ws->modes.freq_hz = malloc((size_t)kmax * sizeof(double));
         ws->modes.omega_rad_s = malloc((size_t)kmax * sizeof(double));
         ws->modes.platform_share = calloc((size_t)kmax, sizeof(double));
         ws->modes.direction = calloc((size_t)kmax, sizeof(int));
-        ws->d = malloc(5 * (size_t)n * sizeof(double)); /* d, e, tau, dd, ee */
-        ws->iblock = malloc(3 * (size_t)n * sizeof(lapack_int)); /* iblock, isplit, ifail */
-        if (ws->d && ws->iblock) {
-            ws->e = ws->d + n, ws->tau = ws->e + n, ws->dd = ws->tau + n, ws->ee = ws->dd + n;
-            ws->isplit = ws->iblock + n, ws->ifail = ws->isplit + n;
-        }
+        rc = ws->modes.freq_hz && ws->modes.omega_rad_s && ws->modes.platform_share &&
+                     ws->modes.direction
+                 ? alloc_dense(ws)
+                 : DM_ENOMEM;
+        if (!rc && uses_subspace(ws))
+            rc = alloc_subspace(ws, md);
     }
-    if (!ws || !ws->A || !ws->B || !ws->Z || !ws->w || !ws->isuppz || !ws->modes.freq_hz ||
-        !ws->modes.omega_rad_s || !ws->modes.platform_share || !ws->modes.direction || !ws->d ||
-        !ws->iblock || query_workspace(ws)) {
-        dm_modal_free(ws);
-        dm_fail(err, DM_ENOMEM, "out of memory for a %d-DOF eigen workspace", n);
-        return NULL;
-    }
-    ws->work = malloc((size_t)ws->lwork * sizeof(double));
-    ws->iwork = malloc((size_t)ws->liwork * sizeof(lapack_int));
-    if (!ws->work || !ws->iwork) {
+    if (rc) {
         dm_modal_free(ws);
         dm_fail(err, DM_ENOMEM, "out of memory for a %d-DOF eigen workspace", n);
         return NULL;
@@ -108,21 +210,38 @@ void dm_modal_free(dm_modal *ws)
 {
     if (!ws)
         return;
-    free(ws->A);
-    free(ws->B);
-    free(ws->Z);
-    free(ws->w);
-    free(ws->work);
-    free(ws->iwork);
-    free(ws->isuppz);
-    free(ws->d);
-    free(ws->iblock);
-    free(ws->modes.freq_hz);
-    free(ws->modes.omega_rad_s);
-    free(ws->modes.platform_share);
-    free(ws->modes.direction);
+    void *p[] = {ws->A,  ws->B,     ws->Z,   ws->w,     ws->work,   ws->iwork,
+                 ws->isuppz, ws->d, ws->iblock, ws->X, ws->MX,    ws->T,
+                 ws->MT, ws->Y,     ws->Kt,  ws->Mt,    ws->theta,  ws->res,
+                 ws->scale, ws->phi, ws->swork, ws->siwork, ws->XL, ws->C, ws->modes.freq_hz,
+                 ws->modes.omega_rad_s, ws->modes.platform_share, ws->modes.direction};
+    for (size_t i = 0; i < sizeof p / sizeof p[0]; i++)
+        free(p[i]);
+    dm_arrow_ldl_release(&ws->ldl);
     free(ws);
 }
+
+void dm_modal_forget(dm_modal *ws) { ws->have_start = 0; }
+
+void dm_modal_last_stats(const dm_modal *ws, dm_modal_stats *stats) { *stats = ws->stats; }
+
+int dm_modal_set_start(dm_modal *ws, const double *X, int ncol, dm_error *err)
+{
+    if (!uses_subspace(ws) || ncol < ws->kmax + 2 || ncol > ws->qmax)
+        return dm_fail(err, DM_EINVAL, "modal: a start needs the subspace method and %d..%d vectors",
+                       ws->kmax + 2, ws->qmax);
+    ws->q = ncol;
+    ws->nl = 0;
+    for (int j = 0; j < ncol; j++) /* column-major in, interleaved inside */
+        for (int i = 0; i < ws->n; i++)
+            ws->X[(size_t)i * ncol + j] = X[(size_t)j * ws->n + i];
+    for (int j = 0; j < ncol; j++) /* nothing known of the spectrum: no Ritz values */
+        ws->theta[j] = 0;
+    ws->have_start = 1;
+    return DM_OK;
+}
+
+/* ---- dense ------------------------------------------------------------------ */
 
 static int solve_all(dm_modal *ws, dm_error *err)
 {
@@ -168,6 +287,7 @@ static lapack_int small_eigen(dm_modal *ws, int k)
 static int solve_partial(dm_modal *ws, int k, dm_error *err)
 {
     lapack_int n = ws->n, m = k, info;
+    assert(k <= ws->kdense);
     info = LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'U', n, ws->B, n);
     if (info)
         return dm_fail(err, DM_ENUMERIC, "mass matrix not positive definite (dpotrf info %d)",
@@ -189,16 +309,358 @@ static int solve_partial(dm_modal *ws, int k, dm_error *err)
     return DM_OK;
 }
 
-int dm_modal_solve(dm_modal *ws, const double *K, const double *M, int k,
+static int solve_dense(dm_modal *ws, const dm_model *md, int k, dm_error *err)
+{
+    dm_model_dense(md, ws->A, ws->B);
+    return ws->method == DM_EIGEN_ALL ? solve_all(ws, err) : solve_partial(ws, k, err);
+}
+
+/* ---- subspace iteration --------------------------------------------------------
+ *
+ * A = K^-1 M (one solve with the block-arrow factor of K and one product
+ * with M per application) has the eigenvalues mu = 1 / lambda, the wanted
+ * ones largest. Each round filters the block X by a Chebyshev polynomial
+ * in A of degree d that is bounded by 1 on the unwanted part [0, 1/theta_q]
+ * and grows fastest outside it, then does one Rayleigh-Ritz: a round of
+ * degree d does what d rounds of plain subspace iteration would, with one
+ * projection instead of d. The next round's first application checks the
+ * residuals of the Ritz pairs; when the wanted ones have converged, a Sturm
+ * count proves that no mode below them was missed. */
+
+/* Number of Ritz pairs that must converge for k wanted modes: k, extended
+ * through any cluster that k would cut (tracking and the Sturm count need
+ * whole clusters), leaving at least one buffer vector; 0 when there is no
+ * gap inside the subspace. */
+static int wanted_count(const double *theta, int q, int k)
+{
+    for (int j = k; j < q; j++)
+        if (theta[j] > theta[j - 1] * (1 + CLUSTER_GAP))
+            return j;
+    return 0;
+}
+
+static int active(const dm_modal *ws) { return ws->q - ws->nl; }
+
+/* out = A in for the active block, made M-orthogonal to the locked
+ * vectors; min = M in. For locked eigenvectors XL, XL' M A y = Theta_L^-1
+ * XL' M y: what to remove follows from M y, which the product gives. */
+static void apply_A(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, const double *in,
+                    double *min, double *out)
+{
+    int qa = active(ws), n = ws->n, nl = ws->nl;
+    dm_model_mult_M(md, in, qa, min);
+    memcpy(out, min, sizeof(double) * n * qa);
+    dm_arrow_chol_solve(L, out, qa);
+    if (!nl)
+        return;
+    /* interleaved n x qa == column-major qa x n */
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasTrans, nl, qa, n, 1.0, ws->XL, n, min, qa, 0.0,
+                ws->C, nl);
+    for (int j = 0; j < qa; j++)
+        for (int i = 0; i < nl; i++)
+            ws->C[j * nl + i] /= ws->theta[i];
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasTrans, qa, n, nl, -1.0, ws->C, nl, ws->XL, n, 1.0,
+                out, qa);
+}
+
+/* Rayleigh-Ritz on span(V), the active block: K~ = V' K V, M~ = V' M V
+ * with K V and M V given, the columns scaled to unit M-norm first (a
+ * filtered block is far from orthogonal); then X = V Q, ascending Ritz
+ * values after the locked ones. */
+static int rayleigh_ritz(dm_modal *ws, const double *V, const double *KV, const double *MV)
+{
+    int n = ws->n, q = active(ws);
+    double *theta = ws->theta + ws->nl;
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, q, q, n, 1.0, V, q, KV, q, 0.0, ws->Kt, q);
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, q, q, n, 1.0, V, q, MV, q, 0.0, ws->Mt, q);
+    for (int j = 0; j < q; j++)
+        ws->scale[j] = 1.0 / sqrt(ws->Mt[j * q + j]);
+    for (int j = 0; j < q; j++) /* scaled, exactly symmetric (upper triangle used) */
+        for (int i = 0; i <= j; i++) {
+            double sij = ws->scale[i] * ws->scale[j];
+            ws->Kt[j * q + i] = 0.5 * (ws->Kt[j * q + i] + ws->Kt[i * q + j]) * sij;
+            ws->Mt[j * q + i] = 0.5 * (ws->Mt[j * q + i] + ws->Mt[i * q + j]) * sij;
+        }
+    lapack_int info = LAPACKE_dsygvd_work(LAPACK_COL_MAJOR, 1, 'V', 'U', q, ws->Kt, q, ws->Mt, q,
+                                          theta, ws->swork, ws->slwork, ws->siwork, ws->sliwork);
+    if (info)
+        return DM_ENUMERIC;
+    for (int j = 0; j < q; j++) /* undo the scaling: X = V D Q */
+        for (int i = 0; i < q; i++)
+            ws->Kt[j * q + i] *= ws->scale[i];
+    /* X_t = Q' V_t */
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, q, n, q, 1.0, ws->Kt, q, V, q, 0.0, ws->X, q);
+    return DM_OK;
+}
+
+/* res_j = ||x_j - theta_j A x_j||_M for the active pairs, from X, M X,
+ * T = A X and M T. */
+static void residuals(dm_modal *ws)
+{
+    int n = ws->n, q = active(ws);
+    const double *theta = ws->theta + ws->nl;
+    for (int j = 0; j < q; j++)
+        ws->res[j] = 0;
+    for (int i = 0; i < n; i++) {
+        const double *x = ws->X + (size_t)i * q, *mx = ws->MX + (size_t)i * q;
+        const double *t = ws->T + (size_t)i * q, *mt = ws->MT + (size_t)i * q;
+        for (int j = 0; j < q; j++)
+            ws->res[j] += (x[j] - theta[j] * t[j]) * (mx[j] - theta[j] * mt[j]);
+    }
+    for (int j = 0; j < q; j++)
+        ws->res[j] = sqrt(fabs(ws->res[j]));
+}
+
+/* Drop the first m columns of an interleaved block of width q (in place:
+ * every value moves to a lower address). */
+static void drop_columns(double *X, int n, int q, int m)
+{
+    int qn = q - m;
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < qn; j++)
+            X[(size_t)i * qn + j] = X[(size_t)i * q + m + j];
+}
+
+/* Lock the leading active pairs that have converged, up to the kw wanted,
+ * never half a cluster: they leave the filtered block, which stays
+ * M-orthogonal to them (apply_A). */
+static void lock_converged(dm_modal *ws, int kw)
+{
+    int n = ws->n, qa = active(ws), nl = ws->nl, m = 0;
+    while (nl + m < kw && ws->res[m] <= CONVERGED)
+        m++;
+    while (m > 0 && nl + m < ws->q && ws->theta[nl + m] <= ws->theta[nl + m - 1] * (1 + CLUSTER_GAP))
+        m--;
+    if (!m)
+        return;
+    for (int j = 0; j < m; j++) {
+        ws->stats.residual = fmax(ws->stats.residual, ws->res[j]);
+        for (int i = 0; i < n; i++)
+            ws->XL[(size_t)(nl + j) * n + i] = ws->X[(size_t)i * qa + j];
+    }
+    double *blocks[] = {ws->X, ws->MX, ws->T, ws->MT};
+    for (int b = 0; b < 4; b++)
+        drop_columns(blocks[b], n, qa, m);
+    memmove(ws->res, ws->res + m, sizeof(double) * (qa - m));
+    ws->nl += m;
+}
+
+/* What a filter of degree d gains on the components outside the subspace
+ * against the last wanted mode: mu T_{d-1}(2 mu / b - 1) / b at mu = 1 /
+ * lambda_kw, b = 1 / theta_q, i.e. (1 + g) T_{d-1}(1 + 2 g). */
+static double filter_gain(int d, double g)
+{
+    return (1 + g) * cosh((d - 1) * acosh(1 + 2 * g));
+}
+
+/* The filter also amplifies the lowest active mode more than the last
+ * wanted one, by (theta_kw / theta_0) T_{d-1}(2 theta_q / theta_0 - 1) /
+ * T_{d-1}(2 theta_q / theta_kw - 1): a column's error along the lowest
+ * modes grows by that against its own mode, and past a point the block is
+ * too close to rank-deficient for an accurate projection. Locking the low
+ * modes as they converge keeps this small. */
+static double filter_skew(int d, double t0, double tw, double tq)
+{
+    return tw / t0 * cosh((d - 1) * acosh(2 * tq / t0 - 1)) / cosh((d - 1) * acosh(2 * tq / tw - 1));
+}
+#define MAX_SKEW 10.0
+
+/* The lowest degree that gains `reduction`, within the skew limit for
+ * columns whose error is `error`. */
+static int filter_degree(double reduction, double error, double t0, double tw, double tq)
+{
+    double g = tq / tw - 1;
+    int d = 1;
+    while (d < MAX_DEGREE && filter_gain(d, g) < reduction &&
+           filter_skew(d + 1, t0, tw, tq) * error <= MAX_SKEW)
+        d++;
+    return d;
+}
+
+/* Y_{j+1} = 2 (c A Y_j - Y_j) - Y_{j-1} with A Y_j in T, in place of Y_{j-1} */
+static void chebyshev_step(double *prev, const double *cur, const double *T, double c, size_t len)
+{
+    for (size_t i = 0; i < len; i++)
+        prev[i] = 2 * (c * T[i] - cur[i]) - prev[i];
+}
+
+/* Filter the active block by degree d and project: V = A p_{d-1}(A) X. */
+static int filter_and_project(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, int d,
+                              double c, int have_mt)
+{
+    int qa = active(ws);
+    size_t len = (size_t)ws->n * qa;
+    if (d > 1) { /* Y0 = X, Y1 = c A X - X, ..., then V = A Y_{d-1} in T */
+        double *prev = ws->X, *cur = ws->Y;
+        for (size_t i = 0; i < len; i++)
+            cur[i] = c * ws->T[i] - prev[i];
+        for (int j = 1; j < d - 1; j++) {
+            apply_A(ws, md, L, cur, ws->MT, ws->T);
+            chebyshev_step(prev, cur, ws->T, c, len);
+            double *t = prev;
+            prev = cur;
+            cur = t;
+        }
+        apply_A(ws, md, L, cur, ws->MX, ws->T); /* K V = M Y_{d-1} */
+        ws->stats.iterations += d - 1;
+    }
+    if (d > 1 || !have_mt) /* M V (for d = 1 after a check it is M A X, done) */
+        dm_model_mult_M(md, ws->T, qa, ws->MT);
+    return rayleigh_ritz(ws, ws->T, ws->MX, ws->MT);
+}
+
+/* Rounds of filter + Rayleigh-Ritz from the block in ws->X (q vectors,
+ * nothing locked) until the wanted pairs converge and are locked. `ritz`:
+ * X holds Ritz pairs of this pose (theta valid). Returns the number of
+ * converged pairs (>= k), or 0. */
+static int iterate(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, int k, int ritz)
+{
+    int q = ws->q;
+    ws->nl = 0;
+    for (int round = 0; round <= MAX_ROUNDS; round++) {
+        apply_A(ws, md, L, ws->X, ws->MX, ws->T); /* T = A X */
+        ws->stats.iterations++;
+        int kw = wanted_count(ws->theta, q, k);
+        double error = WARM_ERROR;
+        if (ritz) { /* check the pairs in X, lock the converged */
+            dm_model_mult_M(md, ws->T, active(ws), ws->MT);
+            residuals(ws);
+            if (kw)
+                lock_converged(ws, kw);
+            if (kw && ws->nl >= kw)
+                return kw;
+            error = 0; /* of the wanted pairs: the buffer's do not count */
+            for (int j = 0; j < (kw ? kw : k) - ws->nl; j++)
+                error = fmax(error, ws->res[j]);
+        }
+        if (round == MAX_ROUNDS)
+            break;
+        /* the filter: unwanted interval [0, b], b = 1 / theta_q, with the
+         * Ritz values of this pose, or of the last one for a warm start;
+         * without any (a start given from outside): plain subspace iteration */
+        double t0 = ws->theta[ws->nl], tw = ws->theta[(kw ? kw : k) - 1], tq = ws->theta[q - 1];
+        int d = t0 > 0 && tw > t0 && tq > tw
+                    ? filter_degree(fmax(error, CONVERGED) / (0.1 * CONVERGED), error, t0, tw, tq)
+                    : 1;
+        if (filter_and_project(ws, md, L, d, 2 * tq, ritz))
+            return 0;
+        ritz = 1;
+        ws->stats.rounds++;
+    }
+    return 0;
+}
+
+/* After convergence: locked and active vectors back into one block of q
+ * (the start of the next solve), in ascending order. */
+static void merge_block(dm_modal *ws)
+{
+    int n = ws->n, q = ws->q, nl = ws->nl, qa = active(ws);
+    for (int i = 0; i < n; i++) {
+        for (int j = 0; j < nl; j++)
+            ws->Y[(size_t)i * q + j] = ws->XL[(size_t)j * n + i];
+        for (int j = 0; j < qa; j++)
+            ws->Y[(size_t)i * q + nl + j] = ws->X[(size_t)i * qa + j];
+    }
+    double *t = ws->X;
+    ws->X = ws->Y;
+    ws->Y = t;
+    ws->nl = 0;
+}
+
+/* Count the eigenvalues below a shift in the gap after the kw-th Ritz
+ * value: it must be kw, else a mode was missed. */
+static int sturm_check(dm_modal *ws, const dm_model *md, int kw)
+{
+    double sigma = ws->theta[kw - 1] * (1 + 0.5 * CLUSTER_GAP);
+    for (int attempt = 0; attempt < 4; attempt++, sigma *= 1 + 0.05 * CLUSTER_GAP) {
+        int count;
+        if (dm_arrow_count_below(&ws->ldl, &md->K, &md->M, sigma, &count) == DM_OK) {
+            ws->stats.sigma = sigma;
+            return count == kw;
+        }
+    }
+    return 0;
+}
+
+/* A cold start: the dense solver's lowest pairs. The subspace is sized
+ * from them: the smallest q (with two buffer vectors at least) whose next
+ * eigenvalue is SUBSPACE_RATIO times the last wanted one, else the q with
+ * the widest such ratio. */
+static int cold_start(dm_modal *ws, const dm_model *md, int k, dm_error *err)
+{
+    int rc = solve_dense(ws, md, ws->kdense, err);
+    if (rc)
+        return rc;
+    int kw = wanted_count(ws->w, ws->qmax, k), n = ws->n, q = 0;
+    if (!kw)
+        kw = k;
+    double best = 0;
+    for (int j = kw + 2; j <= ws->qmax && j < ws->kdense; j++) {
+        double ratio = ws->w[j] / ws->w[kw - 1];
+        if (ratio > best * 1.05) {
+            best = ratio;
+            q = j;
+        }
+        if (ratio >= SUBSPACE_RATIO)
+            break;
+    }
+    ws->q = q ? q : ws->qmax;
+    for (int j = 0; j < ws->q; j++) {
+        ws->theta[j] = ws->w[j];
+        for (int i = 0; i < n; i++)
+            ws->X[(size_t)i * ws->q + j] = ws->Z[(size_t)j * n + i];
+    }
+    return DM_OK;
+}
+
+static int solve_subspace(dm_modal *ws, const dm_model *md, const dm_static *factor, int k,
+                          dm_error *err)
+{
+    const dm_arrow_chol *L = dm_static_chol(factor);
+    memset(&ws->stats, 0, sizeof ws->stats);
+    ws->stats.warm = ws->have_start;
+    int kw = 0, rc = DM_OK;
+    if (ws->have_start) {
+        kw = iterate(ws, md, L, k, 0);
+        if (kw && !sturm_check(ws, md, kw))
+            kw = 0;
+        ws->stats.fallback = !kw;
+    }
+    if (!kw) {
+        ws->have_start = 0;
+        if ((rc = cold_start(ws, md, k, err)))
+            return rc;
+        /* the dense pairs are the lowest: iterate only to converge them */
+        if (!(kw = iterate(ws, md, L, k, 1)) || !sturm_check(ws, md, kw))
+            return dm_fail(err, DM_ENUMERIC,
+                           "eigen solve: subspace iteration did not converge on %d modes", k);
+    }
+    ws->stats.subspace = ws->q;
+    ws->stats.converged = kw;
+    ws->have_start = 1;
+    for (int j = 0; j < k; j++) /* the locked vectors are the modes */
+        ws->w[j] = ws->theta[j];
+    memcpy(ws->phi, ws->XL, sizeof(double) * ws->n * k);
+    merge_block(ws);
+    ws->modes.phi = ws->phi;
+    return DM_OK;
+}
+
+int dm_modal_solve(dm_modal *ws, const dm_model *md, const dm_static *factor, int k,
                    const dm_modes **modes, dm_error *err)
 {
     if (k < 1 || k > ws->kmax)
         return dm_fail(err, DM_EINVAL, "modes: %d requested, workspace holds 1..%d", k,
                        ws->kmax);
-    size_t nn = (size_t)ws->n * ws->n;
-    memcpy(ws->A, K, nn * sizeof *K);
-    memcpy(ws->B, M, nn * sizeof *M);
-    int rc = ws->method == DM_EIGEN_ALL ? solve_all(ws, err) : solve_partial(ws, k, err);
+    assert(md->n == ws->n);
+    int rc;
+    if (uses_subspace(ws)) {
+        assert(factor);
+        rc = solve_subspace(ws, md, factor, k, err);
+    } else {
+        memset(&ws->stats, 0, sizeof ws->stats);
+        rc = solve_dense(ws, md, k, err);
+    }
     if (rc)
         return rc;
     ws->modes.n = ws->n;
@@ -215,6 +677,8 @@ int dm_modal_solve(dm_modal *ws, const double *K, const double *M, int k,
     *modes = &ws->modes;
     return DM_OK;
 }
+
+/* ---- shapes ----------------------------------------------------------------- */
 
 void dm_modal_platform_share(dm_modal *ws, const dm_model *md)
 {
@@ -244,21 +708,17 @@ const char *dm_direction_name(int d)
     return d >= 0 && d < 6 ? names[d] : "?";
 }
 
-void dm_modal_mac_match(const double *ref, int kr, const dm_modes *mo, int kc, const double *M,
-                        int n, int *assign, double *mac, double *work)
+void dm_modal_mac_match(const double *ref, int kr, const dm_modes *mo, int kc,
+                        const dm_model *md, int *assign, double *mac, double *work)
 {
-    double *MPhi = work, *W = work + (size_t)n * kc; /* W[i + kr j] = ref_i' M phi_j */
-    cblas_dsymm(CblasColMajor, CblasLeft, CblasUpper, n, kc, 1.0, M, n, mo->phi, n, 0.0, MPhi, n);
-    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, kr, kc, n, 1.0, ref, n, MPhi, n, 0.0, W, kr);
+    int n = md->n;
+    double *Mref = work, *W = work + (size_t)n * kr; /* W[i + kr j] = ref_i' M phi_j */
+    for (int i = 0; i < kr; i++)
+        dm_model_mult_M(md, ref + (size_t)i * n, 1, Mref + (size_t)i * n);
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, kr, kc, n, 1.0, Mref, n, mo->phi, n, 0.0,
+                W, kr);
     for (int i = 0; i < kr; i++) { /* normalise: phi' M phi = 1 already */
-        const double *a = ref + (size_t)i * n;
-        double aMa = 0;
-        for (int r = 0; r < n; r++) {
-            double s = 0;
-            for (int c = 0; c < n; c++)
-                s += M[(size_t)c * n + r] * a[c];
-            aMa += a[r] * s;
-        }
+        double aMa = cblas_ddot(n, ref + (size_t)i * n, 1, Mref + (size_t)i * n, 1);
         for (int j = 0; j < kc; j++)
             W[i + (size_t)kr * j] = W[i + (size_t)kr * j] * W[i + (size_t)kr * j] / aMa;
         assign[i] = -1;

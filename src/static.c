@@ -1,6 +1,7 @@
 /* Static gravity error and compliance at the platform (MODEL.md §5). */
 #include "dm_static.h"
 
+#include <assert.h>
 #include <lapacke.h>
 #include <math.h>
 #include <stdlib.h>
@@ -8,21 +9,22 @@
 
 struct dm_static {
     int n;
-    double *L;     /* Cholesky factor of K */
-    double *rhs;   /* n x 6 scratch */
+    dm_arrow_chol chol; /* K = L L' */
+    double *rhs;        /* n scratch */
 };
 
-dm_static *dm_static_alloc(int n, dm_error *err)
+dm_static *dm_static_alloc(const dm_model *md, dm_error *err)
 {
     dm_static *ws = calloc(1, sizeof *ws);
-    if (ws) {
-        ws->n = n;
-        ws->L = malloc((size_t)n * n * sizeof(double));
-        ws->rhs = malloc((size_t)n * 6 * sizeof(double));
+    int rc = ws ? dm_arrow_chol_init(&ws->chol, &md->layout, NULL) : DM_ENOMEM;
+    if (!rc) {
+        ws->n = md->n;
+        ws->rhs = malloc((size_t)md->n * sizeof(double));
+        rc = ws->rhs ? DM_OK : DM_ENOMEM;
     }
-    if (!ws || !ws->L || !ws->rhs) {
+    if (rc) {
         dm_static_free(ws);
-        dm_fail(err, DM_ENOMEM, "out of memory for a %d-DOF static workspace", n);
+        dm_fail(err, DM_ENOMEM, "out of memory for a %d-DOF static workspace", md->n);
         return NULL;
     }
     return ws;
@@ -32,30 +34,28 @@ void dm_static_free(dm_static *ws)
 {
     if (!ws)
         return;
-    free(ws->L);
+    dm_arrow_chol_release(&ws->chol);
     free(ws->rhs);
     free(ws);
 }
 
-int dm_static_factor(dm_static *ws, const double *K, dm_error *err)
+int dm_static_factor(dm_static *ws, const dm_model *md, dm_error *err)
 {
-    memcpy(ws->L, K, (size_t)ws->n * ws->n * sizeof *K);
-    lapack_int info = LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'L', ws->n, ws->L, ws->n);
-    if (info)
-        return dm_fail(err, DM_ENUMERIC,
-                       "stiffness matrix is singular or not positive definite (dpotrf info %d)",
-                       (int)info);
-    return DM_OK;
+    assert(md->n == ws->n);
+    return dm_arrow_chol_factor(&ws->chol, &md->K, err);
 }
 
 int dm_static_solve(const dm_static *ws, double *F, int nrhs, dm_error *err)
 {
-    lapack_int info = LAPACKE_dpotrs_work(LAPACK_COL_MAJOR, 'L', ws->n, nrhs, ws->L, ws->n, F,
-                                          ws->n);
-    if (info)
-        return dm_fail(err, DM_ENUMERIC, "static solve failed (dpotrs info %d)", (int)info);
+    (void)err; /* a factor that exists always solves */
+    for (int j = 0; j < nrhs; j++)
+        dm_arrow_chol_solve(&ws->chol, F + (size_t)j * ws->n, 1);
     return DM_OK;
 }
+
+const dm_arrow_chol *dm_static_chol(const dm_static *ws) { return &ws->chol; }
+
+double dm_static_logdet(const dm_static *ws) { return dm_arrow_chol_logdet(&ws->chol); }
 
 int dm_static_platform_error(const dm_static *ws, const dm_model *md, const double *F,
                              double u6[6], dm_error *err)
@@ -70,16 +70,9 @@ int dm_static_platform_error(const dm_static *ws, const dm_model *md, const doub
 
 int dm_static_compliance(const dm_static *ws, const dm_model *md, double C[36], dm_error *err)
 {
-    int n = ws->n, p = md->platform_dof;
-    memset(ws->rhs, 0, (size_t)n * 6 * sizeof *ws->rhs);
-    for (int j = 0; j < 6; j++)
-        ws->rhs[(size_t)j * n + p + j] = 1.0;
-    int rc = dm_static_solve(ws, ws->rhs, 6, err);
-    if (rc)
-        return rc;
-    for (int j = 0; j < 6; j++)
-        for (int r = 0; r < 6; r++)
-            C[6 * j + r] = 0.5 * (ws->rhs[(size_t)j * n + p + r] + ws->rhs[(size_t)r * n + p + j]);
+    (void)md;
+    if (dm_arrow_chol_border_inverse(&ws->chol, C))
+        return dm_fail(err, DM_ENUMERIC, "platform compliance: inverse of the Schur complement failed");
     return DM_OK;
 }
 

@@ -330,8 +330,7 @@ static int anchor_index(const sweep_ctx *c, const int m[3], const int a[3])
 static void match_families(const sweep_ctx *c, worker *w, const double *ref,
                            const dm_modes *modes, double *dst)
 {
-    dm_modal_mac_match(ref, c->k, modes, c->kc, w->an->model->M, c->n, w->assign, w->mac,
-                       w->mac_work);
+    dm_modal_mac_match(ref, c->k, modes, c->kc, w->an->model, w->assign, w->mac, w->mac_work);
     for (int f = 0; f < c->k; f++)
         memcpy(dst + (size_t)f * c->n, modes->phi + (size_t)w->assign[f] * c->n,
                sizeof(double) * c->n);
@@ -565,6 +564,7 @@ static int compute_tile(const sweep_ctx *c, worker *w, long t, long counts[4], d
     tile_coords(c, t, tc);
     fill_buffers(c, w);
     w->have_prev = 0;
+    dm_modal_forget(w->an->modal); /* a tile's values do not depend on the thread's last tile */
     /* serpentine path through the tile, so each point follows a neighbour */
     for (int i0 = 0; i0 < c->tile[0]; i0++)
         for (int j1 = 0; j1 < c->tile[1]; j1++)

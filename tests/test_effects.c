@@ -142,8 +142,17 @@ static void elbow_mass_is_linear_and_lowers_frequencies(void **state)
     for (int k = 0; k < 3; k++)
         assert_abs(m2.err[k] - base.err[k], 2 * (m1.err[k] - base.err[k]), 1e-9 * fabs(base.err[2]),
                    "weight linear in the mass, comp %d", k);
-    for (int j = 0; j < K10; j++)
-        assert_true(m1.f[j] < base.f[j] && m2.f[j] < m1.f[j]);
+    /* Rayleigh: added mass never raises a frequency. A mode in which the
+     * elbows stand still (han2011's mode 10 at the centre, a rod mode) keeps
+     * its frequency, equal to round-off (eps * lambda_max / lambda_10):
+     * never higher by more than that, and every mode whose elbows move is
+     * strictly lower. */
+    int lowered = 0;
+    for (int j = 0; j < K10; j++) {
+        assert_true(m1.f[j] <= base.f[j] * (1 + 1e-11) && m2.f[j] <= m1.f[j] * (1 + 1e-11));
+        lowered += m1.f[j] < base.f[j] * (1 - 1e-6) && m2.f[j] < m1.f[j] * (1 - 1e-6);
+    }
+    assert_true(lowered >= K10 - 1);
     /* a hanging robot sags more (Han's, platform above the base, rises
      * slightly: the loaded elbows push its rods up) */
     analyse("chen2018", NULL, NULL, &base);

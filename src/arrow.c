@@ -1,0 +1,620 @@
+/* Symmetric block-arrow matrices (see dm_arrow.h). */
+#include "dm_arrow.h"
+
+#include <assert.h>
+#include <cblas.h>
+#include <lapacke.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define NP DM_ARROW_BORDER
+#define NB DM_ARROW_BLOCKS
+
+void dm_arrow_layout_make(dm_arrow_layout *lay, const int nb[NB], const int kd[NB])
+{
+    int next = 0;
+    for (int c = 0; c < NB; c++) {
+        assert(nb[c] >= 1);
+        lay->nb[c] = nb[c];
+        lay->kd[c] = kd[c] < nb[c] - 1 ? (kd[c] > 0 ? kd[c] : 0) : nb[c] - 1;
+        lay->off[c] = next;
+        next += nb[c];
+    }
+    lay->border = next;
+    lay->n = next + NP;
+}
+
+static size_t band_len(const dm_arrow_layout *lay, int c)
+{
+    return (size_t)(lay->kd[c] + 1) * lay->nb[c];
+}
+
+int dm_arrow_init(dm_arrow *a, const dm_arrow_layout *lay, dm_error *err)
+{
+    memset(a, 0, sizeof *a);
+    a->lay = *lay;
+    int ok = 1;
+    for (int c = 0; c < NB; c++) {
+        a->band[c] = calloc(band_len(lay, c), sizeof(double));
+        a->cpl[c] = calloc((size_t)lay->nb[c] * NP, sizeof(double));
+        ok &= a->band[c] && a->cpl[c];
+    }
+    if (!ok) {
+        dm_arrow_release(a);
+        return dm_fail(err, DM_ENOMEM, "out of memory for a %d-DOF block-arrow matrix", lay->n);
+    }
+    return DM_OK;
+}
+
+static void stop_recording(dm_arrow *a)
+{
+    for (int c = 0; c < NB; c++) {
+        free(a->touched[c]);
+        free(a->touched_cpl[c]);
+        a->touched[c] = a->touched_cpl[c] = NULL;
+    }
+}
+
+void dm_arrow_release(dm_arrow *a)
+{
+    stop_recording(a);
+    for (int c = 0; c < NB; c++) {
+        free(a->band[c]);
+        free(a->cpl[c]);
+        a->band[c] = a->cpl[c] = NULL;
+    }
+}
+
+int dm_arrow_record(dm_arrow *a, dm_error *err)
+{
+    stop_recording(a); /* a recording an earlier (failed) build left */
+    for (int c = 0; c < NB; c++) {
+        a->touched[c] = calloc(band_len(&a->lay, c), 1);
+        a->touched_cpl[c] = calloc((size_t)a->lay.nb[c] * NP, 1);
+        if (!a->touched[c] || !a->touched_cpl[c]) {
+            stop_recording(a);
+            return dm_fail(err, DM_ENOMEM, "out of memory for a sparsity pattern");
+        }
+    }
+    return DM_OK;
+}
+
+void dm_arrow_pattern_release(dm_arrow_pattern *p)
+{
+    for (int c = 0; c < NB; c++) {
+        free(p->colptr[c]);
+        free(p->rows[c]);
+        free(p->colend[c]);
+        free(p->cpl[c]);
+        p->colptr[c] = p->rows[c] = p->colend[c] = p->cpl[c] = NULL;
+    }
+}
+
+int dm_arrow_pattern_make(dm_arrow_pattern *p, dm_arrow *a, dm_arrow *b, dm_error *err)
+{
+    const dm_arrow_layout *lay = &a->lay;
+    memset(p, 0, sizeof *p);
+    int rc = DM_OK;
+    for (int c = 0; c < NB && !rc; c++) {
+        int nb = lay->nb[c], kd = lay->kd[c], ld = kd + 1, nz = 0;
+        const unsigned char *ta = a->touched[c], *tb = b->touched[c];
+        assert(ta && tb);
+        p->colptr[c] = malloc(sizeof(int) * (nb + 1));
+        p->rows[c] = malloc(sizeof(int) * band_len(lay, c));
+        p->colend[c] = malloc(sizeof(int) * nb);
+        p->cpl[c] = malloc(sizeof(int) * nb * NP);
+        int *first = malloc(sizeof(int) * nb); /* each row's first non-zero column */
+        if (!p->colptr[c] || !p->rows[c] || !p->colend[c] || !p->cpl[c] || !first) {
+            free(first);
+            rc = dm_fail(err, DM_ENOMEM, "out of memory for a sparsity pattern");
+            break;
+        }
+        for (int i = 0; i < nb; i++)
+            first[i] = i;
+        for (int j = 0; j < nb; j++) {
+            p->colptr[c][j] = nz;
+            for (int i = j + 1; i <= j + kd && i < nb; i++)
+                if (ta[(i - j) + (size_t)j * ld] || tb[(i - j) + (size_t)j * ld]) {
+                    p->rows[c][nz++] = i;
+                    if (j < first[i])
+                        first[i] = j;
+                }
+        }
+        p->colptr[c][nb] = nz;
+        for (int j = 0, i = 0; j < nb; j++) { /* profile: rows i whose first column <= j */
+            while (i + 1 < nb && first[i + 1] <= j)
+                i++;
+            p->colend[c][j] = i > j ? i : j;
+        }
+        free(first);
+        p->ncpl[c] = 0;
+        for (int k = 0; k < nb * NP; k++)
+            if (a->touched_cpl[c][k] || b->touched_cpl[c][k])
+                p->cpl[c][p->ncpl[c]++] = k;
+    }
+    stop_recording(a);
+    stop_recording(b);
+    if (rc)
+        dm_arrow_pattern_release(p);
+    return rc;
+}
+
+void dm_arrow_zero(dm_arrow *a)
+{
+    for (int c = 0; c < NB; c++) {
+        memset(a->band[c], 0, band_len(&a->lay, c) * sizeof(double));
+        memset(a->cpl[c], 0, (size_t)a->lay.nb[c] * NP * sizeof(double));
+    }
+    memset(a->pp, 0, sizeof a->pp);
+}
+
+void dm_arrow_copy(dm_arrow *dst, const dm_arrow *src)
+{
+    assert(dst->lay.n == src->lay.n);
+    for (int c = 0; c < NB; c++) {
+        memcpy(dst->band[c], src->band[c], band_len(&src->lay, c) * sizeof(double));
+        memcpy(dst->cpl[c], src->cpl[c], (size_t)src->lay.nb[c] * NP * sizeof(double));
+    }
+    memcpy(dst->pp, src->pp, sizeof dst->pp);
+}
+
+/* Block of unknown i (0..2), or NB for the border. */
+static int block_of(const dm_arrow_layout *lay, int i)
+{
+    assert(i >= 0 && i < lay->n);
+    if (i >= lay->border)
+        return NB;
+    int c = 0;
+    while (c + 1 < NB && i >= lay->off[c + 1])
+        c++;
+    return c;
+}
+
+/* Where entry (i, j) of the full matrix is stored, or NULL for the
+ * half that is not (the upper triangle of a band, (border, block)). */
+static double *slot(const dm_arrow *a, int i, int j)
+{
+    const dm_arrow_layout *lay = &a->lay;
+    int bi = block_of(lay, i), bj = block_of(lay, j);
+    if (bi == NB && bj == NB)
+        return (double *)&a->pp[(j - lay->border) * NP + (i - lay->border)];
+    if (bi == NB)
+        return NULL;
+    if (bj == NB)
+        return &a->cpl[bi][(i - lay->off[bi]) + (size_t)(j - lay->border) * lay->nb[bi]];
+    assert(bi == bj); /* blocks are coupled only through the border */
+    int li = i - lay->off[bi], lj = j - lay->off[bi];
+    if (li < lj)
+        return NULL;
+    assert(li - lj <= lay->kd[bi]);
+    return &a->band[bi][(li - lj) + (size_t)lj * (lay->kd[bi] + 1)];
+}
+
+/* Mark a stored entry as structurally non-zero. */
+static void mark(dm_arrow *a, const double *s)
+{
+    for (int c = 0; c < NB; c++) {
+        if (s >= a->band[c] && s < a->band[c] + band_len(&a->lay, c))
+            a->touched[c][s - a->band[c]] = 1;
+        if (s >= a->cpl[c] && s < a->cpl[c] + (size_t)a->lay.nb[c] * NP)
+            a->touched_cpl[c][s - a->cpl[c]] = 1;
+    }
+}
+
+void dm_arrow_add(dm_arrow *a, int i, int j, double v)
+{
+    double *s = slot(a, i, j);
+    if (!s)
+        return;
+    *s += v;
+    if (a->touched[0])
+        mark(a, s);
+}
+
+double dm_arrow_get(const dm_arrow *a, int i, int j)
+{
+    const dm_arrow_layout *lay = &a->lay;
+    int bi = block_of(lay, i), bj = block_of(lay, j);
+    if (bi != NB && bj != NB && bi != bj)
+        return 0.0;
+    if (bi == NB && bj != NB)
+        return dm_arrow_get(a, j, i);
+    if (bi == bj && bi != NB) {
+        int li = i - lay->off[bi], lj = j - lay->off[bi];
+        if (li < lj)
+            return dm_arrow_get(a, j, i);
+        if (li - lj > lay->kd[bi])
+            return 0.0;
+    }
+    return *slot(a, i, j);
+}
+
+/* Multi-vector blocks are interleaved: the q values of unknown i are
+ * X[i q .. i q + q - 1], so every band entry updates q contiguous values
+ * (vectorised), and one vector (q = 1) is an ordinary array. */
+
+/* y_i += a x_j over q values */
+static inline void axpy_q(double *restrict y, double a, const double *restrict x, int q)
+{
+#pragma omp simd
+    for (int r = 0; r < q; r++)
+        y[r] += a * x[r];
+}
+
+/* Y_c += A_c X_c for one banded block (symmetric, lower band storage):
+ * the pattern's entries, or every non-zero of the band. */
+static void band_mult(const double *ab, int n, int kd, const dm_arrow_pattern *pat, int c,
+                      const double *X, double *Y, int q)
+{
+    int ld = kd + 1;
+    for (int j = 0; j < n; j++) {
+        const double *col = ab + (size_t)j * ld;
+        const double *xj = X + (size_t)j * q;
+        double *yj = Y + (size_t)j * q;
+        axpy_q(yj, col[0], xj, q);
+        if (pat) {
+            for (int p = pat->colptr[c][j]; p < pat->colptr[c][j + 1]; p++) {
+                int i = pat->rows[c][p];
+                axpy_q(Y + (size_t)i * q, col[i - j], xj, q);
+                axpy_q(yj, col[i - j], X + (size_t)i * q, q);
+            }
+            continue;
+        }
+        int top = j + kd < n - 1 ? j + kd : n - 1;
+        for (int i = j + 1; i <= top; i++) {
+            double a = col[i - j];
+            if (a == 0)
+                continue;
+            axpy_q(Y + (size_t)i * q, a, xj, q);
+            axpy_q(yj, a, X + (size_t)i * q, q);
+        }
+    }
+}
+
+/* Y_c += C_c X_P and Y_P += C_c' X_c */
+static void coupling_mult(const dm_arrow *a, int c, const double *X, double *Y, int q)
+{
+    const dm_arrow_layout *lay = &a->lay;
+    int nb = lay->nb[c];
+    const double *xc = X + (size_t)lay->off[c] * q, *xp = X + (size_t)lay->border * q;
+    double *yc = Y + (size_t)lay->off[c] * q, *yp = Y + (size_t)lay->border * q;
+    int count = a->pattern ? a->pattern->ncpl[c] : nb * NP;
+    for (int e = 0; e < count; e++) {
+        int k = a->pattern ? a->pattern->cpl[c][e] : e, i = k % nb, m = k / nb;
+        double v = a->cpl[c][k];
+        if (v == 0 && !a->pattern)
+            continue;
+        axpy_q(yc + (size_t)i * q, v, xp + (size_t)m * q, q);
+        axpy_q(yp + (size_t)m * q, v, xc + (size_t)i * q, q);
+    }
+}
+
+void dm_arrow_mult(const dm_arrow *a, const double *X, int q, double *Y)
+{
+    const dm_arrow_layout *lay = &a->lay;
+    assert(q >= 1 && X != Y);
+    memset(Y, 0, sizeof(double) * lay->n * q);
+    const double *xp = X + (size_t)lay->border * q;
+    double *yp = Y + (size_t)lay->border * q;
+    for (int c = 0; c < NB; c++) {
+        int off = lay->off[c];
+        band_mult(a->band[c], lay->nb[c], lay->kd[c], a->pattern, c, X + (size_t)off * q,
+                  Y + (size_t)off * q, q);
+        coupling_mult(a, c, X, Y, q);
+    }
+    for (int m = 0; m < NP; m++)
+        for (int l = 0; l < NP; l++)
+            axpy_q(yp + (size_t)m * q, a->pp[l * NP + m], xp + (size_t)l * q, q);
+}
+
+void dm_arrow_axpby(dm_arrow *dst, const dm_arrow *a, double sigma, const dm_arrow *b)
+{
+    const dm_arrow_layout *lay = &a->lay;
+    assert(dst->lay.n == lay->n && b->lay.n == lay->n);
+    for (int c = 0; c < NB; c++) {
+        size_t nband = band_len(lay, c), ncpl = (size_t)lay->nb[c] * NP;
+        for (size_t i = 0; i < nband; i++)
+            dst->band[c][i] = a->band[c][i] - sigma * b->band[c][i];
+        for (size_t i = 0; i < ncpl; i++)
+            dst->cpl[c][i] = a->cpl[c][i] - sigma * b->cpl[c][i];
+    }
+    for (int i = 0; i < NP * NP; i++)
+        dst->pp[i] = a->pp[i] - sigma * b->pp[i];
+}
+
+void dm_arrow_to_dense(const dm_arrow *a, double *D)
+{
+    const dm_arrow_layout *lay = &a->lay;
+    int n = lay->n, bo = lay->border;
+    memset(D, 0, sizeof(double) * n * n);
+    for (int c = 0; c < NB; c++) {
+        int nb = lay->nb[c], kd = lay->kd[c], off = lay->off[c];
+        for (int j = 0; j < nb; j++)
+            for (int i = j; i <= j + kd && i < nb; i++) {
+                double v = a->band[c][(i - j) + (size_t)j * (kd + 1)];
+                D[(size_t)(off + j) * n + off + i] = D[(size_t)(off + i) * n + off + j] = v;
+            }
+        for (int m = 0; m < NP; m++)
+            for (int i = 0; i < nb; i++) {
+                double v = a->cpl[c][i + (size_t)m * nb];
+                D[(size_t)(bo + m) * n + off + i] = D[(size_t)(off + i) * n + bo + m] = v;
+            }
+    }
+    for (int m = 0; m < NP; m++)
+        for (int l = 0; l < NP; l++)
+            D[(size_t)(bo + m) * n + bo + l] = a->pp[m * NP + l];
+}
+
+/* ---- Cholesky ----------------------------------------------------------- */
+
+int dm_arrow_chol_init(dm_arrow_chol *f, const dm_arrow_layout *lay, dm_error *err)
+{
+    memset(f, 0, sizeof *f);
+    f->lay = *lay;
+    int ok = 1;
+    for (int c = 0; c < NB; c++) {
+        f->band[c] = malloc(band_len(lay, c) * sizeof(double));
+        f->W[c] = malloc((size_t)lay->nb[c] * NP * sizeof(double));
+        ok &= f->band[c] && f->W[c];
+    }
+    if (!ok) {
+        dm_arrow_chol_release(f);
+        return dm_fail(err, DM_ENOMEM, "out of memory for a %d-DOF factorization", lay->n);
+    }
+    return DM_OK;
+}
+
+void dm_arrow_chol_release(dm_arrow_chol *f)
+{
+    for (int c = 0; c < NB; c++) {
+        free(f->band[c]);
+        free(f->W[c]);
+        f->band[c] = f->W[c] = NULL;
+    }
+}
+
+int dm_arrow_chol_factor(dm_arrow_chol *f, const dm_arrow *a, dm_error *err)
+{
+    const dm_arrow_layout *lay = &a->lay;
+    assert(f->lay.n == lay->n);
+    f->pattern = a->pattern;
+    memcpy(f->S, a->pp, sizeof f->S);
+    for (int c = 0; c < NB; c++) {
+        int nb = lay->nb[c], kd = lay->kd[c];
+        memcpy(f->band[c], a->band[c], band_len(lay, c) * sizeof(double));
+        memcpy(f->W[c], a->cpl[c], (size_t)nb * NP * sizeof(double));
+        lapack_int info = LAPACKE_dpbtrf_work(LAPACK_COL_MAJOR, 'L', nb, kd, f->band[c], kd + 1);
+        if (info)
+            return dm_fail(err, DM_ENUMERIC,
+                           "stiffness matrix is not positive definite (chain %d, pivot %d)", c,
+                           (int)info);
+        LAPACKE_dtbtrs_work(LAPACK_COL_MAJOR, 'L', 'N', 'N', nb, kd, NP, f->band[c], kd + 1,
+                            f->W[c], nb);
+        /* the border reaches a chain at its lower rod ends, numbered last:
+         * W_c = L_c^-1 C_c is zero above C_c's first non-zero row */
+        int first = nb;
+        for (int m = 0; m < NP; m++)
+            for (int i = 0; i < first; i++)
+                if (f->W[c][i + (size_t)m * nb] != 0)
+                    first = i;
+        f->w_first[c] = first;
+        /* S = P - sum W' W (both triangles) */
+        cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, NP, NP, nb, -1.0, f->W[c], nb,
+                    f->W[c], nb, 1.0, f->S, NP);
+    }
+    for (int j = 0; j < NP; j++) /* exactly symmetric */
+        for (int i = j + 1; i < NP; i++)
+            f->S[j * NP + i] = f->S[i * NP + j] = 0.5 * (f->S[j * NP + i] + f->S[i * NP + j]);
+    memcpy(f->LS, f->S, sizeof f->LS);
+    lapack_int info = LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'L', NP, f->LS, NP);
+    if (info)
+        return dm_fail(err, DM_ENUMERIC,
+                       "stiffness matrix is not positive definite (platform block, pivot %d)",
+                       (int)info);
+    return DM_OK;
+}
+
+/* Last row of column j that a factor can fill: the profile's, or the band's. */
+static int column_end(const int *colend, int j, int n, int kd)
+{
+    return colend ? colend[j] : (j + kd < n - 1 ? j + kd : n - 1);
+}
+
+/* X_c = L_c^-1 X_c (lower band, forward) */
+static void band_forward(const double *L, int n, int kd, const int *colend, double *X, int q)
+{
+    int ld = kd + 1;
+    for (int j = 0; j < n; j++) {
+        const double *col = L + (size_t)j * ld;
+        double *xj = X + (size_t)j * q, inv = 1.0 / col[0];
+        int top = column_end(colend, j, n, kd);
+#pragma omp simd
+        for (int r = 0; r < q; r++)
+            xj[r] *= inv;
+        for (int i = j + 1; i <= top; i++)
+            if (col[i - j] != 0)
+                axpy_q(X + (size_t)i * q, -col[i - j], xj, q);
+    }
+}
+
+/* X_c = L_c^-T X_c (backward) */
+static void band_backward(const double *L, int n, int kd, const int *colend, double *X, int q)
+{
+    int ld = kd + 1;
+    for (int j = n - 1; j >= 0; j--) {
+        const double *col = L + (size_t)j * ld;
+        double *xj = X + (size_t)j * q, inv = 1.0 / col[0];
+        int top = column_end(colend, j, n, kd);
+        for (int i = j + 1; i <= top; i++)
+            if (col[i - j] != 0)
+                axpy_q(xj, -col[i - j], X + (size_t)i * q, q);
+#pragma omp simd
+        for (int r = 0; r < q; r++)
+            xj[r] *= inv;
+    }
+}
+
+/* The 6 x 6 border: x = LS^-T LS^-1 x */
+static void border_solve(const double *LS, double *xp, int q)
+{
+    for (int j = 0; j < NP; j++) {
+        double *xj = xp + (size_t)j * q, inv = 1.0 / LS[j * NP + j];
+        for (int l = 0; l < j; l++)
+            axpy_q(xj, -LS[l * NP + j], xp + (size_t)l * q, q);
+#pragma omp simd
+        for (int r = 0; r < q; r++)
+            xj[r] *= inv;
+    }
+    for (int j = NP - 1; j >= 0; j--) {
+        double *xj = xp + (size_t)j * q, inv = 1.0 / LS[j * NP + j];
+        for (int l = j + 1; l < NP; l++)
+            axpy_q(xj, -LS[j * NP + l], xp + (size_t)l * q, q);
+#pragma omp simd
+        for (int r = 0; r < q; r++)
+            xj[r] *= inv;
+    }
+}
+
+void dm_arrow_chol_solve(const dm_arrow_chol *f, double *X, int q)
+{
+    const dm_arrow_layout *lay = &f->lay;
+    assert(q >= 1);
+    double *xp = X + (size_t)lay->border * q;
+    for (int c = 0; c < NB; c++) { /* forward: y_c = L_c^-1 x_c, x_P -= W_c' y_c */
+        int nb = lay->nb[c];
+        double *xc = X + (size_t)lay->off[c] * q;
+        band_forward(f->band[c], nb, lay->kd[c], f->pattern ? f->pattern->colend[c] : NULL, xc, q);
+        for (int m = 0; m < NP; m++)
+            for (int i = f->w_first[c]; i < nb; i++)
+                if (f->W[c][i + (size_t)m * nb] != 0)
+                    axpy_q(xp + (size_t)m * q, -f->W[c][i + (size_t)m * nb], xc + (size_t)i * q, q);
+    }
+    border_solve(f->LS, xp, q);
+    for (int c = 0; c < NB; c++) { /* backward: x_c = L_c^-T (y_c - W_c x_P) */
+        int nb = lay->nb[c];
+        double *xc = X + (size_t)lay->off[c] * q;
+        for (int m = 0; m < NP; m++)
+            for (int i = f->w_first[c]; i < nb; i++)
+                if (f->W[c][i + (size_t)m * nb] != 0)
+                    axpy_q(xc + (size_t)i * q, -f->W[c][i + (size_t)m * nb], xp + (size_t)m * q, q);
+        band_backward(f->band[c], nb, lay->kd[c], f->pattern ? f->pattern->colend[c] : NULL, xc, q);
+    }
+}
+
+int dm_arrow_chol_border_inverse(const dm_arrow_chol *f, double Sinv[36])
+{
+    memcpy(Sinv, f->LS, sizeof f->LS);
+    if (LAPACKE_dpotri_work(LAPACK_COL_MAJOR, 'L', NP, Sinv, NP))
+        return DM_ENUMERIC;
+    for (int j = 0; j < NP; j++)
+        for (int i = 0; i < j; i++)
+            Sinv[j * NP + i] = Sinv[i * NP + j];
+    return DM_OK;
+}
+
+double dm_arrow_chol_logdet(const dm_arrow_chol *f)
+{
+    double s = 0;
+    for (int c = 0; c < NB; c++)
+        for (int j = 0; j < f->lay.nb[c]; j++)
+            s += log(f->band[c][(size_t)j * (f->lay.kd[c] + 1)]);
+    for (int j = 0; j < NP; j++)
+        s += log(f->LS[j * NP + j]);
+    return 2 * s;
+}
+
+/* ---- inertia ---------------------------------------------------------- */
+
+int dm_arrow_ldl_init(dm_arrow_ldl *w, const dm_arrow_layout *lay, dm_error *err)
+{
+    memset(w, 0, sizeof *w);
+    int rc = dm_arrow_init(&w->shifted, lay, err);
+    for (int c = 0; c < NB && !rc; c++)
+        if (!(w->Z[c] = malloc((size_t)lay->nb[c] * NP * sizeof(double))))
+            rc = dm_fail(err, DM_ENOMEM, "out of memory for a Sturm count");
+    if (rc)
+        dm_arrow_ldl_release(w);
+    return rc;
+}
+
+void dm_arrow_ldl_release(dm_arrow_ldl *w)
+{
+    dm_arrow_release(&w->shifted);
+    for (int c = 0; c < NB; c++) {
+        free(w->Z[c]);
+        w->Z[c] = NULL;
+    }
+}
+
+/* Largest growth |L||D||L'| / |A| on the diagonal we accept: beyond it the
+ * computed factor is not that of a matrix near A - sigma B. */
+#define LDL_MAX_GROWTH 1e8
+
+/* In-place LDL' of a banded block without pivoting (right-looking): D on
+ * the diagonal, L (unit) below it. Returns the number of negative pivots,
+ * or -1 when a pivot's growth says the count cannot be trusted. */
+static int band_ldl(double *ab, int n, int kd, const int *colend)
+{
+    int ld = kd + 1, neg = 0;
+    for (int j = 0; j < n; j++) {
+        double *col = ab + (size_t)j * ld, d = col[0];
+        int top = column_end(colend, j, n, kd);
+        double big = 0;
+        for (int i = j + 1; i <= top; i++)
+            big = fmax(big, fabs(col[i - j]));
+        if (d == 0 || fabs(d) * LDL_MAX_GROWTH < big) /* |l_ij| up to big / |d| */
+            return -1;
+        neg += d < 0;
+        for (int i = j + 1; i <= top; i++) { /* trailing update with the unscaled column */
+            double lij = col[i - j] / d, *ci = ab + (size_t)i * ld;
+            for (int m = i; m <= top; m++)
+                ci[m - i] -= lij * col[m - j];
+        }
+        for (int i = j + 1; i <= top; i++)
+            col[i - j] /= d;
+    }
+    return neg;
+}
+
+int dm_arrow_count_below(dm_arrow_ldl *w, const dm_arrow *A, const dm_arrow *B, double sigma,
+                         int *count)
+{
+    const dm_arrow_layout *lay = &A->lay;
+    dm_arrow *s = &w->shifted;
+    dm_arrow_axpby(s, A, sigma, B);
+    double S[NP * NP], ev[NP], work[3 * NP * NP];
+    memcpy(S, s->pp, sizeof S);
+    int total = 0;
+    for (int c = 0; c < NB; c++) {
+        int nb = lay->nb[c], kd = lay->kd[c];
+        int neg = band_ldl(s->band[c], nb, kd, A->pattern ? A->pattern->colend[c] : NULL);
+        if (neg < 0)
+            return DM_ENUMERIC;
+        total += neg;
+        /* S -= Z' D^-1 Z with Z = L^-1 C (unit triangular solve) */
+        memcpy(w->Z[c], s->cpl[c], (size_t)nb * NP * sizeof(double));
+        LAPACKE_dtbtrs_work(LAPACK_COL_MAJOR, 'L', 'N', 'U', nb, kd, NP, s->band[c], kd + 1,
+                            w->Z[c], nb);
+        for (int a = 0; a < NP; a++)
+            for (int b = 0; b <= a; b++) {
+                const double *za = w->Z[c] + (size_t)a * nb, *zb = w->Z[c] + (size_t)b * nb;
+                double v = 0;
+                for (int i = 0; i < nb; i++)
+                    v += za[i] * zb[i] / s->band[c][(size_t)i * (kd + 1)];
+                S[b * NP + a] -= v;
+                if (a != b)
+                    S[a * NP + b] -= v;
+            }
+    }
+    if (LAPACKE_dsyev_work(LAPACK_COL_MAJOR, 'N', 'L', NP, S, NP, ev, work, 3 * NP * NP))
+        return DM_ENUMERIC;
+    double big = fmax(fabs(ev[0]), fabs(ev[NP - 1]));
+    for (int k = 0; k < NP; k++) {
+        if (fabs(ev[k]) <= 1e-12 * big)
+            return DM_ENUMERIC; /* sigma on an eigenvalue of the border */
+        total += ev[k] < 0;
+    }
+    *count = total;
+    return DM_OK;
+}
