@@ -122,11 +122,13 @@ int dm_arrow_pattern_make(dm_arrow_pattern *p, dm_arrow *a, dm_arrow *b, dm_erro
                 }
         }
         p->colptr[c][nb] = nz;
-        for (int j = 0, i = 0; j < nb; j++) { /* profile: rows i whose first column <= j */
-            while (i + 1 < nb && first[i + 1] <= j)
-                i++;
-            p->colend[c][j] = i > j ? i : j;
-        }
+        /* profile: column j holds the rows i >= j whose first column is <= j
+         * (the envelope need not be monotone) */
+        for (int j = 0; j < nb; j++)
+            p->colend[c][j] = j;
+        for (int i = 0; i < nb; i++)
+            for (int j = first[i]; j < i; j++)
+                p->colend[c][j] = i > p->colend[c][j] ? i : p->colend[c][j];
         free(first);
         p->ncpl[c] = 0;
         for (int k = 0; k < nb * NP; k++)
