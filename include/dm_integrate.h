@@ -86,6 +86,15 @@ int dm_standard_move(dm_move_ws *ws, const dm_model *model, const dm_modes *mode
                      const dm_static *statics, const double dir[3],
                      const dm_move_opts *opts, dm_move_result *res, dm_error *err);
 
+/* The same along ndir (1..3) directions in one pass (they share each
+ * mode's transitions): res[d] for dir[d]. A damped robot's ringing is
+ * followed only until an envelope bound proves that no later sample can
+ * raise the residual or cross the settling band: the results are those of
+ * the whole window. */
+int dm_standard_moves(dm_move_ws *ws, const dm_model *model, const dm_modes *modes, int k,
+                      const dm_static *statics, const double (*dir)[3], int ndir,
+                      const dm_move_opts *opts, dm_move_result *res, dm_error *err);
+
 /* ---- trajectories -------------------------------------------------------- */
 
 #define DM_INTEG_MAXFREQ 8

@@ -93,7 +93,7 @@ const char *dm_direction_name(int direction);
  * at most once, greedily by decreasing MAC:
  *   MAC(a, b) = (a' M b)^2 / ((a' M a)(b' M b)), M = this pose's mass matrix.
  * assign[i] = index of the mode for reference i, mac[i] its MAC. work needs
- * n*kr + kr*kc doubles. */
+ * 2*n*kr + kr*kc doubles. */
 void dm_modal_mac_match(const double *ref, int kr, const dm_modes *modes, int kc,
                         const dm_model *model, int *assign, double *mac, double *work);
 

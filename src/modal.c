@@ -71,6 +71,9 @@ static int subspace_max(int n, int k)
  * one plans its first filter with that (poses along a path are spaced
  * alike: 1e-4 for a trajectory's steps, 1e-2 for a coarse grid). */
 #define WARM_ERROR 1e-2
+/* A filter is planned to bring the residuals this far below CONVERGED
+ * (its gain is a worst case: most components are damped far more). */
+#define TARGET 0.5
 #define MAX_DEGREE 8
 #define MAX_ROUNDS 8
 
@@ -622,8 +625,12 @@ static int iterate(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, int
          * Ritz values of this pose, or of the last one for a warm start;
          * without any (a start given from outside): plain subspace iteration */
         double t0 = ws->theta[ws->nl], tw = ws->theta[(kw ? kw : k) - 1], tq = ws->theta[q - 1];
+        /* the skew limit needs how far a column strays towards the lowest
+         * modes, which residuals do not show (the projection removes it):
+         * for another pose's vectors, assume WARM_ERROR */
+        double mix = ritz ? error : fmax(error, WARM_ERROR);
         int d = t0 > 0 && tw > t0 && tq > tw
-                    ? filter_degree(fmax(error, CONVERGED) / (0.1 * CONVERGED), error, t0, tw, tq)
+                    ? filter_degree(fmax(error, CONVERGED) / (TARGET * CONVERGED), mix, t0, tw, tq)
                     : 1;
         if (!(d = filter_and_project(ws, md, L, d, 2 * tq, ritz)))
             return 0;
@@ -797,13 +804,17 @@ void dm_modal_mac_match(const double *ref, int kr, const dm_modes *mo, int kc,
                         const dm_model *md, int *assign, double *mac, double *work)
 {
     int n = md->n;
-    double *Mref = work, *W = work + (size_t)n * kr; /* W[i + kr j] = ref_i' M phi_j */
+    /* work: the references interleaved (n x kr), then M times them, then W */
+    double *R = work, *MR = work + (size_t)n * kr, *W = MR + (size_t)n * kr;
     for (int i = 0; i < kr; i++)
-        dm_model_mult_M(md, ref + (size_t)i * n, 1, Mref + (size_t)i * n);
-    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, kr, kc, n, 1.0, Mref, n, mo->phi, n, 0.0,
+        for (int r = 0; r < n; r++)
+            R[(size_t)r * kr + i] = ref[(size_t)i * n + r];
+    dm_model_mult_M(md, R, kr, MR);
+    /* W[i + kr j] = ref_i' M phi_j; MR interleaved == column-major kr x n */
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, kr, kc, n, 1.0, MR, kr, mo->phi, n, 0.0,
                 W, kr);
     for (int i = 0; i < kr; i++) { /* normalise: phi' M phi = 1 already */
-        double aMa = cblas_ddot(n, ref + (size_t)i * n, 1, Mref + (size_t)i * n, 1);
+        double aMa = cblas_ddot(n, R + i, kr, MR + i, kr);
         for (int j = 0; j < kc; j++)
             W[i + (size_t)kr * j] = W[i + (size_t)kr * j] * W[i + (size_t)kr * j] / aMa;
         assign[i] = -1;

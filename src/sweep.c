@@ -303,7 +303,7 @@ static int worker_alloc(const sweep_ctx *c, worker *w, dm_error *err)
     if (!w->an)
         return err->code;
     w->move = dm_move_alloc(c->n, c->k, err);
-    w->mac_work = malloc(sizeof(double) * ((size_t)c->n * c->kc + (size_t)c->k * c->kc));
+    w->mac_work = malloc(sizeof(double) * (2 * (size_t)c->n * c->k + (size_t)c->k * c->kc));
     w->mac = malloc(sizeof(double) * c->k);
     w->assign = malloc(sizeof(int) * c->k);
     w->prev = malloc(sizeof(double) * c->n * c->k);
@@ -489,17 +489,19 @@ static void compute_point(const sweep_ctx *c, worker *w, const double P[3], dm_p
             r->tracked_hz[f] = res.modes->freq_hz[w->assign[f]];
         w->have_prev = 1;
     }
-    for (int d = 0; d < 3 && c->o.dynamic; d++) {
-        double dir[3] = {d == 0, d == 1, d == 2};
-        dm_move_result mv;
-        if (dm_standard_move(w->move, w->an->model, res.modes, c->k, w->an->statics, dir,
-                             &c->o.move, &mv, NULL)) {
+    if (c->o.dynamic) {
+        static const double xyz[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+        dm_move_result mv[3];
+        if (dm_standard_moves(w->move, w->an->model, res.modes, c->k, w->an->statics, xyz, 3,
+                              &c->o.move, mv, NULL)) {
             r->status = DM_POINT_FAILED;
-            continue;
+            return;
         }
-        r->move_peak[d] = mv.peak_m;
-        r->move_residual[d] = mv.residual_m;
-        r->move_settling[d] = mv.settling_s;
+        for (int d = 0; d < 3; d++) {
+            r->move_peak[d] = mv[d].peak_m;
+            r->move_residual[d] = mv[d].residual_m;
+            r->move_settling[d] = mv[d].settling_s;
+        }
     }
 }
 

@@ -17,7 +17,7 @@
 typedef long double ldbl;
 
 /* In-place lower Cholesky of the n x n column-major A (long double). */
-static int ref_cholesky(ldbl *A, int n)
+static inline int ref_cholesky(ldbl *A, int n)
 {
     for (int j = 0; j < n; j++) {
         ldbl d = A[(size_t)j * n + j];
@@ -38,7 +38,7 @@ static int ref_cholesky(ldbl *A, int n)
 }
 
 /* x = (L L')^-1 x */
-static void ref_chol_solve(const ldbl *L, int n, ldbl *x)
+static inline void ref_chol_solve(const ldbl *L, int n, ldbl *x)
 {
     for (int i = 0; i < n; i++) {
         ldbl s = x[i];
@@ -56,7 +56,7 @@ static void ref_chol_solve(const ldbl *L, int n, ldbl *x)
 
 /* Symmetric eigenproblem of the q x q column-major C by cyclic Jacobi:
  * eigenvalues in w, eigenvectors in the columns of Z. */
-static void ref_jacobi(ldbl *C, int q, ldbl *w, ldbl *Z)
+static inline void ref_jacobi(ldbl *C, int q, ldbl *w, ldbl *Z)
 {
     for (int i = 0; i < q * q; i++)
         Z[i] = 0;
@@ -105,7 +105,7 @@ static void ref_jacobi(ldbl *C, int q, ldbl *w, ldbl *Z)
 
 /* Rayleigh-Ritz of (K, M) on the q columns of X (n x q, long double):
  * X becomes M-orthonormal Ritz vectors, ascending values in w. */
-static void ref_rayleigh_ritz(const double *K, const double *M, int n, ldbl *X, int q, ldbl *w)
+static inline void ref_rayleigh_ritz(const double *K, const double *M, int n, ldbl *X, int q, ldbl *w)
 {
     ldbl *KX = malloc(sizeof(ldbl) * n * q), *MX = malloc(sizeof(ldbl) * n * q);
     ldbl *Kt = malloc(sizeof(ldbl) * q * q), *Mt = malloc(sizeof(ldbl) * q * q);
@@ -184,7 +184,7 @@ static void ref_rayleigh_ritz(const double *K, const double *M, int n, ldbl *X, 
 
 /* X = K^-1 B for nrhs columns (n x nrhs, column-major), solved in long
  * double; returns -1 if K is not positive definite. */
-static int dm_reference_solve(const double *K, int n, const double *B, int nrhs, ldbl *X)
+static inline int dm_reference_solve(const double *K, int n, const double *B, int nrhs, ldbl *X)
 {
     ldbl *L = malloc(sizeof(ldbl) * n * n);
     for (size_t i = 0; i < (size_t)n * n; i++)
@@ -202,7 +202,7 @@ static int dm_reference_solve(const double *K, int n, const double *B, int nrhs,
 /* The k lowest eigenvalues (lam, long double) and M-normalised vectors
  * (phi, n x k, double; may be NULL) of the dense pair (K, M). Returns 0,
  * or -1 if K is not positive definite. */
-static int dm_reference_eigen(const double *K, const double *M, int n, int k, ldbl *lam,
+static inline int dm_reference_eigen(const double *K, const double *M, int n, int k, ldbl *lam,
                               double *phi)
 {
     int q = k + 12 < n ? k + 12 : n;
