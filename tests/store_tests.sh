@@ -18,6 +18,12 @@ SW="$DM sweep --robot chen2018 --grid $GRID --mesh 2,2 --modes 6 --tile 4,4,1 --
 $SW --out "$TMP/ref" --threads 1 >/dev/null || bad "reference sweep"
 $SW --out "$TMP/two" --threads 2 >/dev/null || bad "two-thread sweep"
 if diff -r "$TMP/ref" "$TMP/two" >/dev/null; then ok; else bad "1 and 2 threads differ"; fi
+# the thread count from the environment instead of --threads, BLAS threads too
+for env in "OMP_NUM_THREADS=1" "OMP_NUM_THREADS=2" "OMP_NUM_THREADS=2 OPENBLAS_NUM_THREADS=2"; do
+    rm -rf "$TMP/env"
+    env $env $SW --out "$TMP/env" >/dev/null || bad "sweep with $env"
+    if diff -r "$TMP/ref" "$TMP/env" >/dev/null; then ok; else bad "$env differs from --threads 1"; fi
+done
 
 # real clients and values == deltamap modes
 if $PY tests/check_store.py "$TMP/ref" "$DM" chen2018 2,2; then ok; else bad "zarr/xarray checks"; fi

@@ -160,8 +160,9 @@ static void values_equal_single_pose_analysis(void **state)
         assert_int_equal(rc, 0);
         assert_int_equal(status[p], res.near_singular ? DM_POINT_NEAR_SINGULAR : DM_POINT_OK);
         for (int j = 0; j < 6; j++) {
-            /* eigenvalues agree to eps * lambda_max: 1e-8 relative for f1 near the edge */
-            assert_rel(f[6 * p + j], res.modes->freq_hz[j], 1e-8, "point %d f%d", p, j + 1);
+            /* both converge on residuals far below what 1e-9 needs (the sweep
+             * warm-started along its tile, the analysis from its own start) */
+            assert_rel(f[6 * p + j], res.modes->freq_hz[j], 1e-9, "point %d f%d", p, j + 1);
             assert_abs(e[6 * p + j], res.static_error[j], 1e-9 * fabs(res.static_error[2]),
                        "point %d error %d", p, j);
         }
