@@ -55,6 +55,7 @@ struct dm_stepper {
     double *Mx, *q, *qd, *f0, *f1, *omega, *zeta; /* modal buffers */
     double *Minv_K, *b0, *b1, *Mfac;              /* full-model buffers */
     double alpha, beta, h;                        /* current step */
+    int own_damping;                              /* alpha, beta set, not the robot's */
     SUNContext ctx;
     void *cvode;
     N_Vector y;
@@ -245,8 +246,17 @@ static int run_cvode(dm_stepper *st, double h, dm_error *err)
     return DM_OK;
 }
 
+void dm_stepper_set_damping(dm_stepper *st, double alpha, double beta)
+{
+    st->alpha = alpha;
+    st->beta = beta;
+    st->own_damping = 1;
+}
+
 static void set_damping(dm_stepper *st, const dm_model *md)
 {
+    if (st->own_damping)
+        return;
     st->alpha = md->robot->rayleigh_alpha;
     st->beta = md->robot->rayleigh_beta;
 }
