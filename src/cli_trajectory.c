@@ -15,7 +15,7 @@ static const char HELP[] =
     "                           [--integrator cvode|closed-form|full] [--rtol X] [--atol X]\n"
     "                           [--no-quasi-static] [--from-rest] [--no-reference]\n"
     "                           [--mesh NA,NB] [--tool X,Y,Z] [--force FX,FY,FZ]\n"
-    "                           [--set SECTION.KEY=V]...\n"
+    "                           [--set SECTION.KEY=V]... [--force-long]\n"
     "                           [--out FILE.csv] [--json]\n"
     "\n"
     "Normal-coordinate integration along a trajectory (MODEL.md §4): the robot is\n"
@@ -50,6 +50,8 @@ static const char HELP[] =
     "  --out FILE       per-step CSV: t, pose, six error components, |error|, tool\n"
     "                   error, first three frequencies; a name ending in .zarr writes\n"
     "                   the same as a Zarr v3 group (the map store's format)\n"
+    "  --force-long     run even when the estimated work exceeds 4 hours (refused\n"
+    "                   before it starts otherwise)\n"
     "  --json           summary as JSON: mean_error_m, peak_error_m, truncation_error\n";
 
 typedef struct {
@@ -68,7 +70,8 @@ static int parse(int argc, char **argv, traj_opts *t)
         {"quasi-static", 0, 0, 'q'}, {"no-quasi-static", 0, 0, 'Q'}, {"from-rest", 0, 0, 'z'},
         {"no-reference", 0, 0, 'n'},
         {"mesh", 1, 0, 'm'}, {"tool", 1, 0, 't'}, {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'},
-        {"set", 1, 0, 's'}, {"force", 1, 0, 'F'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"set", 1, 0, 's'}, {"force", 1, 0, 'F'}, {"force-long", 0, 0, 'L'},
+        {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     int c;
     double v[2];
     memset(t, 0, sizeof *t);
@@ -83,6 +86,7 @@ static int parse(int argc, char **argv, traj_opts *t)
         case 'j': t->json = 1; break;
         case 'q': t->o.quasi_static = 1; break;
         case 'Q': t->o.quasi_static = 0; break;
+        case 'L': t->o.force = 1; break;
         case 'z': t->o.from_rest = 1; break;
         case 's':
             if (dm_cli_add_set("trajectory", t->sets, &t->nset, optarg))

@@ -278,11 +278,30 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     return sink && sink(user, &s) ? DM_EINTERRUPT : DM_OK;
 }
 
+double dm_integ_estimate_s(long steps, int n, int k, int reference)
+{
+    double s = n / 210.0, per_step = 2e-3 * s * s * fmax(1.0, k / 10.0);
+    if (reference)
+        per_step += 5e-3 * s * s * s;
+    return steps * per_step;
+}
+
 int dm_integrate_trajectory(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
                             dm_integ_sink sink, void *user, dm_integ_summary *sum, dm_error *err)
 {
     if (!(o->dt_s > 0) || !(tr->duration_s > 0))
         return dm_fail(err, DM_EINVAL, "time step and duration must be > 0");
+    double steps_d = ceil(tr->duration_s / o->dt_s - 1e-9);
+    int n = dm_model_dofs(rb, o->na ? o->na : rb->na, o->nb ? o->nb : rb->nb);
+    int k = o->k <= 0 || o->k > n ? n : o->k;
+    double est = steps_d > 1e15 ? INFINITY : dm_integ_estimate_s((long)steps_d, n, k, o->reference);
+    if (est > DM_INTEG_MAX_SECONDS && !o->force)
+        return dm_fail(err, DM_EINVAL,
+                       "%s: %.6g s at a step of %g s is %.3g steps, about %.3g hours of work "
+                       "for a %d-DOF model (the limit is %g hours; a larger step, a shorter "
+                       "path or no all-modes reference would do, or force it)",
+                       tr->name, tr->duration_s, o->dt_s, steps_d, est / 3600, n,
+                       DM_INTEG_MAX_SECONDS / 3600);
     int rc = dm_traj_check_reachable(tr, rb, o->dt_s, err);
     if (rc)
         return rc;

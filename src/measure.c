@@ -317,7 +317,7 @@ static int predict_poses(const dm_robot *rb, const dm_dataset *d, int na, int nb
                        kmax, n);
     dm_analysis *an = dm_analysis_alloc(rb, na, nb, kmax, DM_EIGEN_PARTIAL, err);
     if (!an)
-        return err->code;
+        return err ? err->code : DM_ENOMEM;
     dm_pose_result res;
     dm_pose loaded;
     int rc = DM_OK, last = -1;

@@ -301,7 +301,7 @@ static int worker_alloc(const sweep_ctx *c, worker *w, dm_error *err)
     memset(w, 0, sizeof *w);
     w->an = dm_analysis_alloc(c->rb, c->na, c->nb, c->kc, DM_EIGEN_PARTIAL, err);
     if (!w->an)
-        return err->code;
+        return err ? err->code : DM_ENOMEM;
     w->move = dm_move_alloc(c->n, c->k, err);
     w->mac_work = malloc(sizeof(double) * (2 * (size_t)c->n * c->k + (size_t)c->k * c->kc));
     w->mac = malloc(sizeof(double) * c->k);

@@ -99,6 +99,9 @@ contains err "first unreachable at t = 0 s"
 if [ -e "$TMP/none.csv" ] || ls "$TMP"/none.csv.tmp.* >/dev/null 2>&1; then bad "half-written output"; else ok; fi
 expect 2 "bad path spec" "$DM" trajectory --robot zheng2017 --path "circle:centre=0,0;radius=1;rate=1;duration=1"
 contains err "centre needs 3 numbers"
+# a path that would take years is refused at once, before the reachability scan
+expect 2 "endless path refused" timeout 10 "$DM" trajectory --robot chen2018 --path "circle:centre=0,0,-0.5;radius=0.1;rate=1;duration=21474836480.02"
+contains err "hours of work"
 expect 2 "bad law" "$DM" trajectory --robot zheng2017 --path "p2p:from=0,0,-0.4;to=0.1,0,-0.4;duration=1;law=smooth"
 printf 't,x,y,z\n0,0,0,-0.4\n0.01,0,0,oops\n' >"$TMP/bad.csv"
 expect 2 "bad csv" "$DM" trajectory --robot zheng2017 --path "$TMP/bad.csv"

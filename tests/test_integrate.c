@@ -608,6 +608,31 @@ static void truncation_figure_does_not_depend_on_dt(void **state)
     assert_rel(fig[2], fig[1], 0.1, "truncation figure at 2 dt");
 }
 
+
+/* A failing CVODE call is named, with SUNDIALS' name for its flag. */
+static void cvode_failures_are_named(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_pose_result res;
+    dm_error err;
+    assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
+    dm_analysis *an = dm_analysis_alloc(&rb, 1, 1, 4, DM_EIGEN_PARTIAL, NULL);
+    assert_int_equal(dm_analysis_run(an, rb.home_m, 4, &res, NULL), 0);
+    int n = an->model->n;
+    double *F = calloc((size_t)n, sizeof(double)), *x = calloc((size_t)n, sizeof(double));
+    double *xd = calloc((size_t)n, sizeof(double));
+    dm_stepper *st = dm_stepper_alloc(n, 4, DM_ODE_CVODE, -1.0, 1e-12, NULL); /* rtol < 0 */
+    assert_non_null(st);
+    assert_int_equal(dm_stepper_advance(st, an->model, res.modes, 4, F, F, 1e-3, x, xd, &err),
+                     DM_ENUMERIC);
+    assert_non_null(strstr(err.msg, "CVodeSStolerances"));
+    assert_non_null(strstr(err.msg, "CV_ILL_INPUT"));
+    dm_stepper_free(st);
+    free(F), free(x), free(xd);
+    dm_analysis_free(an);
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 1) /* one test by name (or a pattern), while working on it */
@@ -627,6 +652,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(standard_moves_match_all_modes),
         cmocka_unit_test(paper_trajectories_ten_modes_match_all),
         cmocka_unit_test(truncation_figure_does_not_depend_on_dt),
+        cmocka_unit_test(cvode_failures_are_named),
     };
     return cmocka_run_group_tests_name("integrate", tests, NULL, NULL);
 }
