@@ -800,40 +800,84 @@ const char *dm_direction_name(int d)
     return d >= 0 && d < 6 ? names[d] : "?";
 }
 
-void dm_modal_mac_match(const double *ref, int kr, const dm_modes *mo, int kc,
-                        const dm_model *md, int *assign, double *mac, double *work)
+/* M-products of the references: a[f + kr j] = ref_f' M phi_j, and
+ * norms2[f] = ref_f' M ref_f. work: 2 n kr doubles. */
+static void reference_products(const double *ref, int kr, const dm_modes *mo, int kc,
+                               const dm_model *md, double *a, double *norms2, double *work)
 {
     int n = md->n;
-    /* work: the references interleaved (n x kr), then M times them, then W */
-    double *R = work, *MR = work + (size_t)n * kr, *W = MR + (size_t)n * kr;
+    double *R = work, *MR = work + (size_t)n * kr; /* interleaved */
     for (int i = 0; i < kr; i++)
         for (int r = 0; r < n; r++)
             R[(size_t)r * kr + i] = ref[(size_t)i * n + r];
     dm_model_mult_M(md, R, kr, MR);
-    /* W[i + kr j] = ref_i' M phi_j; MR interleaved == column-major kr x n */
+    /* MR interleaved == column-major kr x n */
     cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, kr, kc, n, 1.0, MR, kr, mo->phi, n, 0.0,
-                W, kr);
-    for (int i = 0; i < kr; i++) { /* normalise: phi' M phi = 1 already */
-        double aMa = cblas_ddot(n, R + i, kr, MR + i, kr);
-        for (int j = 0; j < kc; j++)
-            W[i + (size_t)kr * j] = W[i + (size_t)kr * j] * W[i + (size_t)kr * j] / aMa;
-        assign[i] = -1;
-    }
+                a, kr);
+    for (int i = 0; i < kr; i++)
+        norms2[i] = cblas_ddot(n, R + i, kr, MR + i, kr);
+}
+
+void dm_modal_track(const double *ref, int kr, const dm_modes *mo, int kc, const dm_model *md,
+                    int *assign, double *mac, double *shapes, double *work)
+{
+    int n = md->n;
+    assert(kr <= DM_TRACK_MAX && kc <= DM_TRACK_MAX && kr <= kc);
+    double *a = work + 2 * (size_t)n * kr, norms2[DM_TRACK_MAX], cm[DM_TRACK_MAX][DM_TRACK_MAX];
+    int first[DM_TRACK_MAX + 1], nclu = 0, room[DM_TRACK_MAX], of[DM_TRACK_MAX];
+    reference_products(ref, kr, mo, kc, md, a, norms2, work);
+    /* clusters: runs of modes closer than DM_TRACK_GAP (relative) */
+    for (int j = 0; j < kc; j++)
+        if (j == 0 || mo->freq_hz[j] > mo->freq_hz[j - 1] * (1 + DM_TRACK_GAP))
+            first[nclu++] = j;
+    first[nclu] = kc;
+    /* each family's MAC with each cluster's invariant subspace */
+    for (int f = 0; f < kr; f++)
+        for (int c = 0; c < nclu; c++) {
+            double s = 0;
+            for (int j = first[c]; j < first[c + 1]; j++)
+                s += a[f + (size_t)kr * j] * a[f + (size_t)kr * j];
+            cm[f][c] = s / norms2[f];
+        }
+    for (int c = 0; c < nclu; c++)
+        room[c] = first[c + 1] - first[c];
+    for (int f = 0; f < kr; f++)
+        of[f] = -1;
+    /* greedy by decreasing MAC; values within 1e-9 count as equal and go
+     * in index order, so rounding cannot reorder them */
     for (int round = 0; round < kr; round++) {
-        int bi = -1, bj = -1;
-        double best = -1;
-        for (int i = 0; i < kr; i++)
-            for (int j = 0; j < kc && assign[i] < 0; j++)
-                if (W[i + (size_t)kr * j] > best) {
-                    best = W[i + (size_t)kr * j];
-                    bi = i;
-                    bj = j;
+        int bf = -1, bc = -1;
+        for (int f = 0; f < kr; f++)
+            for (int c = 0; c < nclu && of[f] < 0; c++)
+                if (room[c] && (bf < 0 || cm[f][c] > cm[bf][bc] + 1e-9)) {
+                    bf = f;
+                    bc = c;
                 }
-        if (bi < 0)
+        if (bf < 0)
             break;
-        assign[bi] = bj;
-        mac[bi] = best;
-        for (int i = 0; i < kr; i++) /* mode bj is taken */
-            W[i + (size_t)kr * bj] = -2;
+        of[bf] = bc;
+        room[bc]--;
+        mac[bf] = cm[bf][bc];
+    }
+    /* inside a cluster its families, in index order, take its modes in
+     * ascending frequency: the tracked order there is a function of the
+     * frequencies, not of an arbitrary basis */
+    int next[DM_TRACK_MAX];
+    for (int c = 0; c < nclu; c++)
+        next[c] = first[c];
+    for (int f = 0; f < kr; f++) {
+        assign[f] = of[f] < 0 ? -1 : next[of[f]]++;
+        if (of[f] < 0 || !shapes)
+            continue;
+        /* the family's next reference: its shape projected on the cluster */
+        double *dst = shapes + (size_t)f * n, s2 = 0;
+        memset(dst, 0, sizeof(double) * n);
+        for (int j = first[of[f]]; j < first[of[f] + 1]; j++) {
+            double c = a[f + (size_t)kr * j];
+            s2 += c * c;
+            cblas_daxpy(n, c, mo->phi + (size_t)j * n, 1, dst, 1);
+        }
+        if (s2 > 0)
+            cblas_dscal(n, 1 / sqrt(s2), dst, 1);
     }
 }

@@ -325,15 +325,13 @@ static int anchor_index(const sweep_ctx *c, const int m[3], const int a[3])
     return (a[0] * m[1] + a[1]) * m[2] + a[2];
 }
 
-/* Match the k families with shapes `ref` to the current modes by MAC
- * (w->assign) and store the matched shapes in dst (may be ref itself). */
+/* Match the k families with shapes `ref` to the current modes by MAC,
+ * clusters as subspaces (w->assign), and store the families' next shapes
+ * in dst (may be ref itself). */
 static void match_families(const sweep_ctx *c, worker *w, const double *ref,
                            const dm_modes *modes, double *dst)
 {
-    dm_modal_mac_match(ref, c->k, modes, c->kc, w->an->model, w->assign, w->mac, w->mac_work);
-    for (int f = 0; f < c->k; f++)
-        memcpy(dst + (size_t)f * c->n, modes->phi + (size_t)w->assign[f] * c->n,
-               sizeof(double) * c->n);
+    dm_modal_track(ref, c->k, modes, c->kc, w->an->model, w->assign, w->mac, dst, w->mac_work);
 }
 
 /* Families at anchor `to`, continued from anchor `from` by MAC. */

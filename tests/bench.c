@@ -153,8 +153,9 @@ static void per_pose(const char *preset, int mesh, int k, pose_costs *pc)
             dm_standard_moves(mw, an->model, modes, k, an->statics, xyz, 3, &mo, res, NULL);
             double t5 = now_s();
             if (j)
-                dm_modal_mac_match(prev, k, modes, kc, an->model, assign, mac, work);
-            memcpy(prev, modes->phi, sizeof(double) * n * k);
+                dm_modal_track(prev, k, modes, kc, an->model, assign, mac, prev, work);
+            else
+                memcpy(prev, modes->phi, sizeof(double) * n * k);
             double t6 = now_s();
             if (j % 16 == 0) /* every 16th pose writes 1/256 of a tile's time, x 16 below */
                 tile_io(&st, tile, &pc->t[T_IO]);
