@@ -68,6 +68,17 @@ void dm_modal_forget(dm_modal *ws);
  * be caught by the Sturm count). */
 int dm_modal_set_start(dm_modal *ws, const double *X, int ncol, dm_error *err);
 
+/* A seed: what a solve leaves behind to start another from (the subspace
+ * and its Ritz values). A sweep starts each point from the seed of an
+ * anchor near it, so a point's result does not depend on which points were
+ * computed before it (or by which thread, or in which tile shape).
+ * dm_modal_seed_size: bytes of a seed (0 for the dense methods);
+ * dm_modal_seed_save: after a successful solve (returns 0 if there is
+ * nothing to save); dm_modal_seed_load: the next solve starts from it. */
+size_t dm_modal_seed_size(const dm_modal *ws);
+int dm_modal_seed_save(const dm_modal *ws, void *seed);
+void dm_modal_seed_load(dm_modal *ws, const void *seed);
+
 /* How the last solve went. */
 typedef struct dm_modal_stats {
     int iterations;     /* applications of K^-1 M (0: dense) */

@@ -239,6 +239,45 @@ void dm_modal_forget(dm_modal *ws)
 
 void dm_modal_last_stats(const dm_modal *ws, dm_modal_stats *stats) { *stats = ws->stats; }
 
+/* A seed: q, then q Ritz values (double), then the block (float: it is
+ * only a start; half the memory of an anchor lattice). */
+size_t dm_modal_seed_size(const dm_modal *ws)
+{
+    if (!uses_subspace(ws))
+        return 0;
+    return sizeof(double) * (1 + ws->qmax) + sizeof(float) * ws->n * ws->qmax;
+}
+
+int dm_modal_seed_save(const dm_modal *ws, void *seed)
+{
+    if (!uses_subspace(ws) || !ws->have_start)
+        return 0;
+    double *head = seed;
+    float *X = (float *)(head + 1 + ws->qmax);
+    head[0] = ws->q;
+    memcpy(head + 1, ws->theta, sizeof(double) * ws->q);
+    for (size_t i = 0; i < (size_t)ws->n * ws->q; i++)
+        X[i] = (float)ws->X[i];
+    return 1;
+}
+
+void dm_modal_seed_load(dm_modal *ws, const void *seed)
+{
+    const double *head = seed;
+    if (!uses_subspace(ws))
+        return;
+    int q = (int)head[0];
+    assert(q >= 1 && q <= ws->qmax);
+    const float *X = (const float *)(head + 1 + ws->qmax);
+    ws->q = q;
+    ws->nl = 0;
+    memcpy(ws->theta, head + 1, sizeof(double) * q);
+    for (size_t i = 0; i < (size_t)ws->n * q; i++)
+        ws->X[i] = X[i];
+    ws->have_start = 1;
+    ws->warm_error = WARM_ERROR; /* nothing of the last solve carried over */
+}
+
 int dm_modal_set_start(dm_modal *ws, const double *X, int ncol, dm_error *err)
 {
     if (!uses_subspace(ws) || ncol < ws->kmax + 2 || ncol > ws->qmax)

@@ -437,6 +437,38 @@ static void pairs_through_the_centre(void **state)
     dm_analysis_free(ad);
 }
 
+
+/* A solve started from a seed depends on the seed and the pose only: the
+ * same bits whatever the workspace solved before. */
+static void seeded_solve_does_not_depend_on_history(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    load_robot("zheng2017", NULL, &rb);
+    dm_analysis *a = dm_analysis_alloc(&rb, 4, 4, 14, DM_EIGEN_SUBSPACE, NULL);
+    dm_analysis *b = dm_analysis_alloc(&rb, 4, 4, 14, DM_EIGEN_SUBSPACE, NULL);
+    const double P0[3] = {0.01, 0.02, -0.41}, P1[3] = {-0.05, 0.04, -0.38};
+    const double P2[3] = {0.025, 0.015, -0.405};
+    dm_pose_result r, ra, rb2;
+    assert_int_equal(dm_analysis_run(a, P0, 14, &r, NULL), 0);
+    size_t len = dm_modal_seed_size(a->modal);
+    assert_true(len > 0);
+    void *seed = malloc(len);
+    assert_true(dm_modal_seed_save(a->modal, seed));
+    assert_int_equal(dm_analysis_run(a, P1, 14, &r, NULL), 0); /* a history */
+    dm_modal_seed_load(a->modal, seed);
+    assert_int_equal(dm_analysis_run(a, P2, 14, &ra, NULL), 0);
+    dm_modal_seed_load(b->modal, seed); /* a fresh workspace, no history */
+    assert_int_equal(dm_analysis_run(b, P2, 14, &rb2, NULL), 0);
+    dm_modal_stats st;
+    dm_modal_last_stats(b->modal, &st);
+    assert_true(st.warm && !st.fallback);
+    assert_memory_equal(ra.modes->freq_hz, rb2.modes->freq_hz, 14 * sizeof(double));
+    free(seed);
+    dm_analysis_free(a);
+    dm_analysis_free(b);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -449,6 +481,7 @@ int main(void)
         cmocka_unit_test(warm_and_cold_agree),
         cmocka_unit_test(missed_mode_is_caught),
         cmocka_unit_test(pairs_through_the_centre),
+        cmocka_unit_test(seeded_solve_does_not_depend_on_history),
     };
     return cmocka_run_group_tests_name("modal", tests, NULL, NULL);
 }
