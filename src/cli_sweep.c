@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include "cli_impl.h"
+#include "dm_shard.h"
 #include "dm_store.h"
 #include "dm_sweep.h"
 
@@ -15,7 +16,7 @@ static const char SWEEP_HELP[] =
     "usage: deltamap sweep --robot R --grid SPEC --out maps/NAME [--modes K]\n"
     "                      [--mesh NA,NB] [--tile A,B,C] [--threads N] [--no-dynamic]\n"
     "                      [--amax A] [--tau T] [--force] [--progress bar|lines|none]\n"
-    "                      [--set SECTION.KEY=V]...\n"
+    "                      [--shard K/N|slurm|slurm/N] [--set SECTION.KEY=V]...\n"
     "\n"
     "Frequencies, static gravity error, stiffness, singularity and the dynamic\n"
     "error of the standard move (MODEL.md §5) on a grid of poses, in parallel,\n"
@@ -31,8 +32,16 @@ static const char SWEEP_HELP[] =
     "  --no-dynamic    skip the standard moves (X, Y, Z)\n"
     "  --amax A        standard move acceleration, m/s^2 (default 50)\n"
     "  --tau T         standard move duration, s (default 0.05)\n"
-    "  --force         overwrite a store of another robot, grid or options\n"
-    "  --progress M    bar (default on a terminal), lines (default otherwise), none\n";
+    "  --force         replace a store of another robot, grid or options (a store\n"
+    "                  of this very sweep is always resumed, never replaced)\n"
+    "  --progress M    bar (default on a terminal), lines (default otherwise), none\n"
+    "  --shard K/N     compute only shard K (0..N-1) of N: run N such processes, at\n"
+    "                  once or not, on any hosts, into one store; together they make\n"
+    "                  the store one process makes (docs/cluster.md)\n"
+    "  --shard slurm   K and N from a Slurm job array: K = SLURM_ARRAY_TASK_ID -\n"
+    "                  SLURM_ARRAY_TASK_MIN, N = SLURM_ARRAY_TASK_COUNT\n"
+    "  --shard slurm/N K = SLURM_ARRAY_TASK_ID, N given: for rerunning some tasks of\n"
+    "                  an array indexed 0..N-1 (sbatch --array=3,7)\n";
 
 static volatile sig_atomic_t stop_requested;
 
@@ -43,7 +52,7 @@ static void on_signal(int sig)
 }
 
 typedef struct {
-    const char *robot, *grid, *out;
+    const char *robot, *grid, *out, *shard;
     const char *sets[16];
     int nset;
     dm_sweep_opts o;
@@ -55,7 +64,8 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
         {"robot", 1, 0, 'r'}, {"grid", 1, 0, 'g'}, {"out", 1, 0, 'o'}, {"modes", 1, 0, 'k'},
         {"mesh", 1, 0, 'm'}, {"tile", 1, 0, 't'}, {"threads", 1, 0, 'T'},
         {"no-dynamic", 0, 0, 'D'}, {"amax", 1, 0, 'A'}, {"tau", 1, 0, 'U'}, {"force", 0, 0, 'f'},
-        {"progress", 1, 0, 'p'}, {"set", 1, 0, 's'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"progress", 1, 0, 'p'}, {"set", 1, 0, 's'}, {"shard", 1, 0, 'S'}, {"help", 0, 0, 'h'},
+        {0, 0, 0, 0}};
     int c;
     double v[3];
     memset(a, 0, sizeof *a);
@@ -68,6 +78,7 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
         case 'r': a->robot = optarg; break;
         case 'g': a->grid = optarg; break;
         case 'o': a->out = optarg; break;
+        case 'S': a->shard = optarg; break;
         case 'f': a->o.force = 1; break;
         case 'D': a->o.dynamic = 0; break;
         case 's':
@@ -121,10 +132,94 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
     return 0;
 }
 
+/* ---- --shard ------------------------------------------------------------- */
+
+#define MAX_SHARDS 1000000
+
+/* "K/N" with 0 <= K < N */
+static int parse_fraction(const char *s, int *k, int *n)
+{
+    const char *slash = strchr(s, '/');
+    char kt[32];
+    if (!slash || slash == s || (size_t)(slash - s) >= sizeof kt)
+        return -1;
+    snprintf(kt, sizeof kt, "%.*s", (int)(slash - s), s);
+    return dm_cli_parse_int(kt, 0, MAX_SHARDS - 1, k) ||
+           dm_cli_parse_int(slash + 1, 1, MAX_SHARDS, n) || *k >= *n ? -1 : 0;
+}
+
+/* A Slurm variable as a whole number >= 0. */
+static int slurm_var(const char *name, long *v, dm_error *err)
+{
+    const char *s = getenv(name);
+    char *end;
+    if (!s || !*s)
+        return dm_fail(err, DM_EINVAL,
+                       "--shard slurm: %s is not set (run it as a task of a job array: "
+                       "sbatch --array=0-7 ...)",
+                       name);
+    *v = strtol(s, &end, 10);
+    if (*end || *v < 0 || *v > MAX_SHARDS)
+        return dm_fail(err, DM_EINVAL, "--shard slurm: %s is not a whole number: %s", name, s);
+    return DM_OK;
+}
+
+/* --shard slurm: K relative to the array's first task, N its task count,
+ * for an array of consecutive tasks (a partial rerun, --array=3,7, would
+ * renumber the shards: it needs slurm/N). --shard slurm/N: K is the task
+ * id itself. */
+static int slurm_shard(const char *spec, int *k, int *n, dm_error *err)
+{
+    long id, lo, hi, count;
+    int rc = slurm_var("SLURM_ARRAY_TASK_ID", &id, err);
+    if (!rc && spec[5] == '/') {
+        if (dm_cli_parse_int(spec + 6, 1, MAX_SHARDS, n))
+            return dm_fail(err, DM_EINVAL, "--shard slurm/N: N must be a whole number 1..%d: %s",
+                           MAX_SHARDS, spec);
+        if (id >= *n)
+            return dm_fail(err, DM_EINVAL,
+                           "--shard %s: SLURM_ARRAY_TASK_ID=%ld is not a shard 0..%d", spec, id,
+                           *n - 1);
+        *k = (int)id;
+        return DM_OK;
+    }
+    if (!rc)
+        rc = slurm_var("SLURM_ARRAY_TASK_MIN", &lo, err);
+    if (!rc)
+        rc = slurm_var("SLURM_ARRAY_TASK_COUNT", &count, err);
+    if (!rc)
+        rc = slurm_var("SLURM_ARRAY_TASK_MAX", &hi, err);
+    if (!rc && (hi - lo + 1 != count || id < lo || id > hi || count < 1))
+        rc = dm_fail(err, DM_EINVAL,
+                     "--shard slurm: the array's tasks %ld..%ld are not %ld consecutive ones "
+                     "(a rerun of some tasks? use --shard slurm/N with the sweep's N)",
+                     lo, hi, count);
+    if (!rc) {
+        *k = (int)(id - lo);
+        *n = (int)count;
+    }
+    return rc;
+}
+
+/* Resolve --shard into opts (a usage error: 1; bad environment: 2). */
+static int resolve_shard(const char *spec, dm_sweep_opts *o)
+{
+    dm_error err;
+    if (!spec)
+        return 0;
+    if (!strncmp(spec, "slurm", 5) && (!spec[5] || spec[5] == '/'))
+        return slurm_shard(spec, &o->shard, &o->shards, &err) ? dm_cli_report(&err) : 0;
+    if (parse_fraction(spec, &o->shard, &o->shards))
+        return dm_cli_usage("sweep", "--shard takes K/N (0 <= K < N), slurm or slurm/N", spec);
+    return 0;
+}
+
 int dm_cli_sweep(int argc, char **argv)
 {
     sweep_args a;
     int rc = parse_sweep(argc, argv, &a);
+    if (!rc)
+        rc = resolve_shard(a.shard, &a.o);
     if (rc)
         return rc;
     dm_robot rb;
@@ -143,8 +238,11 @@ int dm_cli_sweep(int argc, char **argv)
     rc = dm_sweep_run(&rb, &grid, &a.o, a.out, &stop_requested, &st, &err);
     if (rc && rc != DM_EINTERRUPT)
         return dm_cli_report(&err);
-    printf("sweep   %s on %s: %ld points in %ld tiles (%ld already done, %ld computed) in %.1f s\n",
-           rb.name, a.grid, st.points_total, st.tiles_total, st.tiles_present, st.tiles_computed,
+    printf("sweep   %s on %s: %ld points in %ld tiles", rb.name, a.grid, st.points_total,
+           st.tiles_total);
+    if (a.o.shards > 1)
+        printf(", shard %d of %d: %ld tiles", a.o.shard, a.o.shards, st.tiles_mine);
+    printf(" (%ld already done, %ld computed) in %.1f s\n", st.tiles_present, st.tiles_computed,
            st.seconds);
     printf("points  computed now: %ld ok, %ld near-singular, %ld unreachable, %ld failed\n",
            st.points_ok, st.points_near_singular, st.points_unreachable, st.points_failed);

@@ -14,6 +14,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "dm_shard.h"
 #include "dm_store.h"
 #include "dm_version.h"
 #include "dm_vec3.h"
@@ -273,7 +274,7 @@ static int same_dir(const struct stat *a, const struct stat *b)
 
 /* What dead runs left of the store's skeleton: staging directories beside
  * it, metadata and coordinate temporaries inside (data chunks' ones are
- * cleaned tile by tile, by the process that recomputes the tile). */
+ * cleaned tile by tile, by the shard that recomputes the tile). */
 static void clean_skeleton(const sweep_ctx *c, const char *path)
 {
     char parent[1024], dir[1200];
@@ -797,6 +798,9 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
     c->n = dm_model_dofs(rb, c->na, c->nb);
     if (o->k < 1 || o->k > 64 || o->k > c->n)
         return dm_fail(err, DM_EINVAL, "sweep: --modes must be 1..64 (and at most %d DOF)", c->n);
+    if (o->shards < 0 || o->shard < 0 || (o->shards > 1 ? o->shard >= o->shards : o->shard > 0))
+        return dm_fail(err, DM_EINVAL, "sweep: there is no shard %d of %d (0 <= K < N)", o->shard,
+                       o->shards);
     c->k = o->k;
     c->kc = c->k + EXTRA_MODES < c->n ? c->k + EXTRA_MODES : c->n;
     auto_tile(g, o->tile, c->tile);
@@ -827,14 +831,14 @@ static void teardown(sweep_ctx *c)
     json_decref(c->store.group_attributes);
 }
 
-/* The tiles of this process. */
+/* The tiles of this process: its shard's (all of them without shards). */
 typedef struct {
     long total, mine, present;
-    char *pending; /* per tile: not complete */
+    char *pending; /* per tile: this shard's and not complete */
 } tile_plan;
 
-/* Which tiles still need computing: each check reads and verifies a
- * tile's chunks, so the checks run in parallel. */
+/* Which of this shard's tiles still need computing: each check reads and
+ * verifies a tile's chunks, so the checks run in parallel. */
 static int plan_tiles(const sweep_ctx *c, tile_plan *p, dm_error *err)
 {
     p->total = (long)c->ntiles[0] * c->ntiles[1] * c->ntiles[2];
@@ -855,7 +859,7 @@ static int plan_tiles(const sweep_ctx *c, tile_plan *p, dm_error *err)
         nomem = !buf;
 #pragma omp for schedule(static)
         for (long t = 0; t < p->total; t++) {
-            if (!buf)
+            if (!buf || dm_shard_of(t, c->o.shards) != c->o.shard)
                 continue;
             mine++;
             p->pending[t] = !tile_complete(c, buf, t);
@@ -930,6 +934,7 @@ static void fill_stats(const tile_plan *p, const tile_result *r, const dm_grid *
                        dm_sweep_stats *stats)
 {
     stats->tiles_total = p->total;
+    stats->tiles_mine = p->mine;
     stats->tiles_present = p->present;
     stats->tiles_computed = r->done;
     stats->points_total = dm_grid_points(g);
@@ -953,7 +958,7 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
     int rc = setup(&c, rb, g, o, out, err);
     if (!rc)
         rc = plan_tiles(&c, &plan, err);
-    /* anchors only when there is work: rerunning a finished sweep costs nothing */
+    /* anchors only when there is work: a finished shard costs nothing */
     worker w0;
     if (!rc && plan.present < plan.mine && !*stop && !(rc = worker_alloc(&c, &w0, err))) {
         rc = build_anchors(&c, &w0, err);
