@@ -2,7 +2,7 @@
 #
 #   make deps            install the Debian packages the project needs (idempotent)
 #   make / make all      build build/deltamap
-#   make test            deps + build + unit tests (cmocka) + CLI tests
+#   make test            deps + build + unit tests (cmocka) + CLI, store, shard tests
 #   make test SANITIZE=1 the same built with -fsanitize=address,undefined
 #   make demo            deps + build + run the main job on a built-in robot
 #   make bench           speed and memory figures
@@ -34,7 +34,8 @@ TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 TEST_BIN:= $(addprefix $(BUILD)/tests/,$(TESTS))
 BIN     := $(BUILD)/deltamap
 
-.PHONY: all deps test unit-tests cli-tests store-tests demo bench install clean help
+.PHONY: all deps test unit-tests cli-tests store-tests shard-tests demo bench install \
+        clean help
 .DELETE_ON_ERROR:
 
 all: $(BIN)
@@ -78,8 +79,11 @@ cli-tests: $(BIN)
 store-tests: $(BIN)
 	@DELTAMAP=$(BIN) tests/store_tests.sh
 
+shard-tests: $(BIN)
+	@DELTAMAP=$(BIN) tests/shard_tests.sh
+
 test: deps
-	@$(MAKE) --no-print-directory unit-tests cli-tests store-tests
+	@$(MAKE) --no-print-directory unit-tests cli-tests store-tests shard-tests
 	@echo "all tests passed"
 
 # The main job on a built-in robot: the mode table at the centre, then a
