@@ -224,7 +224,7 @@ static int write_coordinates(sweep_ctx *c, dm_error *err)
  * are refused and touch nothing. */
 
 enum { STORE_ABSENT = -1, STORE_RETRY = -2 };
-#define PREPARE_ATTEMPTS 50 /* about 4.5 s of retries in all */
+#define PREPARE_PATIENCE_S 60.0 /* NFS's default longest attribute cache time */
 
 static json_t *fingerprint_of(json_t *group_attributes)
 {
@@ -409,18 +409,23 @@ static int create_store(sweep_ctx *c, const char *path, dm_error *err)
 
 /* Open the store if it holds this sweep, or create it; another sweep's is
  * refused unless force (which replaces only a store of another sweep, so
- * any number of processes may be given it). */
+ * any number of processes may be given it). A lost race is retried: at
+ * once, as a rule, but a network filesystem may show the winner's store to
+ * this host only after its attribute cache expires. */
 static int prepare_store(sweep_ctx *c, const char *path, dm_error *err)
 {
-    int rc = STORE_RETRY;
-    for (int attempt = 0; rc == STORE_RETRY && attempt < PREPARE_ATTEMPTS; attempt++) {
-        if (attempt) {
-            struct timespec pause = {0, 1000000L * (attempt < 10 ? 10 * attempt : 100)};
-            nanosleep(&pause, NULL);
-        }
-        rc = open_existing(c, path, attempt > 0 && attempt < PREPARE_ATTEMPTS - 1, err);
+    double t0 = omp_get_wtime();
+    int rc;
+    for (int attempt = 0;; attempt++) {
+        double waited = omp_get_wtime() - t0;
+        rc = open_existing(c, path, attempt > 0 && waited < PREPARE_PATIENCE_S, err);
         if (rc == STORE_ABSENT)
             rc = create_store(c, path, err);
+        if (rc != STORE_RETRY || waited >= PREPARE_PATIENCE_S)
+            break;
+        long ms = attempt < 50 ? 10 * (attempt + 1) : 500;
+        struct timespec pause = {ms / 1000, 1000000L * (ms % 1000)};
+        nanosleep(&pause, NULL);
     }
     if (rc == STORE_RETRY)
         rc = dm_fail(err, DM_EIO, "%s: the store kept changing while this process opened it", path);
