@@ -75,6 +75,7 @@ typedef struct {
     dm_sweep_opts o;
     int na, nb, n, k, kc;
     int tile[3], ntiles[3];
+    int nthreads;       /* over tiles */
     dm_store store;
     /* anchors for mode tracking (read-only once built) */
     int nanchor;
@@ -858,7 +859,7 @@ static int plan_tiles(const sweep_ctx *c, tile_plan *p, dm_error *err)
         return dm_fail(err, DM_ENOMEM, "out of memory");
     int nomem = 0;
     long mine = 0, present = 0;
-#pragma omp parallel reduction(+ : mine, present) reduction(| : nomem)
+#pragma omp parallel num_threads(c->nthreads) reduction(+ : mine, present) reduction(| : nomem)
     {
         void *buf = malloc(scratch);
         nomem = !buf;
@@ -890,7 +891,7 @@ static void run_tiles(const sweep_ctx *c, tile_plan *p, volatile sig_atomic_t *s
     double t0 = omp_get_wtime();
     progress pg = {progress_mode, p->mine - p->present, 0, t0, 0,
                    (long)c->tile[0] * c->tile[1] * c->tile[2]};
-#pragma omp parallel
+#pragma omp parallel num_threads(c->nthreads)
     {
         worker w;
         dm_error werr = {0};
@@ -956,11 +957,16 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
     tile_plan plan = {0};
     tile_result res = {0};
     memset(stats, 0, sizeof *stats);
-    /* BLAS runs single-threaded inside our threads; threads over tiles. */
+    /* Threads over tiles, BLAS single-threaded everywhere: inside them, and
+     * in the serial anchors too, as OpenBLAS's OpenMP build takes its
+     * thread count from OpenMP's outside parallel regions (two BLAS threads
+     * on 210 x 210 matrices spin more than they compute). */
+    int outer = omp_get_max_threads();
     openblas_set_num_threads(1);
-    omp_set_num_threads(o->threads > 0 ? o->threads : omp_get_max_threads());
+    omp_set_num_threads(1);
     double t0 = omp_get_wtime();
     int rc = setup(&c, rb, g, o, out, err);
+    c.nthreads = o->threads > 0 ? o->threads : outer;
     if (!rc)
         rc = plan_tiles(&c, &plan, err);
     /* anchors only when there is work: a finished shard costs nothing */
@@ -986,5 +992,6 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
     }
     free(plan.pending);
     teardown(&c);
+    omp_set_num_threads(outer);
     return rc;
 }
