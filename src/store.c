@@ -50,21 +50,25 @@ static const char *dtype_name(dm_dtype t)
 
 /* ---- files ------------------------------------------------------------------ */
 
-/* mkdir of every component of path after its first `keep` characters */
+/* mkdir -p of path, creating no component within its first `keep`
+ * characters. Deepest first: on a network filesystem every mkdir is a
+ * round trip to the metadata server, and as a rule the parent exists. */
 static int mkdirs_from(const char *path, size_t keep, dm_error *err)
 {
-    char buf[1024];
-    snprintf(buf, sizeof buf, "%s", path);
-    for (char *p = buf + (keep ? keep : 1); *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        if (mkdir(buf, 0777) && errno != EEXIST)
-            return dm_fail(err, DM_EIO, "%s: cannot create directory: %s", buf, strerror(errno));
-        *p = '/';
-    }
-    if (mkdir(buf, 0777) && errno != EEXIST)
-        return dm_fail(err, DM_EIO, "%s: cannot create directory: %s", buf, strerror(errno));
+    if (!mkdir(path, 0777) || errno == EEXIST)
+        return DM_OK;
+    char parent[1024];
+    const char *slash = strrchr(path, '/');
+    int e = errno;
+    if (e != ENOENT || !slash || slash == path || (size_t)(slash - path) <= keep ||
+        (size_t)(slash - path) >= sizeof parent)
+        return dm_fail(err, DM_EIO, "%s: cannot create directory: %s", path, strerror(e));
+    snprintf(parent, sizeof parent, "%.*s", (int)(slash - path), path);
+    int rc = mkdirs_from(parent, keep, err);
+    if (rc)
+        return rc;
+    if (mkdir(path, 0777) && errno != EEXIST)
+        return dm_fail(err, DM_EIO, "%s: cannot create directory: %s", path, strerror(errno));
     return DM_OK;
 }
 
@@ -344,7 +348,7 @@ int dm_store_write_chunk(const dm_store *st, int a, const int64_t *c, const void
      * instead of leaving a stray tree */
     char *slash = strrchr(path, '/');
     *slash = '\0';
-    int rc = mkdirs_from(path, strlen(st->path) + strlen(st->arr[a].name) + 2, err);
+    int rc = mkdirs_from(path, strlen(st->path) + strlen(st->arr[a].name) + 1, err);
     *slash = '/';
     if (!rc)
         rc = dm_write_file_atomic(path, buf, nbytes + 4, err);
