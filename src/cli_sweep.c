@@ -496,9 +496,9 @@ int dm_cli_info(int argc, char **argv)
     rc = shards ? print_shards(&tc, shards) : 0;
     long temps = count_temporaries(path);
     if (temps)
-        printf("temps   %ld temporary files of killed writers (readers ignore them; a sweep "
-               "removes those of its tiles; with no sweep running: find %s -name '*.tmp.*' "
-               "-delete)\n",
+        printf("temps   %ld temporary files, of writers at work or killed (readers ignore "
+               "them; a sweep removes dead writers' ones beside the tiles it recomputes; with "
+               "no sweep running: find %s -name '*.tmp.*' -delete)\n",
                temps, path);
     free(tc.done);
     dm_store_release(&st);

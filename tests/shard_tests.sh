@@ -115,7 +115,31 @@ for attempt in 1 2 3; do
     if [ $rc0 -eq 0 ] && same "$TMP/ref" "$TMP/kill"; then ok; else bad "kill+rerun differs (attempt $attempt, exit $rc0)"; fi
 done
 
-# 7. --shard slurm: the job-array variables, and clear errors without them
+# 7. what dead writers left is removed, what live ones write is not: a
+#    staging directory beside the store and a metadata temporary in it, of
+#    a PID that is gone and of one that runs (this shell)
+sh -c 'exit 0' &
+dead=$!
+wait $dead
+host=$(hostname)
+rm -rf "$TMP/left" && cp -rp "$TMP/ref" "$TMP/left"
+for p in $dead $$; do
+    mkdir -p "$TMP/left.tmp.$host.$p/status" && touch "$TMP/left/zarr.json.tmp.$host.$p"
+    touch "$TMP/left/status/c/0/0/0.tmp.$host.$p" # beside a complete tile: left alone
+done
+rm "$TMP/left/frequencies_hz/c/1/1/1/0"
+touch "$TMP/left/frequencies_hz/c/1/1/1/0.tmp.$host.$dead" # beside the missing chunk
+$SW --out "$TMP/left" >"$TMP/out" 2>&1 || bad "sweep with leftovers"
+if [ ! -e "$TMP/left.tmp.$host.$dead" ] && [ ! -e "$TMP/left/zarr.json.tmp.$host.$dead" ] &&
+    [ ! -e "$TMP/left/frequencies_hz/c/1/1/1/0.tmp.$host.$dead" ] &&
+    [ -d "$TMP/left.tmp.$host.$$" ] && [ -e "$TMP/left/zarr.json.tmp.$host.$$" ]; then ok; else
+    bad "leftovers of dead writers kept, or a live writer's removed"; ls -a "$TMP" "$TMP/left"; fi
+"$DM" info "$TMP/left" >"$TMP/info"
+if grep -q "^temps   3 temporary files" "$TMP/info" && grep -q "(35 already done, 1 computed)" "$TMP/out"; then ok; else
+    bad "info counts leftovers"; cat "$TMP/info" "$TMP/out"; fi
+rm -rf "$TMP/left.tmp.$host.$$"
+
+# 8. --shard slurm: the job-array variables, and clear errors without them
 expect_err() { # CODE TEXT CMD... : exit CODE and TEXT on stderr
     code=$1 text=$2
     shift 2
