@@ -162,7 +162,8 @@ static int slurm_var(const char *name, long *v, dm_error *err)
                        name);
     *v = strtol(s, &end, 10);
     if (*end || *v < 0 || *v > MAX_SHARDS)
-        return dm_fail(err, DM_EINVAL, "--shard slurm: %s is not a whole number: %s", name, s);
+        return dm_fail(err, DM_EINVAL, "--shard slurm: %s is not a whole number 0..%d: %s",
+                       name, MAX_SHARDS, s);
     return DM_OK;
 }
 

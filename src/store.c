@@ -95,7 +95,7 @@ void dm_temp_name(const char *path, char *out, size_t len)
     snprintf(out, len, "%s.tmp.%s.%ld", path, host, (long)getpid());
 }
 
-/* "HOST.PID" (or "PID", as deltamap 1 wrote them) after ".tmp.": is its
+/* "HOST.PID" (or "PID", as earlier versions wrote them) after ".tmp.": is its
  * writer gone? On this host: its process no longer exists. On another:
  * the file is older than DM_TEMP_STALE_S (a writer holds one for
  * milliseconds), as no process here can ask that host. */

@@ -6,8 +6,9 @@
 #  - for the Slurm test (tests/slurm_tests.sh), if they can be installed:
 #    slurmctld, slurmd, slurm-client, munge. The test runs its own daemons
 #    with its own configuration; nothing here configures or starts a
-#    system-wide Slurm (without /etc/slurm/slurm.conf its services do not
-#    start). Where they cannot be installed the test reports SKIPPED.
+#    system-wide Slurm or MUNGE (their services stay stopped; without
+#    /etc/slurm/slurm.conf Slurm's would not start anyway). Where they
+#    cannot be installed the test reports SKIPPED.
 #  - a Python virtual environment in .venv with numpy, matplotlib, zarr and
 #    xarray for the plotting tools and the store-compatibility tests
 set -e
@@ -39,6 +40,16 @@ else
 fi
 if [ -n "$slurm_missing" ]; then
     echo "deps: installing Debian packages for the Slurm test:$slurm_missing"
+    # Their services are not to be started (the test runs daemons of its
+    # own): a policy-rc.d that denies it, for this install only, unless the
+    # system has one of its own.
+    POLICY=/usr/sbin/policy-rc.d
+    if [ ! -e $POLICY ]; then
+        trap '$SUDO rm -f $POLICY' EXIT
+        trap 'exit 1' INT TERM HUP
+        printf '#!/bin/sh\nexit 101\n' | $SUDO tee $POLICY >/dev/null
+        $SUDO chmod 755 $POLICY
+    fi
     # shellcheck disable=SC2086
     $SUDO apt-get install -y -qq --no-install-recommends $slurm_missing >/dev/null ||
         echo "deps: could not install$slurm_missing: the Slurm test will be SKIPPED"
