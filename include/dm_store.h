@@ -6,6 +6,9 @@
  * the bytes, appended little-endian). Metadata (`zarr.json`) is written
  * with jansson. Every file is written to a temporary name and renamed, so
  * a killed writer leaves either the old file or the new one, never half.
+ * Temporary names carry the writer's host and PID (PATH.tmp.HOST.PID):
+ * any number of processes, on any hosts, may write one store, and one
+ * removes only the temporaries of writers that are gone.
  *
  * A dm_store handle is shared read-only by threads after creation; chunk
  * writes to distinct chunks are independent (no shared mutable state). */
@@ -61,7 +64,9 @@ void dm_store_chunk_path(const dm_store *store, int a, const int64_t *c, char *o
 size_t dm_store_chunk_elems(const dm_store *store, int a);
 
 /* Write one chunk atomically: data holds dm_store_chunk_elems() elements
- * in C order, native little-endian. */
+ * in C order, native little-endian. The array's directory must exist (the
+ * store's metadata written): a store removed under a writer is not
+ * recreated piecemeal. */
 int dm_store_write_chunk(const dm_store *store, int a, const int64_t *c, const void *data,
                          dm_error *err);
 
@@ -71,8 +76,26 @@ int dm_store_write_chunk(const dm_store *store, int a, const int64_t *c, const v
 int dm_store_read_chunk(const dm_store *store, int a, const int64_t *c, void *data,
                         int *missing, dm_error *err);
 
+/* Remove what dead writers left beside one chunk file (its temporaries). */
+void dm_store_clean_chunk(const dm_store *store, int a, const int64_t *c);
+
 /* Write any small file atomically (tmp + rename). */
 int dm_write_file_atomic(const char *path, const void *data, size_t n, dm_error *err);
+
+/* The temporary name of path for this process: PATH.tmp.HOST.PID. */
+void dm_temp_name(const char *path, char *out, size_t len);
+
+/* A temporary of another host counts as abandoned after this long. */
+#define DM_TEMP_STALE_S 3600
+
+/* In directory dir, remove the temporaries BASE.tmp.HOST.PID (any BASE when
+ * base is NULL; files or whole directories) whose writer is gone: on this
+ * host, no process PID exists; of another host, older than
+ * DM_TEMP_STALE_S. Returns how many were removed. */
+int dm_remove_stale_temporaries(const char *dir, const char *base);
+
+/* rm -r (0, or -1 with errno; an absent path is not an error) */
+int dm_remove_tree(const char *path);
 
 /* mkdir -p */
 int dm_mkdirs(const char *path, dm_error *err);

@@ -6,7 +6,14 @@
  * "z=-0.5" is fixed. Units m. Tiles are chunks of the spatial grid; each
  * tile is computed by one thread with its own workspaces, so results do
  * not depend on the number of threads. An interrupted sweep keeps every
- * finished tile and resumes where it stopped. */
+ * finished tile and resumes where it stopped.
+ *
+ * Several processes (on one host or many) may sweep into one store, each
+ * computing one shard of the tiles (dm_shard.h): the store they make is
+ * byte-identical to one process's, because a tile's values depend on the
+ * grid alone (mode-tracking anchors are computed, the same, by every
+ * process; each tile starts afresh). Store creation is atomic, so the
+ * processes may start in any order or all at once. */
 #ifndef DM_SWEEP_H
 #define DM_SWEEP_H
 
@@ -53,14 +60,17 @@ typedef struct dm_sweep_opts {
     int threads;        /* 0: OpenMP default */
     int dynamic;        /* standard moves along X, Y, Z (default 1) */
     dm_move_opts move;
-    int force;          /* overwrite a store of another robot/grid */
+    int force;          /* replace a store of another robot/grid/options */
+    int shard, shards;  /* compute only shard `shard` of `shards` (0: all) */
     int progress;       /* 0 none, 1 bar, 2 periodic lines */
 } dm_sweep_opts;
 
 void dm_sweep_opts_default(dm_sweep_opts *opts);
 
 typedef struct dm_sweep_stats {
-    long tiles_total, tiles_present, tiles_computed;
+    long tiles_total;                  /* in the whole grid */
+    long tiles_mine;                   /* this shard's (all without shards) */
+    long tiles_present, tiles_computed; /* of this shard's */
     long points_total, points_ok, points_unreachable, points_near_singular, points_failed;
     double seconds;
     int interrupted;
