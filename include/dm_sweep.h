@@ -53,6 +53,18 @@ enum dm_point_status {
     DM_POINT_NOT_COMPUTED = 255
 };
 
+/* Where a running sweep is. */
+typedef struct dm_sweep_progress {
+    int phase;          /* DM_SWEEP_ANCHORS (mode tracking's references), then
+                           DM_SWEEP_TILES */
+    long done, total;   /* anchors or tiles of this run */
+    long points_per_tile;
+    double seconds;     /* since the sweep started */
+    int final;          /* the phase is over */
+} dm_sweep_progress;
+
+enum { DM_SWEEP_ANCHORS = 0, DM_SWEEP_TILES = 1 };
+
 typedef struct dm_sweep_opts {
     int k;              /* frequencies per point (default 10) */
     int na, nb;         /* mesh (0: the robot's) */
@@ -62,7 +74,10 @@ typedef struct dm_sweep_opts {
     dm_move_opts move;
     int force;          /* replace a store of another robot/grid/options */
     int shard, shards;  /* compute only shard `shard` of `shards` (0: all) */
-    int progress;       /* 0 none, 1 bar, 2 periodic lines */
+    /* progress: called (from one thread at a time) as the anchors and the
+     * tiles get done; NULL: none. The caller draws it. */
+    void (*progress)(void *user, const struct dm_sweep_progress *p);
+    void *progress_user;
 } dm_sweep_opts;
 
 void dm_sweep_opts_default(dm_sweep_opts *opts);

@@ -58,6 +58,7 @@ typedef struct {
     const char *sets[16];
     int nset;
     dm_sweep_opts o;
+    int progress;       /* 0 none, 1 bar, 2 periodic lines */
 } sweep_args;
 
 static int parse_sweep(int argc, char **argv, sweep_args *a)
@@ -72,7 +73,7 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
     double v[3];
     memset(a, 0, sizeof *a);
     dm_sweep_opts_default(&a->o);
-    a->o.progress = isatty(STDERR_FILENO) ? 1 : 2;
+    a->progress = isatty(STDERR_FILENO) ? 1 : 2;
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
@@ -115,11 +116,11 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
             break;
         case 'p':
             if (!strcmp(optarg, "bar"))
-                a->o.progress = 1;
+                a->progress = 1;
             else if (!strcmp(optarg, "lines"))
-                a->o.progress = 2;
+                a->progress = 2;
             else if (!strcmp(optarg, "none"))
-                a->o.progress = 0;
+                a->progress = 0;
             else
                 return dm_cli_usage("sweep", "--progress is bar, lines or none", optarg);
             break;
@@ -204,6 +205,43 @@ static int slurm_shard(const char *spec, int *k, int *n, dm_error *err)
     return rc;
 }
 
+/* The sweep's progress on stderr: a bar redrawn 4 times a second, or a line
+ * every 10 s; each phase (the anchors, then the tiles) shows at once. */
+typedef struct {
+    int mode;
+    double last, phase_start;
+} progress_view;
+
+static void draw_progress(void *user, const dm_sweep_progress *p)
+{
+    progress_view *v = user;
+    if (p->done == 0 && !p->final)
+        v->phase_start = p->seconds;
+    else if (!p->final && p->seconds - v->last < (v->mode == 1 ? 0.25 : 10.0))
+        return;
+    v->last = p->seconds;
+    double el = p->seconds - v->phase_start;
+    int pct = p->total ? (int)(100 * p->done / p->total) : 100;
+    double eta = p->done ? el * (p->total - p->done) / p->done : 0;
+    char what[96];
+    if (p->phase == DM_SWEEP_ANCHORS)
+        snprintf(what, sizeof what, "mode-tracking anchors %ld/%ld", p->done, p->total);
+    else
+        snprintf(what, sizeof what, "%ld/%ld tiles  %.0f points/s  ETA %.0f s", p->done,
+                 p->total, el > 0 ? p->done * p->points_per_tile / el : 0.0, eta);
+    if (v->mode == 1) {
+        char bar[31];
+        for (int i = 0; i < 30; i++)
+            bar[i] = i < pct * 30 / 100 ? '#' : '.';
+        bar[30] = '\0';
+        fprintf(stderr, "\r[%s] %3d%%  %s  (%.0f s)   %s", bar, pct, what, p->seconds,
+                p->final ? "\n" : "");
+    } else {
+        fprintf(stderr, "sweep: %s (%d%%), %.0f s\n", what, pct, p->seconds);
+    }
+    fflush(stderr);
+}
+
 /* Resolve --shard into opts (a usage error: 1; bad environment: 2). */
 static int resolve_shard(const char *spec, dm_sweep_opts *o)
 {
@@ -238,6 +276,11 @@ int dm_cli_sweep(int argc, char **argv)
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
     dm_sweep_stats st;
+    progress_view view = {a.progress, -1e9, 0};
+    if (a.progress) {
+        a.o.progress = draw_progress;
+        a.o.progress_user = &view;
+    }
     rc = dm_sweep_run(&rb, &grid, &a.o, a.out, &stop_requested, &st, &err);
     if (rc && rc != DM_EINTERRUPT)
         return dm_cli_report(&err);

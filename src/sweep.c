@@ -77,11 +77,16 @@ typedef struct {
     int tile[3], ntiles[3];
     int nthreads;       /* over tiles */
     dm_store store;
-    /* anchors for mode tracking (read-only once built) */
+    /* anchors (read-only once built): each point starts its eigen solve
+     * from its nearest anchor's seed and is tracked against that anchor's
+     * families, so a point depends on nothing computed before it */
     int nanchor;
     double (*anchor_P)[3];
     int *anchor_ok;
-    double *anchor_phi;  /* nanchor x (n x k) */
+    double *anchor_phi;  /* nanchor x (n x k): the families' shapes */
+    unsigned char *anchor_seed; /* nanchor x seed_len: the solver's start */
+    size_t seed_len;
+    double t0;           /* when the sweep started */
 } sweep_ctx;
 
 static void auto_tile(const dm_grid *g, const int req[3], int tile[3])
@@ -440,8 +445,7 @@ typedef struct {
     dm_move_ws *move;
     double *mac_work, *mac;
     int *assign;
-    double *prev;       /* families' shapes at the previous point (n x k) */
-    int have_prev;
+    double *shapes;     /* families' shapes at the point (n x k) */
     void *buf[N_DATA];
 } worker;
 
@@ -452,7 +456,7 @@ static void worker_free(worker *w)
     free(w->mac_work);
     free(w->mac);
     free(w->assign);
-    free(w->prev);
+    free(w->shapes);
     for (int a = 0; a < N_DATA; a++)
         free(w->buf[a]);
 }
@@ -467,8 +471,8 @@ static int worker_alloc(const sweep_ctx *c, worker *w, dm_error *err)
     w->mac_work = malloc(sizeof(double) * (2 * (size_t)c->n * c->k + (size_t)c->k * c->kc));
     w->mac = malloc(sizeof(double) * c->k);
     w->assign = malloc(sizeof(int) * c->k);
-    w->prev = malloc(sizeof(double) * c->n * c->k);
-    int ok = w->move && w->mac_work && w->mac && w->assign && w->prev;
+    w->shapes = malloc(sizeof(double) * c->n * c->k);
+    int ok = w->move && w->mac_work && w->mac && w->assign && w->shapes;
     for (int a = 0; a < N_DATA && ok; a++)
         ok = (w->buf[a] = malloc(dm_store_chunk_elems(&c->store, a) * dm_dtype_size(DATA[a].dtype))) != NULL;
     if (!ok) {
@@ -495,16 +499,48 @@ static void match_families(const sweep_ctx *c, worker *w, const double *ref,
     dm_modal_track(ref, c->k, modes, c->kc, w->an->model, w->assign, w->mac, dst, w->mac_work);
 }
 
-/* Families at anchor `to`, continued from anchor `from` by MAC. */
+static unsigned char *seed_of(const sweep_ctx *c, int a)
+{
+    return c->anchor_seed + (size_t)a * c->seed_len;
+}
+
+static void anchor_progress(const sweep_ctx *c, long done, long total, int final)
+{
+    if (!c->o.progress)
+        return;
+    dm_sweep_progress p = {DM_SWEEP_ANCHORS, done, total, 0, omp_get_wtime() - c->t0, final};
+    c->o.progress(c->o.progress_user, &p);
+}
+
+/* Families at anchor `to`, continued from anchor `from` by MAC; the solve
+ * starts from `from`'s seed and leaves `to`'s. */
 static int follow(sweep_ctx *c, worker *w, int from, int to)
 {
     size_t block = (size_t)c->n * c->k;
     dm_pose_result res;
+    if (c->seed_len)
+        dm_modal_seed_load(w->an->modal, seed_of(c, from));
     if (dm_analysis_run(w->an, c->anchor_P[to], c->kc, &res, NULL))
         return 0;
     match_families(c, w, c->anchor_phi + from * block, res.modes, c->anchor_phi + to * block);
+    if (c->seed_len)
+        dm_modal_seed_save(w->an->modal, seed_of(c, to));
     c->anchor_ok[to] = 1;
     return 1;
+}
+
+/* Anchors per axis: at most ANCHORS_PER_AXIS, fewer (the largest axis
+ * first) while the lattice's shapes and seeds would exceed ANCHOR_BYTES. */
+#define ANCHOR_BYTES (128u << 20)
+static void anchor_lattice(const sweep_ctx *c, int m[3])
+{
+    size_t per = (size_t)c->n * c->k * sizeof(double) + c->seed_len + 64;
+    for (int d = 0; d < 3; d++)
+        m[d] = c->grid->axis[d].count < ANCHORS_PER_AXIS ? c->grid->axis[d].count : ANCHORS_PER_AXIS;
+    while ((size_t)m[0] * m[1] * m[2] * per > ANCHOR_BYTES) {
+        int big = m[0] >= m[1] && m[0] >= m[2] ? 0 : m[1] >= m[2] ? 1 : 2;
+        m[big]--;
+    }
 }
 
 /* A coarse lattice (at most 16 per axis) of reference poses. Families are
@@ -514,14 +550,16 @@ static int follow(sweep_ctx *c, worker *w, int from, int to)
 static int build_anchors(sweep_ctx *c, worker *w, dm_error *err)
 {
     int m[3], n = c->n, k = c->k;
-    for (int d = 0; d < 3; d++)
-        m[d] = c->grid->axis[d].count < ANCHORS_PER_AXIS ? c->grid->axis[d].count : ANCHORS_PER_AXIS;
+    c->seed_len = dm_modal_seed_size(w->an->modal);
+    anchor_lattice(c, m);
     c->nanchor = m[0] * m[1] * m[2];
     c->anchor_P = calloc((size_t)c->nanchor, sizeof *c->anchor_P);
     c->anchor_ok = calloc((size_t)c->nanchor, sizeof *c->anchor_ok);
     c->anchor_phi = calloc((size_t)c->nanchor * n * k, sizeof(double));
+    c->anchor_seed = c->seed_len ? calloc((size_t)c->nanchor, c->seed_len) : NULL;
     int *queue = malloc(sizeof(int) * c->nanchor), *reach = calloc((size_t)c->nanchor, sizeof(int));
-    if (!c->anchor_P || !c->anchor_ok || !c->anchor_phi || !queue || !reach) {
+    if (!c->anchor_P || !c->anchor_ok || !c->anchor_phi || !queue || !reach ||
+        (c->seed_len && !c->anchor_seed)) {
         free(queue);
         free(reach);
         return dm_fail(err, DM_ENOMEM, "out of memory for mode tracking");
@@ -549,10 +587,16 @@ static int build_anchors(sweep_ctx *c, worker *w, dm_error *err)
      * step at a time), then breadth first within each horizontal layer from
      * that column, so families cross between heights in one place only. */
     int head = 0, tail = 0;
+    long reachable = 0;
+    for (int i = 0; i < c->nanchor; i++)
+        reachable += reach[i];
     if (root >= 0) {
         dm_pose_result res;
+        dm_modal_forget(w->an->modal); /* the root starts cold */
         if (!dm_analysis_run(w->an, c->anchor_P[root], c->kc, &res, NULL)) {
             memcpy(c->anchor_phi + (size_t)root * n * k, res.modes->phi, sizeof(double) * n * k);
+            if (c->seed_len)
+                dm_modal_seed_save(w->an->modal, seed_of(c, root));
             c->anchor_ok[root] = 1;
             queue[tail++] = root;
         }
@@ -567,6 +611,7 @@ static int build_anchors(sweep_ctx *c, worker *w, dm_error *err)
             from = nb;
         }
     while (head < tail) {
+        anchor_progress(c, tail, reachable, 0);
         int id = queue[head++], a[3] = {id / (m[1] * m[2]), (id / m[2]) % m[1], id % m[2]};
         for (int d = 0; d < 2; d++)
             for (int s = -1; s <= 1; s += 2) {
@@ -579,6 +624,7 @@ static int build_anchors(sweep_ctx *c, worker *w, dm_error *err)
                     queue[tail++] = nb;
             }
     }
+    anchor_progress(c, tail, reachable, 1);
     free(queue);
     free(reach);
     return DM_OK;
@@ -620,9 +666,13 @@ static void compute_point(const sweep_ctx *c, worker *w, const double P[3], dm_p
 {
     dm_pose_result res;
     point_nan(r, DM_POINT_OK);
+    int an = nearest_anchor(c, P);
+    if (an >= 0 && c->seed_len)
+        dm_modal_seed_load(w->an->modal, seed_of(c, an));
+    else
+        dm_modal_forget(w->an->modal); /* no anchor reached: cold */
     int rc = dm_analysis_run(w->an, P, c->kc, &res, NULL);
     if (rc) {
-        w->have_prev = 0; /* the path is broken: restart from an anchor */
         int unreachable = rc == DM_EUNREACHABLE;
         point_nan(r, unreachable ? DM_POINT_UNREACHABLE : DM_POINT_FAILED);
         if (!unreachable)
@@ -636,17 +686,11 @@ static void compute_point(const sweep_ctx *c, worker *w, const double P[3], dm_p
     memcpy(r->compliance_dir, res.compliance_dir, sizeof r->compliance_dir);
     r->stiffness_min = res.stiffness_min_n_per_m;
     r->singularity = res.pose.cond;
-    /* families: continue from the previous point of this tile's path, or
-     * start from the nearest anchor */
-    const double *ref = w->have_prev ? w->prev : NULL;
-    int an = ref ? -1 : nearest_anchor(c, P);
-    if (an >= 0)
-        ref = c->anchor_phi + (size_t)an * c->n * c->k;
-    if (ref) {
-        match_families(c, w, ref, res.modes, w->prev);
+    /* families: matched against the nearest anchor's */
+    if (an >= 0) {
+        match_families(c, w, c->anchor_phi + (size_t)an * c->n * c->k, res.modes, w->shapes);
         for (int f = 0; f < c->k; f++)
-            r->tracked_hz[f] = res.modes->freq_hz[w->assign[f]];
-        w->have_prev = 1;
+            r->tracked_hz[f] = w->assign[f] < 0 ? NAN : res.modes->freq_hz[w->assign[f]];
     }
     if (c->o.dynamic) {
         static const double xyz[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
@@ -725,9 +769,8 @@ static int compute_tile(const sweep_ctx *c, worker *w, long t, long counts[4], d
     int64_t tc[4];
     tile_coords(c, t, tc);
     fill_buffers(c, w);
-    w->have_prev = 0;
-    dm_modal_forget(w->an->modal); /* a tile's values do not depend on the thread's last tile */
-    /* serpentine path through the tile, so each point follows a neighbour */
+    /* serpentine path through the tile (each point starts from an anchor's
+     * seed: the order changes nothing but memory locality) */
     for (int i0 = 0; i0 < c->tile[0]; i0++)
         for (int j1 = 0; j1 < c->tile[1]; j1++)
             for (int j2 = 0; j2 < c->tile[2]; j2++) {
@@ -736,10 +779,8 @@ static int compute_tile(const sweep_ctx *c, worker *w, long t, long counts[4], d
                 int idx[3] = {(int)tc[0] * c->tile[0] + i0, (int)tc[1] * c->tile[1] + i1,
                               (int)tc[2] * c->tile[2] + i2};
                 if (idx[0] >= c->grid->axis[0].count || idx[1] >= c->grid->axis[1].count ||
-                    idx[2] >= c->grid->axis[2].count) {
-                    w->have_prev = 0; /* padding of an edge tile: stays fill value */
-                    continue;
-                }
+                    idx[2] >= c->grid->axis[2].count)
+                    continue; /* padding of an edge tile: stays fill value */
                 double P[3];
                 dm_point_result r;
                 dm_grid_position(c->grid, idx, P);
@@ -759,35 +800,14 @@ static int compute_tile(const sweep_ctx *c, worker *w, long t, long counts[4], d
 
 /* ---- progress --------------------------------------------------------------- */
 
-typedef struct {
-    int mode;
-    long total, done;
-    double t0, last;
-    long points_per_tile;
-} progress;
-
-static void progress_show(progress *p, int final)
+static void tile_progress(const sweep_ctx *c, long done, long total, int final)
 {
-    double now = omp_get_wtime(), el = now - p->t0;
-    if (!p->mode || (!final && now - p->last < (p->mode == 1 ? 0.25 : 10.0)))
+    if (!c->o.progress)
         return;
-    p->last = now;
-    double rate = el > 0 ? p->done * p->points_per_tile / el : 0;
-    double eta = p->done ? el * (p->total - p->done) / p->done : 0;
-    int pct = p->total ? (int)(100 * p->done / p->total) : 100;
-    if (p->mode == 1) {
-        char bar[31];
-        int fill = pct * 30 / 100;
-        for (int i = 0; i < 30; i++)
-            bar[i] = i < fill ? '#' : '.';
-        bar[30] = '\0';
-        fprintf(stderr, "\r[%s] %3d%%  %ld/%ld tiles  %.0f points/s  ETA %.0fs   %s", bar, pct,
-                p->done, p->total, rate, eta, final ? "\n" : "");
-    } else {
-        fprintf(stderr, "sweep: %ld/%ld tiles (%d%%), %.0f points/s, ETA %.0f s\n", p->done,
-                p->total, pct, rate, eta);
-    }
-    fflush(stderr);
+    dm_sweep_progress p = {DM_SWEEP_TILES, done, total,
+                           (long)c->tile[0] * c->tile[1] * c->tile[2],
+                           omp_get_wtime() - c->t0, final};
+    c->o.progress(c->o.progress_user, &p);
 }
 
 /* ---- the run ----------------------------------------------------------------- */
@@ -832,6 +852,7 @@ static void teardown(sweep_ctx *c)
     free(c->anchor_P);
     free(c->anchor_ok);
     free(c->anchor_phi);
+    free(c->anchor_seed);
     for (int a = 0; a < c->store.narr; a++)
         json_decref(c->store.arr[a].attributes);
     json_decref(c->store.group_attributes);
@@ -886,11 +907,10 @@ typedef struct {
 
 /* Compute the pending tiles, in parallel, one tile per thread at a time. */
 static void run_tiles(const sweep_ctx *c, tile_plan *p, volatile sig_atomic_t *stop,
-                      int progress_mode, tile_result *res)
+                      tile_result *res)
 {
-    double t0 = omp_get_wtime();
-    progress pg = {progress_mode, p->mine - p->present, 0, t0, 0,
-                   (long)c->tile[0] * c->tile[1] * c->tile[2]};
+    long done = 0, total = p->mine - p->present;
+    tile_progress(c, 0, total, 0);
 #pragma omp parallel num_threads(c->nthreads)
     {
         worker w;
@@ -915,8 +935,7 @@ static void run_tiles(const sweep_ctx *c, tile_plan *p, volatile sig_atomic_t *s
                 }
                 if (!trc) {
                     p->pending[t] = 0;
-                    pg.done++;
-                    progress_show(&pg, 0);
+                    tile_progress(c, ++done, total, 0);
                 }
             }
         }
@@ -932,8 +951,8 @@ static void run_tiles(const sweep_ctx *c, tile_plan *p, volatile sig_atomic_t *s
         if (!wrc)
             worker_free(&w);
     }
-    progress_show(&pg, 1);
-    res->done = pg.done;
+    tile_progress(c, done, total, 1);
+    res->done = done;
 }
 
 static void fill_stats(const tile_plan *p, const tile_result *r, const dm_grid *g,
@@ -966,6 +985,7 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
     omp_set_num_threads(1);
     double t0 = omp_get_wtime();
     int rc = setup(&c, rb, g, o, out, err);
+    c.t0 = t0;
     c.nthreads = o->threads > 0 ? o->threads : outer;
     if (!rc)
         rc = plan_tiles(&c, &plan, err);
@@ -976,7 +996,7 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
         worker_free(&w0);
     }
     if (!rc) {
-        run_tiles(&c, &plan, stop, o->progress, &res);
+        run_tiles(&c, &plan, stop, &res);
         rc = res.rc;
         if (rc && err)
             *err = res.err;
