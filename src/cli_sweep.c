@@ -17,7 +17,8 @@
 static const char SWEEP_HELP[] =
     "usage: deltamap sweep --robot R --grid SPEC --out maps/NAME [--modes K]\n"
     "                      [--mesh NA,NB] [--tile A,B,C] [--threads N] [--no-dynamic]\n"
-    "                      [--amax A] [--tau T] [--force] [--progress bar|lines|none]\n"
+    "                      [--amax A] [--tau T] [--force] [--force-long]\n"
+    "                      [--progress bar|lines|none]\n"
     "                      [--shard K/N|slurm|slurm/N] [--set SECTION.KEY=V]...\n"
     "\n"
     "Frequencies, static gravity error, stiffness, singularity and the dynamic\n"
@@ -36,6 +37,9 @@ static const char SWEEP_HELP[] =
     "  --tau T         standard move duration, s (default 0.05)\n"
     "  --force         replace a store of another robot, grid or options (a store\n"
     "                  of this very sweep is always resumed, never replaced)\n"
+    "  --force-long    run even when the sweep is estimated at more than 24 hours\n"
+    "                  of work on its threads, or its store at more than 2e6 files\n"
+    "                  (refused before any work otherwise)\n"
     "  --progress M    bar (default on a terminal), lines (default otherwise), none\n"
     "  --shard K/N     compute only shard K (0..N-1) of N: run N such processes, at\n"
     "                  once or not, on any hosts, into one store; together they make\n"
@@ -68,6 +72,7 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
         {"mesh", 1, 0, 'm'}, {"tile", 1, 0, 't'}, {"threads", 1, 0, 'T'},
         {"no-dynamic", 0, 0, 'D'}, {"amax", 1, 0, 'A'}, {"tau", 1, 0, 'U'}, {"force", 0, 0, 'f'},
         {"progress", 1, 0, 'p'}, {"set", 1, 0, 's'}, {"shard", 1, 0, 'S'}, {"help", 0, 0, 'h'},
+        {"force-long", 0, 0, 'L'},
         {0, 0, 0, 0}};
     int c;
     double v[3];
@@ -83,6 +88,7 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
         case 'o': a->out = optarg; break;
         case 'S': a->shard = optarg; break;
         case 'f': a->o.force = 1; break;
+        case 'L': a->o.force_long = 1; break;
         case 'D': a->o.dynamic = 0; break;
         case 's':
             if (dm_cli_add_set("sweep", a->sets, &a->nset, optarg))

@@ -812,6 +812,30 @@ static void tile_progress(const sweep_ctx *c, long done, long total, int final)
 
 /* ---- the run ----------------------------------------------------------------- */
 
+/* What the sweep implies, before any work: time on its threads, files. */
+static int check_size(const sweep_ctx *c, dm_error *err)
+{
+    long tiles = (long)c->ntiles[0] * c->ntiles[1] * c->ntiles[2];
+    double files = (double)tiles * N_ARRAYS, s = c->n / 210.0;
+    double points = (double)dm_grid_points(c->grid) / (c->o.shards > 1 ? c->o.shards : 1);
+    int threads = c->o.threads > 0 ? c->o.threads : omp_get_max_threads();
+    double est = points * 2.5e-3 * s * s * (c->o.dynamic ? 1.0 : 0.6) / threads;
+    if (c->o.force_long)
+        return DM_OK;
+    if (files > DM_SWEEP_MAX_FILES)
+        return dm_fail(err, DM_EINVAL,
+                       "sweep: %ld tiles of %d x %d x %d points make %.3g chunk files, more "
+                       "than %ld: use larger tiles (or shards into several stores), or force it",
+                       tiles, c->tile[0], c->tile[1], c->tile[2], files, DM_SWEEP_MAX_FILES);
+    if (est > DM_SWEEP_MAX_SECONDS)
+        return dm_fail(err, DM_EINVAL,
+                       "sweep: %.3g points at %d DOF on %d thread%s is about %.3g hours of work "
+                       "(the limit is %g hours): use shards, a coarser grid or mesh, or force it",
+                       points, c->n, threads, threads > 1 ? "s" : "", est / 3600,
+                       DM_SWEEP_MAX_SECONDS / 3600);
+    return DM_OK;
+}
+
 static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o,
                  const char *out, dm_error *err)
 {
@@ -832,6 +856,9 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
     auto_tile(g, o->tile, c->tile);
     for (int d = 0; d < 3; d++)
         c->ntiles[d] = (g->axis[d].count + c->tile[d] - 1) / c->tile[d];
+    int rc = check_size(c, err);
+    if (rc)
+        return rc;
     /* no trailing '/': the store's name is also the stem of its staging
      * name; a symbolic link stands for the directory it names (a store is
      * created by renaming onto that) */
