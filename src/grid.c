@@ -43,6 +43,9 @@ static int parse_axis(const char *text, dm_grid_axis *ax, const char *spec, dm_e
         ax->from = v[0];
         ax->to = v[1];
         ax->count = (int)v[2];
+        if (!isfinite((ax->to - ax->from) * (ax->count - 1))) /* dm_grid_value's product */
+            return dm_fail(err, DM_EINVAL, "grid '%s': axis %s: range %g:%g is too large", spec,
+                           ax->name, ax->from, ax->to);
         if (ax->count > 1 && ax->from == ax->to)
             return dm_fail(err, DM_EINVAL, "grid '%s': axis %s has %d points on an empty range",
                            spec, ax->name, ax->count);

@@ -2,6 +2,7 @@
 #include "dm_measure.h"
 
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -120,9 +121,12 @@ static int cell(const csv_ctx *c, char *cells[], int ncells, const char *name, i
     char *end;
     errno = 0;
     *out = strtod(cells[i], &end);
-    if (end == cells[i] || *end || !isfinite(*out) || errno == ERANGE)
-        return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): '%s' is not a number", c->path,
-                       c->line, i + 1, name, cells[i]);
+    /* subnormals refused however written (0x1p-1074 reads without ERANGE,
+     * 4.94e-324 with), so that what dm_dataset_write makes reads back */
+    if (end == cells[i] || *end || !isfinite(*out) || errno == ERANGE ||
+        (*out != 0 && fabs(*out) < DBL_MIN))
+        return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): '%s' is not a number in range",
+                       c->path, c->line, i + 1, name, cells[i]);
     return DM_OK;
 }
 
@@ -269,20 +273,30 @@ int dm_dataset_write(const dm_dataset *d, FILE *out)
 {
     if (d->robot[0])
         fprintf(out, "# robot: %s\n", d->robot);
+    /* the sigma column only when every sample has one (> 0, as the reader
+     * requires; 0 means not given: equal weights) */
+    int sigma = d->n > 0;
+    for (int i = 0; i < d->n; i++)
+        sigma &= d->s[i].sigma > 0;
     if (d->kind == DM_DATA_MODAL) {
-        fprintf(out, "x,y,z,mode,freq_hz,sigma_hz\n");
+        fprintf(out, "x,y,z,mode,freq_hz%s\n", sigma ? ",sigma_hz" : "");
         for (int i = 0; i < d->n; i++) {
             const dm_sample *s = &d->s[i];
-            fprintf(out, "%.9g,%.9g,%.9g,%d,%.12g,%.6g\n", s->P[0], s->P[1], s->P[2], s->mode,
-                    s->value, s->sigma);
+            fprintf(out, "%.9g,%.9g,%.9g,%d,%.12g", s->P[0], s->P[1], s->P[2], s->mode, s->value);
+            if (sigma)
+                fprintf(out, ",%.6g", s->sigma);
+            fputc('\n', out);
         }
     } else if (d->kind == DM_DATA_STATIC) {
-        fprintf(out, "x,y,z,fx,fy,fz,dx,dy,dz,sigma_m\n");
+        fprintf(out, "x,y,z,fx,fy,fz,dx,dy,dz%s\n", sigma ? ",sigma_m" : "");
         for (int i = 0; i + 2 < d->n; i += 3) {
             const dm_sample *s = &d->s[i];
-            fprintf(out, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.12g,%.12g,%.12g,%.6g\n", s->P[0], s->P[1],
+            fprintf(out, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.12g,%.12g,%.12g", s->P[0], s->P[1],
                     s->P[2], s->force[0], s->force[1], s->force[2], s->value, d->s[i + 1].value,
-                    d->s[i + 2].value, s->sigma);
+                    d->s[i + 2].value);
+            if (sigma)
+                fprintf(out, ",%.6g", s->sigma);
+            fputc('\n', out);
         }
     } else {
         fprintf(out, "t,x_cmd,y_cmd,z_cmd,x_meas,y_meas,z_meas\n");

@@ -8,6 +8,7 @@
 #include "dm_robot.h"
 
 #include <errno.h>
+#include <float.h>
 #include <stdarg.h>
 #include <math.h>
 #include <stddef.h>
@@ -115,7 +116,10 @@ static int parse_double(const char *s, double *out)
     double v = strtod(s, &end);
     while (*end == ' ' || *end == '\t')
         end++;
-    if (end == s || *end != '\0' || errno == ERANGE || !isfinite(v))
+    /* subnormals are refused whatever their spelling (0x1p-1074 reads without
+     * ERANGE, its decimal form 4.94e-324 with): the written file must read back */
+    if (end == s || *end != '\0' || errno == ERANGE || !isfinite(v) ||
+        (v != 0 && fabs(v) < DBL_MIN))
         return -1;
     *out = v;
     return 0;
@@ -212,7 +216,8 @@ static int store_value(parse_state *st, const key_spec *ks, const char *value)
         break;
     }
     if (parse_double(value, &v))
-        return key_error(st, st->line, ks->section, ks->key, "'%s' is not a number", value);
+        return key_error(st, st->line, ks->section, ks->key, "'%s' is not a number in range",
+                         value);
     if (ks->kind == KEY_POSITIVE && !(v > 0))
         return key_error(st, st->line, ks->section, ks->key, "must be > 0, got %s", value);
     if (ks->kind == KEY_NONNEG && v < 0)
