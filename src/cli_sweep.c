@@ -190,9 +190,10 @@ int dm_cli_info(int argc, char **argv)
         if (!strcmp(s->name, "status"))
             status = a;
     }
-    if (status < 0) {
+    if (status < 0 || st.arr[status].ndim < 3 || st.arr[status].dtype != DM_DTYPE_UINT8) {
         dm_store_release(&st);
-        fprintf(stderr, "deltamap: %s: no status array\n", argv[1]);
+        fprintf(stderr, "deltamap: %s: no status array (uint8, x, y, z): not a map store\n",
+                argv[1]);
         return DM_EINVAL;
     }
     /* tiles: the chunk grid of the status array; data arrays share it */
@@ -207,7 +208,12 @@ int dm_cli_info(int argc, char **argv)
         if (dm_store_chunk_elems(&st, a) * dm_dtype_size(st.arr[a].dtype) > maxbytes)
             maxbytes = dm_store_chunk_elems(&st, a) * dm_dtype_size(st.arr[a].dtype);
     unsigned char *buf = malloc(maxbytes);
-    for (long t = 0; t < tiles && buf; t++) {
+    if (!buf) {
+        dm_store_release(&st);
+        fprintf(stderr, "deltamap: %s: out of memory for a chunk of %zu bytes\n", argv[1], maxbytes);
+        return DM_ENOMEM;
+    }
+    for (long t = 0; t < tiles; t++) {
         int64_t tc[4] = {t / (nt[1] * nt[2]), (t / nt[2]) % nt[1], t % nt[2], 0};
         int ok = 1;
         for (int a = 0; a < st.narr; a++) {
