@@ -52,6 +52,8 @@ static int parse_axis(const char *text, dm_grid_axis *ax, const char *spec, dm_e
         if (ax->count == 1 && ax->from != ax->to)
             return dm_fail(err, DM_EINVAL, "grid '%s': axis %s: one point cannot span %g:%g",
                            spec, ax->name, ax->from, ax->to);
+        if (ax->count == 1)
+            ax->to = ax->from; /* 0:-0:1 is the one point 0, as "0" reads */
     } else {
         return dm_fail(err, DM_EINVAL, "grid '%s': axis %s: N must be a whole number 1..1000000",
                        spec, ax->name);

@@ -408,14 +408,17 @@ static int spline(dm_trajectory *tr, dm_error *err)
     free(rhs);
     if (rc)
         return dm_fail(err, rc, "%s: cannot fit a spline through the samples", tr->name);
-    /* finite slopes and curvatures, or the motion overflows (positions too
-     * large, or samples too close in time for their distance) */
+    /* bounds of every term of eval_samples finite, or the motion overflows
+     * (positions too large, or samples too close in time for their distance) */
     for (int i = 0; i < n; i++)
         for (int k = 0; k < 3; k++) {
-            double slope = i + 1 < n ? (tr->xyz_m[3 * (i + 1) + k] - tr->xyz_m[3 * i + k]) /
-                                           (tr->t_s[i + 1] - tr->t_s[i])
-                                     : 0;
-            if (!isfinite(slope) || !isfinite(tr->m2[3 * i + k]) || !isfinite(tr->t_s[i]))
+            int j = i + 1 < n ? i + 1 : i;
+            double h = tr->t_s[j] - tr->t_s[i], y0 = tr->xyz_m[3 * i + k];
+            double y1 = tr->xyz_m[3 * j + k];
+            double m = fabs(tr->m2[3 * i + k]) + fabs(tr->m2[3 * j + k]);
+            double slope = j > i ? (y1 - y0) / h : 0;
+            if (!isfinite(slope) || !isfinite(fabs(y0) + fabs(y1) + m * h * h) ||
+                !isfinite(fabs(slope) + m * h) || !isfinite(tr->t_s[i]))
                 return dm_fail(err, DM_EINVAL,
                                "%s: sample %d (t = %g s): the path's speed or acceleration "
                                "overflows (positions too large or samples too close in time)",
