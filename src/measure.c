@@ -49,13 +49,13 @@ int dm_data_kind_parse(const char *name, dm_data_kind *k)
     return -1;
 }
 
-static int push(dm_dataset *d, const dm_sample *s)
+static int push(dm_dataset *d, const dm_sample *s, dm_error *err)
 {
     if (d->n == d->cap) {
         int cap = d->cap ? 2 * d->cap : 256;
         dm_sample *g = realloc(d->s, sizeof *g * cap);
         if (!g)
-            return DM_ENOMEM;
+            return dm_fail(err, DM_ENOMEM, "%s: out of memory for %d samples", d->source, cap);
         d->s = g;
         d->cap = cap;
     }
@@ -163,7 +163,7 @@ static int read_row(csv_ctx *c, dm_dataset *d, char *cells[], int nc, double *la
             d->npose++;
         memcpy(last_P, s.P, sizeof s.P);
         s.pose_id = d->npose - 1;
-        return push(d, &s);
+        return push(d, &s, c->err);
     }
     if (d->kind == DM_DATA_STATIC) {
         static const char *const names[9] = {"x", "y", "z", "fx", "fy", "fz", "dx", "dy", "dz"};
@@ -182,7 +182,7 @@ static int read_row(csv_ctx *c, dm_dataset *d, char *cells[], int nc, double *la
         for (int k = 0; k < 3; k++) {
             s.comp = k;
             s.value = all[6 + k];
-            if ((rc = push(d, &s)))
+            if ((rc = push(d, &s, c->err)))
                 return rc;
         }
         return DM_OK;
@@ -199,7 +199,7 @@ static int read_row(csv_ctx *c, dm_dataset *d, char *cells[], int nc, double *la
     for (int k = 0; k < 3; k++) {
         s.comp = k;
         s.value = v[4 + k] - v[1 + k];
-        if ((rc = push(d, &s)))
+        if ((rc = push(d, &s, c->err)))
             return rc;
     }
     return DM_OK;
@@ -329,9 +329,10 @@ static int predict_poses(const dm_robot *rb, const dm_dataset *d, int na, int nb
     if (kmax > n)
         return dm_fail(err, DM_EINVAL, "%s: mode %d is beyond the model's %d modes", d->source,
                        kmax, n);
-    dm_analysis *an = dm_analysis_alloc(rb, na, nb, kmax, DM_EIGEN_PARTIAL, err);
+    dm_error aerr; /* err may be NULL */
+    dm_analysis *an = dm_analysis_alloc(rb, na, nb, kmax, DM_EIGEN_PARTIAL, &aerr);
     if (!an)
-        return err->code;
+        return dm_fail(err, aerr.code, "%s", aerr.msg);
     dm_pose_result res;
     dm_pose loaded;
     int rc = DM_OK, last = -1;
@@ -489,7 +490,7 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
             s.sigma = o->noise;
             for (int k = 0; k < 3 && !rc; k++) {
                 s.comp = k;
-                rc = push(d, &s);
+                rc = push(d, &s, err);
             }
         }
         dm_traj_free(&tr);
@@ -503,7 +504,7 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
             if (o->kind == DM_DATA_MODAL) {
                 for (int j = 1; j <= (o->modes > 0 ? o->modes : 6) && !rc; j++) {
                     s.mode = j;
-                    rc = push(d, &s);
+                    rc = push(d, &s, err);
                 }
             } else {
                 double u[3] = {dm_rng_normal(&rng), dm_rng_normal(&rng), dm_rng_normal(&rng)};
@@ -512,7 +513,7 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
                     s.force[k] = (o->force_n > 0 ? o->force_n : 50.0) * u[k] / nu;
                 for (int k = 0; k < 3 && !rc; k++) {
                     s.comp = k;
-                    rc = push(d, &s);
+                    rc = push(d, &s, err);
                 }
             }
         }
