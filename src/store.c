@@ -154,6 +154,21 @@ int dm_store_write_metadata(const dm_store *st, dm_error *err)
     return rc;
 }
 
+/* jansson reports a failed allocation as a parse error, or as none: a file
+ * that does not parse is taken as out of memory when a few times its size
+ * cannot be allocated either (then it was not read, so it is not judged). */
+static int load_failed_for_memory(const char *path, const json_error_t *je)
+{
+    if (json_error_code(je) == json_error_out_of_memory)
+        return 1;
+    struct stat sb;
+    size_t want = (stat(path, &sb) == 0 ? (size_t)sb.st_size : 0) * 8 + 65536;
+    void *probe = malloc(want);
+    int failed = probe == NULL;
+    free(probe);
+    return failed;
+}
+
 /* A whole number in [lo, hi] at json_array_get(list, d), or -1 when it is not. */
 static int64_t json_whole(json_t *list, int d, int64_t lo, int64_t hi)
 {
@@ -170,7 +185,9 @@ static int parse_array(const char *path, const char *name, dm_array_spec *a, dm_
     json_error_t je;
     json_t *o = json_load_file(path, 0, &je);
     if (!o)
-        return dm_fail(err, DM_EIO, "%s:%d: %s", path, je.line, je.text);
+        return load_failed_for_memory(path, &je)
+                   ? dm_fail(err, DM_ENOMEM, "%s: out of memory reading it", path)
+                   : dm_fail(err, DM_EIO, "%s:%d: %s", path, je.line, je.text);
     memset(a, 0, sizeof *a);
     snprintf(a->name, sizeof a->name, "%s", name);
     json_t *shape = json_object_get(o, "shape"), *dims = json_object_get(o, "dimension_names");
@@ -232,6 +249,8 @@ int dm_store_read_metadata(const char *path, dm_store *st, dm_error *err)
     snprintf(st->path, sizeof st->path, "%s", path);
     snprintf(file, sizeof file, "%s/zarr.json", path);
     json_t *g = json_load_file(file, 0, &je);
+    if (!g && load_failed_for_memory(file, &je))
+        return dm_fail(err, DM_ENOMEM, "%s: out of memory reading zarr.json", path);
     if (!g)
         return dm_fail(err, DM_EIO, "%s: not a map store (%s)", path, je.text);
     st->group_attributes = json_incref(json_object_get(g, "attributes"));

@@ -239,6 +239,45 @@ static int dir_is_empty(const char *path)
     return n == 0;
 }
 
+/* Does directory `dir` hold nothing but zarr.json (or its temporary)? */
+static int only_zarr_json(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return 0;
+    struct dirent *e;
+    int ok = 1;
+    while (ok && (e = readdir(d)))
+        ok = !strcmp(e->d_name, ".") || !strcmp(e->d_name, "..") ||
+             !strcmp(e->d_name, "zarr.json") || !strncmp(e->d_name, "zarr.json.tmp.", 14);
+    closedir(d);
+    return ok;
+}
+
+/* What a sweep stopped while writing its metadata leaves (no group
+ * zarr.json yet, it is written last): only this layout's array
+ * directories, each with nothing but its zarr.json. A rerun takes it up. */
+static int unfinished_metadata(const sweep_ctx *c, const char *path)
+{
+    DIR *d = opendir(path);
+    if (!d)
+        return 0;
+    struct dirent *e;
+    int ok = 1;
+    while (ok && (e = readdir(d))) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
+            continue;
+        int known = 0;
+        for (int a = 0; a < c->store.narr && !known; a++)
+            known = !strcmp(e->d_name, c->store.arr[a].name);
+        char sub[1100];
+        snprintf(sub, sizeof sub, "%s/%s", path, e->d_name);
+        ok = known && only_zarr_json(sub);
+    }
+    closedir(d);
+    return ok;
+}
+
 /* Existing store: same fingerprint resumes; another is refused unless force. */
 static int prepare_store(sweep_ctx *c, const char *path, dm_error *err)
 {
@@ -247,6 +286,8 @@ static int prepare_store(sweep_ctx *c, const char *path, dm_error *err)
     if (access(file, F_OK) == 0) {
         dm_store old;
         int rc = dm_store_read_metadata(path, &old, err);
+        if (rc == DM_ENOMEM)
+            return rc; /* not a verdict on the store */
         json_t *ofp = rc ? NULL : json_object_get(json_object_get(old.group_attributes, "deltamap"), "fingerprint");
         json_t *nfp = json_object_get(json_object_get(c->store.group_attributes, "deltamap"), "fingerprint");
         int same = ofp && json_equal(ofp, nfp);
@@ -265,8 +306,10 @@ static int prepare_store(sweep_ctx *c, const char *path, dm_error *err)
         if (same)
             nftw(path, remove_temporaries, 16, FTW_PHYS);
     } else if (!dir_is_empty(path)) {
-        return dm_fail(err, DM_EINVAL, "%s exists and is not a map store; choose another --out",
-                       path);
+        if (!unfinished_metadata(c, path))
+            return dm_fail(err, DM_EINVAL,
+                           "%s exists and is not a map store; choose another --out", path);
+        nftw(path, remove_temporaries, 16, FTW_PHYS);
     }
     int rc = dm_store_write_metadata(&c->store, err);
     return rc ? rc : write_coordinates(c, err);
@@ -312,6 +355,7 @@ static int worker_alloc(const sweep_ctx *c, worker *w, dm_error *err)
         ok = (w->buf[a] = malloc(dm_store_chunk_elems(&c->store, a) * dm_dtype_size(DATA[a].dtype))) != NULL;
     if (!ok) {
         worker_free(w);
+        memset(w, 0, sizeof *w); /* the caller frees a failed worker again */
         return dm_fail(err, DM_ENOMEM, "out of memory for a sweep worker");
     }
     return DM_OK;
