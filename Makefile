@@ -82,7 +82,7 @@ store-tests: $(BIN)
 	@DELTAMAP=$(BIN) tests/store_tests.sh
 
 test: deps
-	@$(MAKE) --no-print-directory unit-tests cli-tests store-tests fuzz-replay
+	@$(MAKE) --no-print-directory unit-tests cli-tests store-tests fuzz-replay fault-tests
 	@echo "all tests passed"
 
 # The main job on a built-in robot: the mode table at the centre, then a
@@ -123,6 +123,24 @@ fuzz-replay: $(REPLAY_BIN)
 	        tail -1 $(BUILD)/fuzz/replay-$$t.log; \
 	    else cat $(BUILD)/fuzz/replay-$$t.log; echo "FAIL: fuzz replay $$t"; exit 1; fi; \
 	done
+
+# ---- fault injection (tests/fault_tests.sh) ------------------------------------
+# deltamap whose allocations can be made to fail (tests/fault_alloc.c), and
+# an LD_PRELOAD shim whose write/rename fail with ENOSPC (tests/fault_write.c).
+$(BUILD)/tests/deltamap-faultinj: tests/fault_alloc.c $(BUILD)/libdeltamap.a | $(BUILD)/tests
+	$(CC) $(CFLAGS) $(PKG_CFLAGS) $< -o $@ -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc \
+	    $(BUILD)/libdeltamap.a $(PKG_LIBS) $(SUNDIALS_LIBS) $(LDLIBS)
+
+$(BUILD)/tests/fault_write.so: tests/fault_write.c | $(BUILD)/tests
+	$(CC) -std=c11 -D_GNU_SOURCE -O2 -Wall -Wextra -fPIC -shared $< -o $@ -ldl
+
+# (fewer sampled n under the sanitizers, which make every run slower)
+ifeq ($(SANITIZE),1)
+FAULT_SAMPLES := FAULT_FIRST=4 FAULT_MID=6 FAULT_LAST=4
+endif
+fault-tests: $(BIN) $(BUILD)/tests/deltamap-faultinj $(BUILD)/tests/fault_write.so
+	@DELTAMAP=$(BIN) FAULT_DELTAMAP=$(BUILD)/tests/deltamap-faultinj \
+	    FAULT_SHIM=$(BUILD)/tests/fault_write.so $(FAULT_SAMPLES) tests/fault_tests.sh
 
 FUZZ_CC      ?= $(shell command -v clang-14 || command -v clang)
 FUZZ_DIR     := build/fuzz-libfuzzer
