@@ -167,6 +167,9 @@ static int store_value(parse_state *st, const key_spec *ks, const char *value)
         if (strlen(value) >= DM_NAME_LEN || !*value)
             return key_error(st, st->line, ks->section, ks->key,
                              "name must be 1 to 63 characters, got '%s'", value);
+        if (strchr(value, ';')) /* written as "name = a ;b" it would read back as "a" */
+            return key_error(st, st->line, ks->section, ks->key,
+                             "'%s': a name cannot hold ';' (it starts a comment)", value);
         strcpy(dst, value);
         return 1;
     case KEY_SHAPE: {
