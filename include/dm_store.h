@@ -24,6 +24,11 @@
 
 #define DM_STORE_MAXDIM 5
 #define DM_STORE_MAXARR 32
+/* Limits on metadata read from disk: a chunk of at most 1 GiB (a sweep's
+ * largest, a 1e6-point tile of 64 frequencies, is 512 MB), extents up to
+ * 2^40. */
+#define DM_STORE_MAX_CHUNK_BYTES (1LL << 30)
+#define DM_STORE_MAX_EXTENT (1LL << 40)
 
 typedef enum { DM_DTYPE_FLOAT64 = 0, DM_DTYPE_UINT8, DM_DTYPE_INT32 } dm_dtype;
 
@@ -52,7 +57,11 @@ size_t dm_dtype_size(dm_dtype t);
 /* Write the group and array metadata (replacing what is there). */
 int dm_store_write_metadata(const dm_store *store, dm_error *err);
 
-/* Read a store's metadata (for info/resume). Caller frees with
+/* Read a store's metadata (for info/resume). Every field is checked:
+ * known data_type, 1..DM_STORE_MAXDIM dimensions, whole extents, chunks of
+ * at least one element per dimension and at most DM_STORE_MAX_CHUNK_BYTES,
+ * array names that are one plain path component; DM_EINVAL names the file
+ * and field otherwise (DM_EIO: missing or not JSON). Caller frees with
  * dm_store_release. */
 int dm_store_read_metadata(const char *path, dm_store *store, dm_error *err);
 void dm_store_release(dm_store *store);

@@ -526,9 +526,10 @@ int dm_cli_info(int argc, char **argv)
         if (!strcmp(s->name, "status"))
             status = a;
     }
-    if (status < 0) {
+    if (status < 0 || st.arr[status].ndim < 3 || st.arr[status].dtype != DM_DTYPE_UINT8) {
         dm_store_release(&st);
-        fprintf(stderr, "deltamap: %s: no status array\n", path);
+        fprintf(stderr, "deltamap: %s: no status array (uint8, x, y, z): not a map store\n",
+                path);
         return DM_EINVAL;
     }
     tile_census tc;

@@ -1,10 +1,14 @@
 /* deltamap trajectory: 6-D elastic error of the platform along a path. */
+#define _XOPEN_SOURCE 700 /* nftw */
+#include <errno.h>
+#include <ftw.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "cli_impl.h"
 #include "dm_integrate.h"
@@ -219,12 +223,44 @@ static double sample_value(const dm_integ_sample *s, int array, int j)
     }
 }
 
+static int remove_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw)
+{
+    (void)sb, (void)flag, (void)ftw;
+    return remove(path);
+}
+
+/* A run's store appears whole or not at all: it is written as PATH.tmp.PID
+ * and renamed over PATH, replacing an earlier run's store (a directory
+ * whose zarr.json is a deltamap trajectory run) but nothing else. */
+static int replace_store(const char *tmp, const char *path, dm_error *err)
+{
+    if (!rename(tmp, path))
+        return DM_OK;
+    if (errno == ENOTEMPTY || errno == EEXIST) {
+        char file[1100];
+        snprintf(file, sizeof file, "%s/zarr.json", path);
+        json_error_t je;
+        json_t *g = json_load_file(file, 0, &je);
+        if (!g && json_error_code(&je) == json_error_out_of_memory)
+            return dm_fail(err, DM_ENOMEM, "%s: out of memory", file);
+        const char *title = json_string_value(json_object_get(json_object_get(g, "attributes"), "title"));
+        int ours = title && !strcmp(title, "deltamap trajectory run");
+        json_decref(g);
+        if (!ours)
+            return dm_fail(err, DM_EINVAL, "%s exists and is not a trajectory store written by "
+                           "deltamap; choose another --out", path);
+        if (!nftw(path, remove_entry, 16, FTW_DEPTH | FTW_PHYS) && !rename(tmp, path))
+            return DM_OK;
+    }
+    return dm_fail(err, DM_EIO, "%s: cannot replace: %s", path, strerror(errno));
+}
+
 static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory *tr,
                       const sample_list *l, int nfreq, dm_error *err)
 {
     dm_store st;
     memset(&st, 0, sizeof st);
-    snprintf(st.path, sizeof st.path, "%s", path);
+    snprintf(st.path, sizeof st.path, "%s.tmp.%ld", path, (long)getpid());
     time_array(&st, "time", NULL, 1, "s", "time", l->n);
     time_array(&st, "position", "axis", 3, "m", "commanded platform centre", l->n);
     time_array(&st, "error", "component", 6, "m, rad", "platform error dx dy dz (m) ex ey ez (rad)", l->n);
@@ -255,6 +291,10 @@ static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory 
     for (int a = 0; a < st.narr; a++)
         json_decref(st.arr[a].attributes);
     json_decref(st.group_attributes);
+    if (!rc)
+        rc = replace_store(st.path, path, err);
+    if (rc)
+        nftw(st.path, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
     return rc;
 }
 

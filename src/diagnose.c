@@ -103,7 +103,16 @@ typedef struct {
     const char *held;        /* per sample: 1 = held out */
     const double *w;         /* weights 1/sigma */
     double train_end_s;      /* tracker: time of the last training sample */
+    int *nomem;              /* set when a fit ran out of memory (the result is void) */
 } shared;
+
+/* A fit that fails for want of memory must not pass for one that does
+ * not fit: the diagnosis is then an out-of-memory error. */
+static void out_of_memory(const shared *s)
+{
+#pragma omp atomic write
+    *s->nomem = 1;
+}
 
 /* One fit: its effects, the leading `nfixed` of them held at `fixed`, and
  * its own prediction buffer. */
@@ -176,7 +185,10 @@ static int residuals(void *user, int m, int n, const double *x, double *fvec, in
     const shared *s = p->s;
     double value[2][3];
     to_values(p, x, value);
-    if (predict_with(p, value, NULL)) {
+    int rc = predict_with(p, value, NULL);
+    if (rc == DM_ENOMEM)
+        out_of_memory(s);
+    if (rc) {
         for (int i = 0; i < m; i++)
             fvec[i] = 1e3; /* unphysical region: steer the search away */
         return 0;
@@ -263,7 +275,9 @@ static void lm_fit(problem *p, double *x, int n, int m, double *sig)
     int ipvt[DM_DIAG_MAXP], nfev = 0;
     for (int j = 0; j < n; j++)
         sig[j] = INFINITY;
-    if (fvec && fjac && wa4) {
+    if (!fvec || !fjac || !wa4)
+        out_of_memory(p->s);
+    else {
         int info = lmdif(residuals, p, m, n, x, fvec, 1e-6, 1e-6, 0.0, 25 * (n + 1), 0.0, diag,
                          1, 100.0, 0, &nfev, fjac, m, ipvt, qtf, wa1, wa2, wa3, wa4);
         if (info > 0) {
@@ -291,6 +305,7 @@ static void chord_fit(problem *p, double *x, int n, int m, double *sig)
         sig[j] = INFINITY;
     if (!f || !f1 || !J) {
         free(f), free(f1), free(J);
+        out_of_memory(p->s);
         return;
     }
     residuals(p, m, n, x, f, 1);
@@ -417,6 +432,7 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][3], dm_fit *
     if (!fvec || !p->pred) {
         f->held_chi2 = f->score = INFINITY;
         free(fvec), free(p->pred);
+        out_of_memory(p->s);
         return;
     }
     const dm_candidate *lone = n == 1 && !linear && !start ? p->cand[p->ncand - 1] : NULL;
@@ -437,7 +453,10 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][3], dm_fit *
         for (int k = 0; k < p->cand[i]->nparam; k++, j++)
             f->sigma[i][k] = p->cand[i]->linear ? sig[j] : value[i][k] * log(10.0) * sig[j];
     memcpy(f->value, value, sizeof value);
-    f->ok = predict_with(p, value, NULL) == DM_OK;
+    int rc = predict_with(p, value, NULL);
+    if (rc == DM_ENOMEM)
+        out_of_memory(p->s);
+    f->ok = rc == DM_OK;
     if (f->ok)
         score_fit(p, dg, f, ntotal);
     else
@@ -535,7 +554,8 @@ int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts 
         free(held), free(pred), free(w);
         return dm_fail(err, DM_ENOMEM, "out of memory");
     }
-    shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w};
+    int nomem = 0;
+    shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w, .nomem = &nomem};
     split_samples(d, held);
     dg->sigma_known = 1;
     for (int i = 0; i < d->n; i++) {
@@ -573,6 +593,9 @@ int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts 
             if (o->pairs)
                 add_second_effect(&s, dg, need);
         }
+        if (nomem)
+            rc = dm_fail(err, DM_ENOMEM, "%s: out of memory while fitting the effects",
+                         d->source);
     }
     free(held);
     free(pred);

@@ -364,7 +364,10 @@ static int open_existing(sweep_ctx *c, const char *path, int racing, dm_error *e
     if (!has_group)
         return STORE_ABSENT; /* an empty directory */
     dm_store old;
-    int rc = dm_store_read_metadata(path, &old, NULL);
+    dm_error rerr;
+    int rc = dm_store_read_metadata(path, &old, &rerr);
+    if (rc == DM_ENOMEM)
+        return dm_fail(err, rc, "%s", rerr.msg); /* no verdict on the store */
     json_t *ofp = rc ? NULL : fingerprint_of(old.group_attributes);
     json_t *nfp = fingerprint_of(c->store.group_attributes);
     int same = ofp && json_equal(ofp, nfp);
@@ -477,6 +480,7 @@ static int worker_alloc(const sweep_ctx *c, worker *w, dm_error *err)
         ok = (w->buf[a] = malloc(dm_store_chunk_elems(&c->store, a) * dm_dtype_size(DATA[a].dtype))) != NULL;
     if (!ok) {
         worker_free(w);
+        memset(w, 0, sizeof *w); /* the caller frees a failed worker again */
         return dm_fail(err, DM_ENOMEM, "out of memory for a sweep worker");
     }
     return DM_OK;

@@ -92,7 +92,7 @@ if [ $? -eq 2 ] && grep -q "another grid" "$TMP/err"; then ok; else bad "grid mi
 $DM sweep --robot chen2018 --grid "x=0,y=0,z=-0.5" --out "$TMP/ref" --force --progress none >/dev/null && ok || bad "--force"
 
 # a sweep that implies days of work, or millions of files, is refused at once
-$DM sweep --robot chen2018 --grid "x=-0.3:0.3:2000,y=-0.3:0.3:2000,z=-0.5" --threads 2 --out "$TMP/huge" 2>"$TMP/err"
+$DM sweep --robot chen2018 --grid "x=-0.3:0.3:10000,y=-0.3:0.3:10000,z=-0.5" --tile 64,64,1 --threads 2 --out "$TMP/huge" 2>"$TMP/err"
 if [ $? -eq 2 ] && grep -q "hours of work" "$TMP/err" && [ ! -e "$TMP/huge" ]; then ok; else bad "days of work accepted"; cat "$TMP/err"; fi
 $DM sweep --robot chen2018 --grid "x=-0.3:0.3:2000,y=-0.3:0.3:2000,z=-0.5" --tile 1,1,1 --no-dynamic --out "$TMP/huge" 2>"$TMP/err"
 if [ $? -eq 2 ] && grep -q "chunk files" "$TMP/err" && [ ! -e "$TMP/huge" ]; then ok; else bad "millions of files accepted"; cat "$TMP/err"; fi

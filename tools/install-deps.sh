@@ -10,12 +10,19 @@
 #    /etc/slurm/slurm.conf Slurm's would not start anyway). Where they
 #    cannot be installed the test reports SKIPPED.
 #  - a Python virtual environment in .venv with numpy, matplotlib, zarr and
-#    xarray for the plotting tools and the store-compatibility tests
+#    xarray for the plotting tools and the store-compatibility tests, at the
+#    versions pinned in tools/constraints.txt
+# `tools/install-deps.sh --fuzz` installs only what `make fuzz` needs
+# besides: clang with its sanitizer and libFuzzer runtimes, LLVM's OpenMP.
 set -e
 cd "$(dirname "$0")/.."
-PKGS="build-essential pkg-config liblapacke-dev libopenblas-openmp-dev libsundials-dev
+if [ "${1:-}" = "--fuzz" ]; then
+    PKGS="clang-14 libclang-rt-14-dev libomp-14-dev"
+else
+    PKGS="build-essential pkg-config liblapacke-dev libopenblas-openmp-dev libsundials-dev
 libcmocka-dev libinih-dev libjansson-dev libcminpack-dev python3 python3-venv"
-SLURM_PKGS="slurmctld slurmd slurm-client munge"
+    SLURM_PKGS="slurmctld slurmd slurm-client munge"
+fi
 missing_of() {
     m=""
     for p in "$@"; do
@@ -29,7 +36,7 @@ export DEBIAN_FRONTEND=noninteractive
 # shellcheck disable=SC2086
 missing=$(missing_of $PKGS)
 # shellcheck disable=SC2086
-slurm_missing=$(missing_of $SLURM_PKGS)
+slurm_missing=$(missing_of ${SLURM_PKGS:-})
 [ -z "$missing$slurm_missing" ] || $SUDO apt-get update -qq
 if [ -n "$missing" ]; then
     echo "deps: installing Debian packages:$missing"
@@ -53,14 +60,30 @@ if [ -n "$slurm_missing" ]; then
     # shellcheck disable=SC2086
     $SUDO apt-get install -y -qq --no-install-recommends $slurm_missing >/dev/null ||
         echo "deps: could not install$slurm_missing: the Slurm test will be SKIPPED"
-else
+elif [ "${1:-}" != "--fuzz" ]; then
     echo "deps: Slurm test packages present"
 fi
+[ "${1:-}" = "--fuzz" ] && exit 0
 PYMODS="numpy matplotlib zarr xarray"
-if .venv/bin/python -c "import numpy, matplotlib, zarr, xarray" 2>/dev/null; then
-    echo "deps: Python environment .venv present"
+# present, and each pinned package at its pinned version (a second run
+# installs nothing; a .venv made before the pins were moved is brought in line)
+pinned() {
+    .venv/bin/python - tools/constraints.txt <<'PY' 2>/dev/null
+import sys
+from importlib.metadata import version
+import numpy, matplotlib, zarr, xarray
+for line in open(sys.argv[1]):
+    line = line.split("#")[0].strip()
+    if line:
+        name, want = line.split("==")
+        if version(name) != want:
+            sys.exit(1)
+PY
+}
+if pinned; then
+    echo "deps: Python environment .venv present (pinned versions)"
 else
-    echo "deps: creating .venv with $PYMODS"
-    python3 -m venv .venv
-    .venv/bin/pip install -q --disable-pip-version-check $PYMODS
+    echo "deps: installing $PYMODS into .venv (versions of tools/constraints.txt)"
+    [ -x .venv/bin/python ] || python3 -m venv .venv
+    .venv/bin/pip install -q --disable-pip-version-check -c tools/constraints.txt $PYMODS
 fi
