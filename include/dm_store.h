@@ -57,6 +57,14 @@ size_t dm_dtype_size(dm_dtype t);
 /* Write the group and array metadata (replacing what is there). */
 int dm_store_write_metadata(const dm_store *store, dm_error *err);
 
+/* Append an array to a store's layout (before dm_store_write_metadata):
+ * ndim dimensions named dims[] of extent shape[] in chunks of chunk[];
+ * attributes (units, long_name, ...) are owned by the store from now on.
+ * The one way arrays are defined, by sweeps and trajectory runs alike. */
+void dm_store_add_array(dm_store *store, const char *name, dm_dtype type, int ndim,
+                        const int64_t *shape, const int *chunk, const char *const *dims,
+                        json_t *attributes);
+
 /* Read a store's metadata (for info/resume). Every field is checked:
  * known data_type, 1..DM_STORE_MAXDIM dimensions, whole extents, chunks of
  * at least one element per dimension and at most DM_STORE_MAX_CHUNK_BYTES,

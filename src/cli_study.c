@@ -3,13 +3,13 @@
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
-#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cli_impl.h"
 #include "dm_integrate.h"
+#include "dm_threads.h"
 
 static const char HELP[] =
     "usage: deltamap study --robot R --path P --vary SECTION.KEY=FROM:TO:N [--vary ...]\n"
@@ -244,9 +244,7 @@ int dm_cli_study(int argc, char **argv)
     cell *cells = calloc((size_t)n1 * n2, sizeof *cells);
     if (!cells)
         return DM_ENOMEM;
-    if (t.threads)
-        omp_set_num_threads(t.threads);
-#pragma omp parallel for schedule(dynamic)
+#pragma omp parallel for schedule(dynamic) num_threads(dm_threads_count(t.threads))
     for (int c = 0; c < n1 * n2; c++)
         run_cell(&t, &rb, c / n2, c % n2, &cells[c]);
     rc = write_outputs(&t, cells, n1, n2);

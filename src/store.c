@@ -2,6 +2,7 @@
 #define _XOPEN_SOURCE 700 /* nftw */
 #include "dm_store.h"
 
+#include <assert.h>
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -214,6 +215,26 @@ static json_t *array_json(const dm_array_spec *a)
                      "configuration", "separator", "/", "fill_value", fill, "codecs", "name",
                      "bytes", "configuration", "endian", "little", "name", "crc32c",
                      "attributes", attrs, "dimension_names", dims);
+}
+
+void dm_store_add_array(dm_store *st, const char *name, dm_dtype type, int ndim,
+                        const int64_t *shape, const int *chunk, const char *const *dims,
+                        json_t *attributes)
+{
+    assert(st->narr < DM_STORE_MAXARR && ndim >= 1 && ndim <= DM_STORE_MAXDIM);
+    assert(strlen(name) < sizeof st->arr[0].name);
+    dm_array_spec *a = &st->arr[st->narr++];
+    memset(a, 0, sizeof *a);
+    snprintf(a->name, sizeof a->name, "%s", name);
+    a->dtype = type;
+    a->ndim = ndim;
+    for (int d = 0; d < ndim; d++) {
+        assert(shape[d] >= 0 && chunk[d] >= 1);
+        a->shape[d] = shape[d];
+        a->chunk[d] = chunk[d];
+        snprintf(a->dims[d], sizeof a->dims[d], "%s", dims[d]);
+    }
+    a->attributes = attributes;
 }
 
 int dm_store_write_metadata(const dm_store *st, dm_error *err)
