@@ -96,25 +96,4 @@ int dm_store_read_chunk(const dm_store *store, int a, const int64_t *c, void *da
 /* Remove what dead writers left beside one chunk file (its temporaries). */
 void dm_store_clean_chunk(const dm_store *store, int a, const int64_t *c);
 
-/* Write any small file atomically (tmp + rename). */
-int dm_write_file_atomic(const char *path, const void *data, size_t n, dm_error *err);
-
-/* The temporary name of path for this process: PATH.tmp.HOST.PID. */
-void dm_temp_name(const char *path, char *out, size_t len);
-
-/* A temporary of another host counts as abandoned after this long. */
-#define DM_TEMP_STALE_S 3600
-
-/* In directory dir, remove the temporaries BASE.tmp.HOST.PID (any BASE when
- * base is NULL; files or whole directories) whose writer is gone: on this
- * host, no process PID exists; of another host, older than
- * DM_TEMP_STALE_S. Returns how many were removed. */
-int dm_remove_stale_temporaries(const char *dir, const char *base);
-
-/* rm -r (0, or -1 with errno; an absent path is not an error) */
-int dm_remove_tree(const char *path);
-
-/* mkdir -p */
-int dm_mkdirs(const char *path, dm_error *err);
-
 #endif

@@ -30,16 +30,8 @@ int dm_cli_add_set(const char *cmd, const char **sets, int *nset, const char *ar
 int dm_cli_load_robot(const char *spec, const char *const *sets, int nset, dm_robot *robot,
                       dm_error *err);
 
-/* Output files appear whole or not at all: write to PATH.tmp.PID, then
- * rename over PATH on success, remove on failure. */
-#include <stdio.h>
-typedef struct dm_cli_out {
-    FILE *f;
-    char path[1024], tmp[1100];
-} dm_cli_out;
-int dm_cli_out_open(dm_cli_out *out, const char *path, dm_error *err);
-int dm_cli_out_commit(dm_cli_out *out, dm_error *err);
-void dm_cli_out_abort(dm_cli_out *out);
+/* Output files appear whole or not at all: dm_file_out (dm_file.h). */
+#include "dm_file.h"
 
 /* Serial commands: one BLAS thread. Our matrices are small (48-900 DOF),
  * where threaded BLAS only adds overhead. (In OpenBLAS's OpenMP build this

@@ -258,8 +258,8 @@ int dm_cli_compare(int argc, char **argv)
                                              : "the residuals are within the noise");
     }
     if (a.out) {
-        dm_cli_out out;
-        if ((rc = dm_cli_out_open(&out, a.out, &err)) == DM_OK) {
+        dm_file_out out;
+        if ((rc = dm_file_out_open(&out, a.out, &err)) == DM_OK) {
             /* modal: the mode rank; deflections and tracker errors: the axis
              * (0, 1, 2 = x, y, z); tracker data also the time */
             int modal = d.kind == DM_DATA_MODAL, tracker = d.kind == DM_DATA_TRACKER;
@@ -275,7 +275,7 @@ int dm_cli_compare(int argc, char **argv)
                         s->P[2], modal ? s->mode : s->comp, s->value, pred[i], r,
                         s->sigma > 0 ? r / s->sigma : r);
             }
-            rc = dm_cli_out_commit(&out, &err);
+            rc = dm_file_out_commit(&out, &err);
         }
         if (rc)
             dm_cli_report(&err);
@@ -462,15 +462,15 @@ int dm_cli_diagnose(int argc, char **argv)
         print_diagnosis(&d, &rb, &dg);
     }
     if (a.write_robot) {
-        dm_cli_out out;
+        dm_file_out out;
         if (!dg.found)
             fprintf(stderr, "deltamap diagnose: nothing found; %s is the robot unchanged\n",
                     a.write_robot);
         rc = dg.found ? dm_fit_apply(&rb, &dg.best, &fixed, &err) : (fixed = rb, DM_OK);
-        if (!rc && !(rc = dm_cli_out_open(&out, a.write_robot, &err))) {
+        if (!rc && !(rc = dm_file_out_open(&out, a.write_robot, &err))) {
             fprintf(out.f, "# %s extended by deltamap diagnose on %s\n", rb.name, a.measured);
             dm_robot_write(&fixed, out.f);
-            rc = dm_cli_out_commit(&out, &err);
+            rc = dm_file_out_commit(&out, &err);
         }
         if (rc)
             dm_cli_report(&err);
@@ -563,9 +563,9 @@ int dm_cli_synth(int argc, char **argv)
     if (rc)
         return dm_cli_report(&err);
     snprintf(d.robot, sizeof d.robot, "%s", robot);
-    dm_cli_out out;
+    dm_file_out out;
     FILE *f = stdout;
-    if (out_path && (rc = dm_cli_out_open(&out, out_path, &err)))
+    if (out_path && (rc = dm_file_out_open(&out, out_path, &err)))
         return dm_cli_report(&err);
     if (out_path)
         f = out.f;
@@ -575,7 +575,7 @@ int dm_cli_synth(int argc, char **argv)
         fprintf(f, ", %s", effects[i]);
     fprintf(f, "\n");
     dm_dataset_write(&d, f);
-    if (out_path && (rc = dm_cli_out_commit(&out, &err)))
+    if (out_path && (rc = dm_file_out_commit(&out, &err)))
         dm_cli_report(&err);
     dm_dataset_free(&d);
     return rc;

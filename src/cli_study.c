@@ -205,9 +205,9 @@ static int write_outputs(const study_opts *t, const cell *cells, int n1, int n2)
     }
     if (!t->out)
         return 0;
-    dm_cli_out out;
+    dm_file_out out;
     dm_error err;
-    if (dm_cli_out_open(&out, t->out, &err))
+    if (dm_file_out_open(&out, t->out, &err))
         return dm_cli_report(&err);
     fprintf(out.f, "%s,%s,mean_error_m,peak_error_m,status\n", t->ax[0].key,
             t->naxis > 1 ? t->ax[1].key : "-");
@@ -218,7 +218,7 @@ static int write_outputs(const study_opts *t, const cell *cells, int n1, int n2)
                     t->naxis > 1 ? axis_value(&t->ax[1], j) : 0.0, c->mean, c->peak,
                     dm_status_name(c->status));
         }
-    if (dm_cli_out_commit(&out, &err))
+    if (dm_file_out_commit(&out, &err))
         return dm_cli_report(&err);
     return 0;
 }

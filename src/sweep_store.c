@@ -9,6 +9,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "dm_file.h"
 #include "sweep_impl.h"
 
 /* ---- opening or creating the store ------------------------------------------
@@ -74,14 +75,14 @@ static int same_dir(const struct stat *a, const struct stat *b)
 static void clean_skeleton(const sweep_ctx *c, const char *path)
 {
     char parent[1024], dir[1200];
-    dm_remove_stale_temporaries(parent, split_path(path, parent, sizeof parent));
-    dm_remove_stale_temporaries(path, "zarr.json");
+    dm_file_remove_stale_temps(parent, split_path(path, parent, sizeof parent));
+    dm_file_remove_stale_temps(path, "zarr.json");
     for (int a = 0; a < c->store.narr; a++) {
         snprintf(dir, sizeof dir, "%s/%s", path, c->store.arr[a].name);
-        dm_remove_stale_temporaries(dir, "zarr.json");
+        dm_file_remove_stale_temps(dir, "zarr.json");
         snprintf(dir, sizeof dir, "%s/%s/c", path, c->store.arr[a].name);
         if (a >= N_DATA)
-            dm_remove_stale_temporaries(dir, "0");
+            dm_file_remove_stale_temps(dir, "0");
     }
 }
 
@@ -115,8 +116,8 @@ static int move_aside(const char *path, const struct stat *judged, dm_error *err
 {
     char aside[1200];
     struct stat sb;
-    dm_temp_name(path, aside, sizeof aside);
-    dm_remove_tree(aside);
+    dm_file_temp_name(path, aside, sizeof aside);
+    dm_file_remove_tree(aside);
     if (rename(path, aside))
         return errno == ENOENT ? STORE_RETRY
                                : dm_fail(err, DM_EIO, "%s: cannot replace the store: %s", path,
@@ -129,7 +130,7 @@ static int move_aside(const char *path, const struct stat *judged, dm_error *err
                            path, aside);
         return STORE_RETRY;
     }
-    if (dm_remove_tree(aside))
+    if (dm_file_remove_tree(aside))
         return dm_fail(err, DM_EIO, "%s: cannot remove the old store (moved to %s): %s", path,
                        aside, strerror(errno));
     return STORE_ABSENT;
@@ -154,7 +155,10 @@ static int open_existing(sweep_ctx *c, const char *path, int racing, dm_error *e
     if (!has_group)
         return STORE_ABSENT; /* an empty directory */
     dm_store old;
-    int rc = dm_store_read_metadata(path, &old, NULL);
+    dm_error rerr;
+    int rc = dm_store_read_metadata(path, &old, &rerr);
+    if (rc == DM_ENOMEM)
+        return dm_fail(err, rc, "%s", rerr.msg); /* no verdict on the store */
     json_t *ofp = rc ? NULL : fingerprint_of(old.group_attributes);
     json_t *nfp = fingerprint_of(c->store.group_attributes);
     int same = ofp && json_equal(ofp, nfp);
@@ -180,12 +184,12 @@ static int create_store(sweep_ctx *c, const char *path, dm_error *err)
 {
     char parent[1024], stage[1024], keep[sizeof c->store.path];
     const char *base = split_path(path, parent, sizeof parent);
-    int rc = dm_mkdirs(parent, err);
+    int rc = dm_file_mkdirs(parent, 0, err);
     if (rc)
         return rc;
-    dm_remove_stale_temporaries(parent, base);
-    dm_temp_name(path, stage, sizeof stage);
-    dm_remove_tree(stage); /* left by an earlier process with our PID */
+    dm_file_remove_stale_temps(parent, base);
+    dm_file_temp_name(path, stage, sizeof stage);
+    dm_file_remove_tree(stage); /* left by an earlier process with our PID */
     memcpy(keep, c->store.path, sizeof keep);
     snprintf(c->store.path, sizeof c->store.path, "%s", stage);
     rc = dm_store_write_metadata(&c->store, err);
@@ -195,7 +199,7 @@ static int create_store(sweep_ctx *c, const char *path, dm_error *err)
     if (!rc && !rename(stage, path))
         return DM_OK;
     int e = errno;
-    dm_remove_tree(stage);
+    dm_file_remove_tree(stage);
     if (rc)
         return rc;
     if (e == ENOTEMPTY || e == EEXIST)
