@@ -76,6 +76,7 @@ typedef struct dm_sweep_stats {
     long points_total, points_ok, points_unreachable, points_near_singular, points_failed;
     double seconds;
     int interrupted;
+    int store_refused;  /* out holds another sweep's store (opts.force replaces it) */
 } dm_sweep_stats;
 
 /* Run (or resume) a sweep into the store at `out`. `stop` is polled

@@ -280,7 +280,7 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
     c->nb = o->nb ? o->nb : rb->nb;
     c->n = dm_model_dofs(rb, c->na, c->nb);
     if (o->k < 1 || o->k > 64 || o->k > c->n)
-        return dm_fail(err, DM_EINVAL, "sweep: --modes must be 1..64 (and at most %d DOF)", c->n);
+        return dm_fail(err, DM_EINVAL, "sweep: the number of modes must be 1..64 (and at most %d DOF)", c->n);
     if (o->shards < 0 || o->shard < 0 || (o->shards > 1 ? o->shard >= o->shards : o->shard > 0))
         return dm_fail(err, DM_EINVAL, "sweep: there is no shard %d of %d (0 <= K < N)", o->shard,
                        o->shards);
@@ -460,6 +460,7 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
             *err = res.err;
     }
     fill_stats(&plan, &res, g, stats);
+    stats->store_refused = c.store_refused;
     stats->seconds = omp_get_wtime() - t0;
     if (!rc && plan.present + res.done < plan.mine) {
         stats->interrupted = 1;

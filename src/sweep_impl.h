@@ -53,6 +53,7 @@ typedef struct sweep_ctx {
     unsigned char *anchor_seed; /* nanchor x seed_len: the solver's start */
     size_t seed_len;
     double t0;           /* when the sweep started */
+    int store_refused;   /* the store at out is of another sweep */
 } sweep_ctx;
 
 typedef struct sweep_worker {

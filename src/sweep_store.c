@@ -151,7 +151,7 @@ static int open_existing(sweep_ctx *c, const char *path, int racing, dm_error *e
     if (!S_ISDIR(dir.st_mode) || (!has_group && !dir_is_empty(path)))
         return racing ? STORE_RETRY
                       : dm_fail(err, DM_EINVAL,
-                                "%s exists and is not a map store; choose another --out", path);
+                                "%s exists and is not a map store; choose another store", path);
     if (!has_group)
         return STORE_ABSENT; /* an empty directory */
     dm_store old;
@@ -171,10 +171,12 @@ static int open_existing(sweep_ctx *c, const char *path, int racing, dm_error *e
         clean_skeleton(c, path);
         return repair_skeleton(c, err);
     }
-    if (!c->o.force)
+    if (!c->o.force) {
+        c->store_refused = 1;
         return dm_fail(err, DM_EINVAL,
-                       "%s holds a sweep of %s; use --force to overwrite it or choose another --out",
-                       path, what);
+                       "%s holds a sweep of %s: it is replaced only when forced; or choose "
+                       "another store", path, what);
+    }
     return move_aside(path, &dir, err);
 }
 
