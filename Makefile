@@ -97,6 +97,7 @@ slurm-tests: $(BIN)
 	if [ $$rc -eq 77 ]; then touch $(BUILD)/slurm-skipped; else exit $$rc; fi
 
 test: deps
+	@tests/layers.sh
 	@$(MAKE) --no-print-directory unit-tests cli-tests store-tests shard-tests slurm-tests \
 	    fuzz-replay fault-tests
 	@if [ -e $(BUILD)/slurm-skipped ]; then \
