@@ -86,14 +86,4 @@ int dm_sweep_run(const dm_robot *robot, const dm_grid *grid, const dm_sweep_opts
                  const char *out, volatile sig_atomic_t *stop, dm_sweep_stats *stats,
                  dm_error *err);
 
-/* ---- one point (exposed for tests and `deltamap modes` cross-checks) ---- */
-
-typedef struct dm_point_result {
-    int status;
-    double freq_hz[64], tracked_hz[64];
-    double static_error[6];
-    double compliance_max, compliance_dir[3], stiffness_min, singularity;
-    double move_peak[3], move_residual[3], move_settling[3];
-} dm_point_result;
-
 #endif

@@ -33,6 +33,23 @@ enum { X_NONE, X_MODE, X_COMPONENT, X_AXIS, X_MOVE };
 /* The data arrays (x, y, z[, extra]), in the order of the enum. */
 extern const dm_sweep_array dm_sweep_arrays[N_DATA];
 
+/* ---- sweep.c: what one point of the map holds ------------------------------ */
+
+/* The values a map stores at a point, flat and of fixed size, NaN where
+ * not computed. Not dm_pose_result (dm_analysis.h), which is one pose's
+ * analysis and points into the workspace that made it (modes, statics),
+ * valid until the next pose; nor dm_integ_sample (dm_integrate.h), one
+ * time step of a trajectory. This one adds the tracked families and the
+ * standard moves, and outlives the workspace until its tile is written. */
+
+typedef struct dm_point_result {
+    int status;
+    double freq_hz[64], tracked_hz[64];
+    double static_error[6];
+    double compliance_max, compliance_dir[3], stiffness_min, singularity;
+    double move_peak[3], move_residual[3], move_settling[3];
+} dm_point_result;
+
 /* ---- sweep.c: the run's context and its workers ----------------------------- */
 
 typedef struct sweep_ctx {
