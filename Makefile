@@ -61,7 +61,9 @@ $(BUILD)/presets.c: $(wildcard robots/*.ini) tools/embed-presets.sh | $(BUILD)/o
 $(BUILD)/obj/presets.o: $(BUILD)/presets.c
 	$(CC) $(CFLAGS) -c $< -o $@
 
+# Made afresh: a module renamed or removed leaves no stale member behind.
 $(BUILD)/libdeltamap.a: $(LIB_OBJ)
+	rm -f $@
 	$(AR) rcs $@ $^
 
 $(BIN): $(BUILD)/obj/main.o $(BUILD)/libdeltamap.a

@@ -7,7 +7,7 @@
 #ifndef DM_ANALYSIS_H
 #define DM_ANALYSIS_H
 
-#include "dm_assembly.h"
+#include "dm_model.h"
 #include "dm_kinematics.h"
 #include "dm_modal.h"
 #include "dm_robot.h"

@@ -1,5 +1,5 @@
 /* dm_arrow — symmetric block-arrow matrices, the shape of the robot's M and
- * K (dm_assembly): three diagonal blocks, one per chain, banded inside, and
+ * K (dm_model): three diagonal blocks, one per chain, banded inside, and
  * coupled to nothing but a small dense border (the platform's 6 DOFs):
  *
  *       [ A0          C0 ]

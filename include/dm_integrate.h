@@ -20,7 +20,7 @@
 #ifndef DM_INTEGRATE_H
 #define DM_INTEGRATE_H
 
-#include "dm_assembly.h"
+#include "dm_model.h"
 #include "dm_modal.h"
 #include "dm_robot.h"
 #include "dm_static.h"

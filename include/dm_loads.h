@@ -9,7 +9,7 @@
 #ifndef DM_LOADS_H
 #define DM_LOADS_H
 
-#include "dm_assembly.h"
+#include "dm_model.h"
 
 /* Nominal rigid motion of the mechanism at one instant. */
 typedef struct dm_rigid_motion {

@@ -6,7 +6,7 @@
 #ifndef DM_MODAL_H
 #define DM_MODAL_H
 
-#include "dm_assembly.h"
+#include "dm_model.h"
 #include "dm_error.h"
 
 typedef enum {

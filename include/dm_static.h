@@ -13,7 +13,7 @@
 #define DM_STATIC_H
 
 #include "dm_arrow.h"
-#include "dm_assembly.h"
+#include "dm_model.h"
 #include "dm_error.h"
 
 typedef struct dm_static dm_static;

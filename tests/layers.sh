@@ -7,7 +7,7 @@ layer_of() {
     case $1 in
     error | vec3 | threads | file | csv | version) echo 0 ;;
     robot | kinematics) echo 1 ;;
-    beam | arrow | assembly | loads) echo 2 ;;
+    beam | arrow | model | loads) echo 2 ;;
     static | modal | analysis) echo 3 ;;
     trajectory | integrate | integrate_trajectory | standard_move) echo 4 ;;
     grid | shard | store | sweep | sweep_schema | sweep_store | sweep_anchors | sweep_impl) echo 5 ;;

@@ -84,7 +84,7 @@ static void short_bars_slave_rod_ends(void **state)
             memset(U, 0, sizeof(double) * md->n);
             for (int k = 0; k < 3; k++)
                 U[ref + 3 + k] = th[k];
-            dm_nodemap_apply(&el->node[nd], U, u);
+            dm_model_nodemap_apply(&el->node[nd], U, u);
             const double *x = nd == 0 ? el->x1 : el->x2;
             double s[3], expect[3];
             dm_sub3(x, ref == md->platform_dof ? md->pose.P : md->pose.B[i], s);
@@ -154,5 +154,5 @@ int main(void)
         cmocka_unit_test(rotating_the_robot_changes_nothing),
         cmocka_unit_test(gravity_error_mesh_independent),
     };
-    return cmocka_run_group_tests_name("assembly", tests, NULL, NULL);
+    return cmocka_run_group_tests_name("model", tests, NULL, NULL);
 }

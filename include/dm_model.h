@@ -1,4 +1,4 @@
-/* dm_assembly — the frozen-configuration finite-element model (MODEL.md §2).
+/* dm_model — the frozen-configuration finite-element model (MODEL.md §2).
  *
  * Arms (na elements) and rods (nb elements each, two per chain) are 3-D
  * beams; short bars and the platform are rigid. Each beam node's six global
@@ -23,8 +23,8 @@
  * payload and elbow masses add mass and weight; geometric stiffness adds
  * K_G from the axial forces of a linear static gravity solve. A dm_model
  * is one thread's workspace; the robot it points to is read-only. */
-#ifndef DM_ASSEMBLY_H
-#define DM_ASSEMBLY_H
+#ifndef DM_MODEL_H
+#define DM_MODEL_H
 
 #include "dm_arrow.h"
 #include "dm_beam.h"
@@ -102,6 +102,6 @@ void dm_model_mult_M(const dm_model *model, const double *X, int q, double *Y);
 void dm_model_mult_K(const dm_model *model, const double *X, int q, double *Y);
 
 /* Global 6-vector of a node given reduced DOFs U. */
-void dm_nodemap_apply(const dm_nodemap *map, const double *U, double out[6]);
+void dm_model_nodemap_apply(const dm_nodemap *map, const double *U, double out[6]);
 
 #endif

@@ -1,5 +1,5 @@
-/* Frozen-configuration assembly (MODEL.md §2). */
-#include "dm_assembly.h"
+/* The frozen-configuration model: DOFs, assembly of M, K and the gravity load (MODEL.md §2). */
+#include "dm_model.h"
 
 #include <assert.h>
 #include <math.h>
@@ -260,7 +260,7 @@ static void map_end(const dm_model *md, dm_nodemap *m, int ref_dof, const double
         map_rod_end(m, ref_dof, s, own, lambda);
 }
 
-void dm_nodemap_apply(const dm_nodemap *map, const double *U, double out[6])
+void dm_model_nodemap_apply(const dm_nodemap *map, const double *U, double out[6])
 {
     for (int r = 0; r < 6; r++) {
         double s = 0;
