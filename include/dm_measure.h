@@ -1,4 +1,4 @@
-/* dm_measure — measured data (../shared/docs/MEASURED.md) and what the
+/* dm_measure — measured data (docs/measured-data.md) and what the
  * model predicts for it.
  *
  * Kinds: modal surveys (frequency of mode rank j at a pose), static

@@ -40,7 +40,7 @@ static const char MODES_HELP[] =
     "usage: deltamap modes --robot R [--at X,Y,Z] [--modes K] [--mesh NA,NB]\n"
     "                      [--method partial|dense|all] [--set SECTION.KEY=V]... [--json]\n"
     "\n"
-    "Frozen-configuration modal analysis at one platform pose (MODEL.md §2-5).\n"
+    "Frozen-configuration modal analysis at one platform pose (docs/model.md §2-5).\n"
     "\n"
     "  --robot R       preset name (chen2018, zheng2017, han2011) or robot file\n"
     "  --at X,Y,Z      platform centre in m (default: the robot's [workspace] home)\n"

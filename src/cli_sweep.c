@@ -22,7 +22,7 @@ static const char SWEEP_HELP[] =
     "                      [--shard K/N|slurm|slurm/N] [--set SECTION.KEY=V]...\n"
     "\n"
     "Frequencies, static gravity error, stiffness, singularity and the dynamic\n"
-    "error of the standard move (MODEL.md §5) on a grid of poses, in parallel,\n"
+    "error of the standard move (docs/model.md §5) on a grid of poses, in parallel,\n"
     "into a Zarr v3 store (docs/store.md). Re-running the same command resumes:\n"
     "finished, checksum-valid tiles are kept. Ctrl-C finishes the tiles in\n"
     "flight and exits with code 7.\n"

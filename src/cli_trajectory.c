@@ -20,8 +20,9 @@ static const char HELP[] =
     "                           [--set SECTION.KEY=V]... [--force-long]\n"
     "                           [--out FILE.csv] [--json]\n"
     "\n"
-    "Normal-coordinate integration along a trajectory (MODEL.md §4): the robot is\n"
-    "frozen per step, the modal equations are integrated with SUNDIALS CVODE.\n"
+    "Normal-coordinate integration along a trajectory (docs/model.md §4): the\n"
+    "robot is frozen per step, the modal equations are integrated with SUNDIALS\n"
+    "CVODE.\n"
     "\n"
     "  --robot R        preset or robot file\n"
     "  --path P         chen2018 | zheng2017 | han2011 | han2011-vertical |\n"
@@ -374,7 +375,7 @@ int dm_cli_trajectory(int argc, char **argv)
     if (sum.aliasing_risk)
         fprintf(stderr,
                 "deltamap: warning: undamped run with more than 20 modes and dt %g s > 1.25e-4 "
-                "s: step-boundary projections can alias into high modes and grow (MODEL.md "
+                "s: step-boundary projections can alias into high modes and grow (docs/model.md "
                 "§4). Add damping, keep <= 20 modes, or use --dt 1.25e-4.\n",
                 t.o.dt_s);
     print_summary(&t, &rb, &tr, &sum);
