@@ -33,9 +33,9 @@ double dm_rng_normal(dm_rng *r)
 /* ---- kinds ---------------------------------------------------------------- */
 
 static const char *const KIND_NAMES[] = {"modal", "static", "tracker"};
-static const char *const COLUMNS[3][8] = {
+static const char *const COLUMNS[3][10] = {
     {"x", "y", "z", "mode", "freq_hz", NULL},
-    {"x", "y", "z", "fx", "fy", "fz", "dx", NULL},
+    {"x", "y", "z", "fx", "fy", "fz", "dx", "dy", "dz", NULL},
     {"t", "x_cmd", "y_cmd", "z_cmd", "x_meas", "y_meas", "z_meas", NULL}};
 
 const char *dm_data_kind_name(dm_data_kind k) { return KIND_NAMES[k]; }
