@@ -44,6 +44,10 @@ void dm_file_temp_name(const char *path, char *out, size_t len);
  * DM_TEMP_STALE_S. Returns how many were removed. */
 int dm_file_remove_stale_temps(const char *dir, const char *base);
 
+/* Files named *.tmp.* below dir: temporaries of writers that were killed
+ * (or are writing at this moment). */
+long dm_file_count_temps(const char *dir);
+
 /* rm -r (0, or -1 with errno; an absent path is not an error) */
 int dm_file_remove_tree(const char *path);
 

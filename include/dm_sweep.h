@@ -21,6 +21,7 @@
 #include "dm_grid.h"
 #include "dm_integrate.h"
 #include "dm_robot.h"
+#include "dm_store.h"
 
 enum dm_point_status {
     DM_POINT_OK = 0,
@@ -85,5 +86,25 @@ typedef struct dm_sweep_stats {
 int dm_sweep_run(const dm_robot *robot, const dm_grid *grid, const dm_sweep_opts *opts,
                  const char *out, volatile sig_atomic_t *stop, dm_sweep_stats *stats,
                  dm_error *err);
+
+/* ---- what a store holds (sweep_census.c) ---- */
+
+/* The scan of a map store's tiles: every chunk read and its checksum
+ * verified. */
+typedef struct dm_sweep_census {
+    long nt[3], tiles;         /* the tile grid */
+    long complete;             /* tiles whose every chunk is present and valid */
+    long corrupt, missing_chunks;
+    long counts[256];          /* points by status (enum dm_point_status) */
+    char *done;                /* per tile (C order): complete */
+} dm_sweep_census;
+
+/* Scan store (from dm_store_read_metadata); on_corrupt (may be NULL) gets
+ * each corrupt chunk's message. DM_EINVAL: not a map store (no uint8
+ * status array over x, y, z). Free with dm_sweep_census_free. */
+int dm_sweep_census_take(const dm_store *store, dm_sweep_census *census,
+                         void (*on_corrupt)(void *user, const char *msg), void *user,
+                         dm_error *err);
+void dm_sweep_census_free(dm_sweep_census *census);
 
 #endif

@@ -112,6 +112,31 @@ int dm_file_remove_stale_temps(const char *dir, const char *base)
     return removed;
 }
 
+long dm_file_count_temps(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return 0;
+    long n = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
+            continue;
+        char path[2048];
+        struct stat sb;
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        int is_dir = e->d_type == DT_DIR ||
+                     (e->d_type == DT_UNKNOWN && !lstat(path, &sb) && S_ISDIR(sb.st_mode));
+        if (strstr(e->d_name, ".tmp."))
+            n++;
+        else if (is_dir)
+            n += dm_file_count_temps(path);
+    }
+    closedir(d);
+    return n;
+}
+
+
 /* ---- whole files -------------------------------------------------------------- */
 
 int dm_file_out_open(dm_file_out *out, const char *path, dm_error *err)

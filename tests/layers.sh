@@ -10,7 +10,7 @@ layer_of() {
     beam | arrow | model | loads) echo 2 ;;
     static | modal | analysis) echo 3 ;;
     trajectory | integrate | integrate_trajectory | standard_move) echo 4 ;;
-    grid | shard | store | sweep | sweep_schema | sweep_store | sweep_anchors | sweep_impl) echo 5 ;;
+    grid | shard | store | sweep | sweep_schema | sweep_store | sweep_anchors | sweep_census | sweep_impl) echo 5 ;;
     measure | diagnose) echo 6 ;;
     cli | cli_* | main) echo 7 ;;
     *) echo "" ;;

@@ -1,0 +1,172 @@
+/* deltamap info: what a map store holds, how complete, which shards have
+ * work left. */
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli_impl.h"
+#include "dm_file.h"
+#include "dm_shard.h"
+#include "dm_store.h"
+#include "dm_sweep.h"
+
+#define MAX_SHARDS 1000000
+
+static const char INFO_HELP[] =
+    "usage: deltamap info maps/NAME [--shards N]\n"
+    "\n"
+    "What a map store holds, how complete it is and whether its checksums hold;\n"
+    "which tiles are still to compute and, given --shards N, which of the N\n"
+    "shards of a sharded sweep (sweep --shard K/N) still have work.\n";
+
+static void print_corrupt(void *user, const char *msg)
+{
+    (void)user;
+    printf("  corrupt: %s\n", msg);
+}
+
+static void print_dims(const dm_array_spec *a)
+{
+    printf("(");
+    for (int d = 0; d < a->ndim; d++)
+        printf("%s%s=%lld", d ? ", " : "", a->dims[d], (long long)a->shape[d]);
+    printf(")");
+}
+
+/* v[0..n-1] ascending as "0-3,7,9-12" */
+static void print_ranges(const long *v, long n)
+{
+    for (long i = 0; i < n;) {
+        long j = i;
+        while (j + 1 < n && v[j + 1] == v[j] + 1)
+            j++;
+        printf(i ? ",%ld" : "%ld", v[i]);
+        if (j > i)
+            printf(j == i + 1 ? ",%ld" : "-%ld", v[j]);
+        i = j + 1;
+    }
+}
+
+static void print_missing(const dm_sweep_census *tc)
+{
+    long todo = tc->tiles - tc->complete, shown = 0;
+    if (!todo)
+        return;
+    printf("missing %ld tile%s (i,j,k):", todo, todo == 1 ? "" : "s");
+    for (long t = 0; t < tc->tiles && shown < 12; t++)
+        if (!tc->done[t]) {
+            printf(" %ld,%ld,%ld", t / (tc->nt[1] * tc->nt[2]), (t / tc->nt[2]) % tc->nt[1],
+                   t % tc->nt[2]);
+            shown++;
+        }
+    printf(todo > shown ? " ... and %ld more\n" : "\n", todo - shown);
+}
+
+/* Which shards of a sweep split n ways still have tiles to compute, and
+ * how to rerun just those. */
+static int print_shards(const dm_sweep_census *tc, long n)
+{
+    long *busy = malloc(sizeof(long) * n), nbusy = 0;
+    char *work = calloc((size_t)n, 1);
+    if (!busy || !work) {
+        free(busy);
+        free(work);
+        return -1;
+    }
+    for (long t = 0; t < tc->tiles; t++)
+        if (!tc->done[t])
+            work[dm_shard_of(t, n)] = 1;
+    for (long k = 0; k < n; k++)
+        if (work[k])
+            busy[nbusy++] = k;
+    if (!nbusy)
+        printf("shards  none of %ld has work left\n", n);
+    else {
+        printf("shards  %ld of %ld still have work: ", nbusy, n);
+        print_ranges(busy, nbusy);
+        printf("\nrerun   sbatch --array=");
+        print_ranges(busy, nbusy);
+        printf(" --export=ALL,SHARDS=%ld tools/slurm/sweep.sbatch SWEEP-OPTIONS\n", n);
+        printf("        (or deltamap sweep SWEEP-OPTIONS --shard K/%ld for each K above)\n", n);
+    }
+    free(busy);
+    free(work);
+    return 0;
+}
+
+static int parse_info(int argc, char **argv, const char **store, long *shards)
+{
+    static const struct option lo[] = {{"shards", 1, 0, 'n'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    int c, n;
+    *store = NULL;
+    *shards = 0;
+    optind = 1;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+        if (c == 'h') {
+            fputs(INFO_HELP, stdout);
+            exit(0);
+        }
+        if (c != 'n')
+            return dm_cli_usage("info", "unknown or incomplete option", argv[optind - 1]);
+        if (dm_cli_parse_int(optarg, 1, MAX_SHARDS, &n))
+            return dm_cli_usage("info", "--shards takes a whole number 1..1000000", optarg);
+        *shards = n;
+    }
+    if (optind != argc - 1)
+        return dm_cli_usage("info", optind < argc ? "one store only" : "which store?",
+                            optind < argc ? argv[optind + 1] : NULL);
+    *store = argv[optind];
+    return 0;
+}
+
+int dm_cli_info(int argc, char **argv)
+{
+    const char *path;
+    long shards;
+    int rc = parse_info(argc, argv, &path, &shards);
+    if (rc)
+        return rc;
+    dm_store st;
+    dm_error err;
+    if (dm_store_read_metadata(path, &st, &err))
+        return dm_cli_report(&err);
+    json_t *dm = json_object_get(st.group_attributes, "deltamap");
+    printf("store   %s (Zarr v3 group)\n", path);
+    printf("robot   %s\n", json_string_value(json_object_get(dm, "robot")));
+    printf("grid    %s (%s)\n", json_string_value(json_object_get(dm, "grid")),
+           json_string_value(json_object_get(dm, "grid_kind")));
+    printf("tool    %s\n\narrays\n", json_string_value(json_object_get(dm, "tool")));
+    for (int a = 0; a < st.narr; a++) {
+        const dm_array_spec *s = &st.arr[a];
+        printf("  %-24s ", s->name);
+        print_dims(s);
+        printf("  %s\n", json_string_value(json_object_get(s->attributes, "units")));
+    }
+    dm_sweep_census tc;
+    if ((rc = dm_sweep_census_take(&st, &tc, print_corrupt, NULL, &err))) {
+        dm_store_release(&st);
+        return dm_cli_report(&err);
+    }
+    printf("\ntiles   %ld of %ld complete (%.1f %%); %ld chunk files missing, %ld corrupt\n",
+           tc.complete, tc.tiles, 100.0 * tc.complete / tc.tiles, tc.missing_chunks, tc.corrupt);
+    printf("points  %ld ok, %ld near-singular, %ld unreachable, %ld solver failure\n",
+           tc.counts[0], tc.counts[2], tc.counts[1], tc.counts[3]);
+    printf("checksums %s\n", tc.corrupt ? "FAILED: re-run the sweep command to recompute" : "ok");
+    print_missing(&tc);
+    rc = shards ? print_shards(&tc, shards) : 0;
+    long temps = dm_file_count_temps(path);
+    if (temps)
+        printf("temps   %ld temporary files, of writers at work or killed (readers ignore "
+               "them; a sweep removes dead writers' ones beside the tiles it recomputes; with "
+               "no sweep running: find %s -name '*.tmp.*' -delete)\n",
+               temps, path);
+    dm_sweep_census_free(&tc);
+    dm_store_release(&st);
+    if (rc) {
+        fprintf(stderr, "deltamap: out of memory\n");
+        return DM_ENOMEM;
+    }
+    return tc.corrupt ? DM_EIO : 0;
+}
