@@ -128,6 +128,15 @@ int dm_robot_write(const dm_robot *robot, FILE *out);
  * unchanged and the message names the assignment and key. */
 int dm_robot_set(dm_robot *robot, const char *assignment, dm_error *err);
 
+/* Set the numbers of one key of [effects] or [damping] in place, typed:
+ * v holds 1 number (3 for a vector key; on/off keys take 0 or 1; degree
+ * keys take degrees), validated as the robot file's reader would. The
+ * path of the fits' every evaluation: no text, no allocation. Keys other
+ * values derive from (members, geometry, platform) are refused: change
+ * them with dm_robot_set. On error the robot is unchanged. */
+int dm_robot_set_number(dm_robot *robot, const char *section, const char *key, const double *v,
+                        dm_error *err);
+
 /* Section properties of a member (MODEL.md §2). */
 int dm_section_compute(const dm_member *member, dm_section *out, dm_error *err);
 

@@ -769,3 +769,78 @@ int dm_robot_set(dm_robot *robot, const char *assignment, dm_error *err)
     }
     return rc;
 }
+
+/* ---- typed values -------------------------------------------------------------- */
+
+static const key_spec *find_key(const char *section, const char *key)
+{
+    for (size_t i = 0; i < NKEYS; i++)
+        if (!strcmp(KEYS[i].section, section) && !strcmp(KEYS[i].key, key))
+            return &KEYS[i];
+    return NULL;
+}
+
+/* Keys whose value no derived value depends on: set in place. */
+static int settable(const key_spec *ks)
+{
+    return !strcmp(ks->section, "effects") || !strcmp(ks->section, "damping");
+}
+
+static int is_vec3(key_kind k)
+{
+    return k == KEY_VEC3 || k == KEY_VEC3_NONNEG || k == KEY_VEC3_DEG;
+}
+
+/* What the robot file's reader requires of the key's numbers. */
+static const char *value_problem(const key_spec *ks, const double *v, int n)
+{
+    for (int i = 0; i < n; i++) {
+        if (!isfinite(v[i]) || (v[i] != 0 && fabs(v[i]) < DBL_MIN))
+            return "not a number in range";
+        if (ks->kind == KEY_POSITIVE && !(v[i] > 0))
+            return "must be > 0";
+        if ((ks->kind == KEY_NONNEG || ks->kind == KEY_VEC3_NONNEG) && v[i] < 0)
+            return "must be >= 0";
+        if (ks->kind == KEY_ONOFF && v[i] != 0 && v[i] != 1)
+            return "must be 0 (off) or 1 (on)";
+    }
+    return NULL;
+}
+
+int dm_robot_set_number(dm_robot *robot, const char *section, const char *key, const double *v,
+                        dm_error *err)
+{
+    const key_spec *ks = find_key(section, key);
+    if (!ks)
+        return dm_fail(err, DM_EINVAL, "[%s] %s: no such key of a robot file", section, key);
+    if (!settable(ks))
+        return dm_fail(err, DM_EINVAL,
+                       "[%s] %s: other values derive from it; change it with dm_robot_set",
+                       section, key);
+    int n = is_vec3(ks->kind) ? 3 : 1;
+    const char *problem = value_problem(ks, v, n);
+    if (problem)
+        return dm_fail(err, DM_EINVAL, "%s: [%s] %s: %s, got %.17g", robot->source, section,
+                       key, problem, v[0]);
+    dm_robot changed = *robot; /* a copy, unchanged on error */
+    double scale = ks->kind == KEY_VEC3_DEG || ks->kind == KEY_DEGREES ? M_PI / 180.0 : 1.0;
+    char *dst = (char *)&changed + ks->offset;
+    if (!strcmp(key, "base_stiffness")) /* the global value: every chain's */
+        for (int i = 0; i < 3; i++)
+            memcpy(changed.effects.base_stiffness_n_per_m[i], v, sizeof(double) * 3);
+    else if (ks->kind == KEY_ONOFF)
+        *(int *)dst = v[0] != 0;
+    else
+        for (int i = 0; i < n; i++)
+            ((double *)dst)[i] = v[i] * scale;
+    /* as the reader: a chain's base springs on all three axes or none */
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3 && dm_effects_base_compliant(&changed.effects, i); k++)
+            if (!(changed.effects.base_stiffness_n_per_m[i][k] > 0))
+                return dm_fail(err, DM_EINVAL,
+                               "%s: [effects] %s: chain %d has no spring along %c; a "
+                               "compliant base needs kX, kY, kZ > 0 (or all 0: rigid)",
+                               robot->source, key, i, "XYZ"[k]);
+    *robot = changed;
+    return DM_OK;
+}

@@ -242,6 +242,65 @@ static void overrides_are_validated(void **state)
     assert_memory_equal(&rb, &before, sizeof rb);
 }
 
+/* The typed setter leaves the robot exactly as the text one (the robot
+ * file written and read again) for every settable key; refuses what the
+ * reader refuses, and keys other values derive from. */
+static void typed_values_equal_text_ones(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *section, *key, *text;
+        double v[3];
+    } cases[] = {
+        {"effects", "actuator_stiffness", "2.5e4", {2.5e4}},
+        {"effects", "joint_stiffness", "3e6", {3e6}},
+        {"effects", "payload_mass", "0.35", {0.35}},
+        {"effects", "payload_offset", "0.01,-0.02,0.003", {0.01, -0.02, 0.003}},
+        {"effects", "elbow_mass", "0.07", {0.07}},
+        {"effects", "base_stiffness", "1e6,2e6,3e6", {1e6, 2e6, 3e6}},
+        {"effects", "base_stiffness_1", "4e6,5e6,6e6", {4e6, 5e6, 6e6}},
+        {"effects", "geometric_stiffness", "on", {1}},
+        {"effects", "clearance", "1.5e-5", {1.5e-5}},
+        {"effects", "actuator_clearance_axial", "2e-5", {2e-5}},
+        {"effects", "error_arm_length", "1e-4,-2e-4,3e-5", {1e-4, -2e-4, 3e-5}},
+        {"effects", "error_theta_deg", "0.05,-0.1,0.02", {0.05, -0.1, 0.02}},
+        {"effects", "error_alpha0_deg", "0.3,0,-0.2", {0.3, 0, -0.2}},
+        {"damping", "alpha", "12.5", {12.5}},
+        {"damping", "beta", "2e-5", {2e-5}},
+    };
+    dm_robot base;
+    assert_int_equal(dm_robot_load("zheng2017", &base, NULL), 0);
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        dm_robot typed = base, text = base;
+        char assign[128];
+        snprintf(assign, sizeof assign, "%s.%s=%s", cases[c].section, cases[c].key, cases[c].text);
+        assert_int_equal(dm_robot_set(&text, assign, NULL), 0);
+        assert_int_equal(dm_robot_set_number(&typed, cases[c].section, cases[c].key, cases[c].v,
+                                             NULL), 0);
+        /* the same text of the source; the bytes after it do not count */
+        assert_string_equal(typed.source, text.source);
+        memset(typed.source, 0, sizeof typed.source);
+        memset(text.source, 0, sizeof text.source);
+        if (memcmp(&typed, &text, sizeof typed)) {
+            print_error("%s: the typed setter differs from the text one\n", assign);
+            fail();
+        }
+    }
+    dm_robot rb = base;
+    dm_error err;
+    const double minus[3] = {-1, 0, 0}, nan3[3] = {NAN, 0, 0}, half[3] = {1e6, 0, 1e6};
+    assert_int_equal(dm_robot_set_number(&rb, "effects", "payload_mass", minus, &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "[effects] payload_mass: must be > 0"));
+    assert_int_equal(dm_robot_set_number(&rb, "damping", "beta", nan3, &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "not a number"));
+    assert_int_equal(dm_robot_set_number(&rb, "effects", "base_stiffness_2", half, &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "chain 2 has no spring along Y"));
+    assert_int_equal(dm_robot_set_number(&rb, "rod", "youngs_modulus", half, &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "dm_robot_set"));
+    assert_int_equal(dm_robot_set_number(&rb, "effects", "bogus", half, &err), DM_EINVAL);
+    assert_memory_equal(&rb, &base, sizeof rb);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -255,6 +314,7 @@ int main(void)
         cmocka_unit_test(effects_keys),
         cmocka_unit_test(syntax_and_files),
         cmocka_unit_test(overrides_are_validated),
+        cmocka_unit_test(typed_values_equal_text_ones),
     };
     return cmocka_run_group_tests_name("robot", tests, NULL, NULL);
 }
