@@ -16,7 +16,11 @@
  * (validation: equals the modal model with all modes retained).
  *
  * Errors are total (static + dynamic) platform displacements: dx, dy, dz
- * (m), ex, ey, ez (rad). Units SI throughout. */
+ * (m), ex, ey, ez (rad). Units SI throughout.
+ *
+ * One header for three files, its sections marked by file (as GSL does):
+ * integrate.c (a frozen step), standard_move.c (the sweep's standard move),
+ * integrate_trajectory.c (a whole trajectory). */
 #ifndef DM_INTEGRATE_H
 #define DM_INTEGRATE_H
 
@@ -32,7 +36,7 @@ typedef enum {
     DM_ODE_FULL = 2         /* full model with CVODE (validation) */
 } dm_ode_method;
 
-/* ---- one frozen step (shared by trajectories and the standard move) ---- */
+/* ---- integrate.c: one frozen step (trajectories and the standard move) --- */
 
 typedef struct dm_stepper dm_stepper;
 
@@ -56,7 +60,7 @@ int dm_stepper_advance(dm_stepper *st, const dm_model *model, const dm_modes *mo
 void dm_sdof_step(double omega, double zeta, double f0, double f1, double h, double *q,
                   double *qd);
 
-/* ---- the standard move (MODEL.md §5) ------------------------------------ */
+/* ---- standard_move.c: the standard move (MODEL.md §5) ------------------- */
 
 /* A rest-to-rest bang-bang move starting at the pose: +amax for tau/2, then
  * -amax for tau/2, configuration frozen at the start pose, load = inertia of
@@ -103,7 +107,7 @@ int dm_standard_moves(dm_move_ws *ws, const dm_model *model, const dm_modes *mod
                       const dm_static *statics, const double (*dir)[3], int ndir,
                       const dm_move_opts *opts, dm_move_result *res, dm_error *err);
 
-/* ---- trajectories -------------------------------------------------------- */
+/* ---- integrate_trajectory.c: trajectories --------------------------------- */
 
 #define DM_INTEG_MAXFREQ 8
 
