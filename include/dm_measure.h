@@ -45,6 +45,11 @@ int dm_data_kind_parse(const char *name, dm_data_kind *kind);
 
 /* Read a file; the kind is recognised from its columns. */
 int dm_dataset_read(const char *path, dm_dataset *data, dm_error *err);
+
+/* The same for a measurement template (as `deltamap plan` writes): the
+ * measured values (freq_hz, dx..dz, x_meas..z_meas) may be empty and read
+ * as 0; poses, modes, forces, times and sigma are as in a data file. */
+int dm_dataset_read_template(const char *path, dm_dataset *data, dm_error *err);
 int dm_dataset_write(const dm_dataset *data, FILE *out);
 void dm_dataset_free(dm_dataset *data);
 

@@ -55,5 +55,6 @@ int dm_cli_info(int argc, char **argv);
 int dm_cli_compare(int argc, char **argv);
 int dm_cli_diagnose(int argc, char **argv);
 int dm_cli_synth(int argc, char **argv);
+int dm_cli_plan(int argc, char **argv);
 
 #endif

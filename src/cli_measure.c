@@ -10,6 +10,7 @@
 #include "cli_impl.h"
 #include "dm_diagnose.h"
 #include "dm_measure.h"
+#include "dm_plan.h"
 
 static const char COMPARE_HELP[] =
     "usage: deltamap compare --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"
@@ -44,11 +45,14 @@ static const char DIAGNOSE_HELP[] =
 static const char SYNTH_HELP[] =
     "usage: deltamap synth --robot R --kind modal|static|tracker [--effect NAME=VALUE]...\n"
     "                      [--noise X] [--poses N] [--modes K] [--seed S] [--path P]\n"
-    "                      [--mesh NA,NB] [--out FILE]\n"
+    "                      [--at TEMPLATE] [--mesh NA,NB] [--out FILE]\n"
     "\n"
     "Synthetic measured data from the robot extended by the given effects, with\n"
     "Gaussian noise (Hz for modal, m otherwise), in the formats of MEASURED.md:\n"
-    "check whether an experiment can identify an effect before running it.\n"
+    "check whether an experiment can identify an effect before running it. Poses\n"
+    "are drawn about home, or --at takes them (and modes, forces, times) from a\n"
+    "measurement template such as `deltamap plan --out` writes (the kind is then\n"
+    "the template's).\n"
     "Effects: actuator_stiffness, joint_stiffness, base_stiffness,\n"
     "base_stiffness_0/1/2 (N/m, isotropic), payload_mass, elbow_mass (kg),\n"
     "geometric_stiffness=on, damping_alpha (1/s), damping_beta (s), clearance,\n"
@@ -736,9 +740,9 @@ int dm_cli_synth(int argc, char **argv)
     static const struct option lo[] = {
         {"robot", 1, 0, 'r'}, {"kind", 1, 0, 'k'}, {"effect", 1, 0, 'e'}, {"noise", 1, 0, 'n'},
         {"poses", 1, 0, 'p'}, {"modes", 1, 0, 'M'}, {"seed", 1, 0, 'S'}, {"path", 1, 0, 'P'},
-        {"mesh", 1, 0, 'm'}, {"out", 1, 0, 'o'}, {"set", 1, 0, 's'}, {"help", 0, 0, 'h'},
-        {0, 0, 0, 0}};
-    const char *robot = NULL, *out_path = NULL, *effects[8], *sets[DM_CLI_MAXSET];
+        {"mesh", 1, 0, 'm'}, {"out", 1, 0, 'o'}, {"set", 1, 0, 's'}, {"at", 1, 0, 'A'},
+        {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    const char *robot = NULL, *out_path = NULL, *effects[8], *sets[DM_CLI_MAXSET], *at = NULL;
     int neff = 0, nset = 0, c, have_kind = 0, seed = 1;
     dm_synth_opts o = {0};
     optind = 1;
@@ -748,6 +752,7 @@ int dm_cli_synth(int argc, char **argv)
         case 'r': robot = optarg; break;
         case 'o': out_path = optarg; break;
         case 'P': o.path = optarg; break;
+        case 'A': at = optarg; break;
         case 'k':
             if (dm_data_kind_parse(optarg, &o.kind))
                 return dm_cli_usage("synth", "--kind is modal, static or tracker", optarg);
@@ -786,8 +791,8 @@ int dm_cli_synth(int argc, char **argv)
         default: return dm_cli_usage("synth", "unknown or incomplete option", argv[optind - 1]);
         }
     }
-    if (optind < argc || !robot || !have_kind)
-        return dm_cli_usage("synth", "--robot and --kind are required", NULL);
+    if (optind < argc || !robot || !(have_kind || at))
+        return dm_cli_usage("synth", "--robot and --kind (or --at) are required", NULL);
     o.seed = (uint64_t)seed;
     dm_robot rb;
     dm_error err;
@@ -809,8 +814,20 @@ int dm_cli_synth(int argc, char **argv)
                                 effects[i]);
         rc = dm_effect_apply(&rb, name, v, &err);
     }
-    if (!rc)
+    if (!rc && at) { /* the template's poses */
+        dm_dataset tpl;
+        if (!(rc = dm_dataset_read_template(at, &tpl, &err))) {
+            if (have_kind && tpl.kind != o.kind)
+                rc = dm_fail(&err, DM_EINVAL, "%s holds %s data, not %s", at,
+                             dm_data_kind_name(tpl.kind), dm_data_kind_name(o.kind));
+            o.kind = tpl.kind;
+            if (!rc)
+                rc = dm_plan_observe(&rb, &tpl, o.noise, o.seed, o.na, o.nb, &d, &err);
+            dm_dataset_free(&tpl);
+        }
+    } else if (!rc) {
         rc = dm_synthesize(&rb, &o, &d, &err);
+    }
     if (rc)
         return dm_cli_report(&err);
     snprintf(d.robot, sizeof d.robot, "%s", robot);

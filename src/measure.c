@@ -78,6 +78,7 @@ typedef struct {
     int line;
     int ncol;
     char names[MAXCOL][32];
+    int template;          /* a measurement template: measured values may be empty */
     dm_error *err;
 } csv_ctx;
 
@@ -108,12 +109,26 @@ static int col_of(const csv_ctx *c, const char *name)
     return -1;
 }
 
+/* The columns a measurement template leaves empty. */
+static int measured_column(const char *name)
+{
+    static const char *const M[] = {"freq_hz", "dx", "dy", "dz", "x_meas", "y_meas", "z_meas"};
+    for (int k = 0; k < 7; k++)
+        if (!strcmp(name, M[k]))
+            return 1;
+    return 0;
+}
+
 static int cell(const csv_ctx *c, char *cells[], int ncells, const char *name, int required,
                 double *out)
 {
     int i = col_of(c, name);
     if (i < 0)
         return required ? dm_fail(c->err, DM_EINVAL, "%s: no column '%s'", c->path, name) : 1;
+    if ((i >= ncells || !*cells[i]) && c->template && measured_column(name)) {
+        *out = 0;
+        return DM_OK;
+    }
     if (i >= ncells || !*cells[i])
         return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): empty", c->path, c->line, i + 1,
                        name);
@@ -148,7 +163,7 @@ static int read_row(csv_ctx *c, dm_dataset *d, char *cells[], int nc, double *la
             return rc;
         if (v[3] != floor(v[3]) || v[3] < 1 || v[3] > 64)
             return bad(c, "mode", "not a mode rank 1..64 (1 = lowest)");
-        if (!(v[4] > 0))
+        if (!(v[4] > 0) && !(c->template && v[4] == 0))
             return bad(c, "freq_hz", "must be > 0");
         if (rc == DM_OK && !(s.sigma > 0))
             return bad(c, "sigma_hz", "must be > 0");
@@ -219,14 +234,14 @@ static int detect_kind(csv_ctx *c, dm_dataset *d)
                    c->path, c->line);
 }
 
-int dm_dataset_read(const char *path, dm_dataset *d, dm_error *err)
+static int read_file(const char *path, int template, dm_dataset *d, dm_error *err)
 {
     memset(d, 0, sizeof *d);
     snprintf(d->source, sizeof d->source, "%s", path);
     FILE *f = fopen(path, "r");
     if (!f)
         return dm_fail(err, DM_EIO, "%s: cannot open: %s", path, strerror(errno));
-    csv_ctx c = {.path = path, .err = err};
+    csv_ctx c = {.path = path, .template = template, .err = err};
     char buf[4096], *cells[MAXCOL];
     int rc = DM_OK, header = 0;
     double last_t = 0, last_P[3] = {0};
@@ -263,6 +278,16 @@ int dm_dataset_read(const char *path, dm_dataset *d, dm_error *err)
     if (rc)
         dm_dataset_free(d);
     return rc;
+}
+
+int dm_dataset_read(const char *path, dm_dataset *d, dm_error *err)
+{
+    return read_file(path, 0, d, err);
+}
+
+int dm_dataset_read_template(const char *path, dm_dataset *d, dm_error *err)
+{
+    return read_file(path, 1, d, err);
 }
 
 int dm_dataset_write(const dm_dataset *d, FILE *out)

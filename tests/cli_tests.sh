@@ -197,6 +197,40 @@ printf 'a,b\n1,2\n' >"$TMP/bad4.csv"
 expect 2 "unknown format" "$DM" compare --measured "$TMP/bad4.csv" --robot zheng2017
 contains err "header is none of"
 
+# ---- plan: the experiment that can tell ----
+expect 0 "plan static" "$DM" plan --robot zheng2017 --kind static --effects actuator_stiffness,base_stiffness=3e6 --poses 6 --mesh 1,1 --out "$TMP/plan.csv"
+contains out "told apart"
+contains out "seen at 5 sigma"
+if grep -q "^x,y,z,fx,fy,fz,dx,dy,dz,sigma_m$" "$TMP/plan.csv" && [ "$(grep -c ',,,,5e-08$' "$TMP/plan.csv")" -eq 6 ]; then ok; else bad "plan template"; cat "$TMP/plan.csv"; fi
+expect 0 "plan on one thread" "$DM" plan --robot zheng2017 --kind static --effects actuator_stiffness,base_stiffness=3e6 --poses 6 --mesh 1,1 --threads 1 --out "$TMP/plan1.csv"
+if cmp -s "$TMP/plan.csv" "$TMP/plan1.csv"; then ok; else bad "plan depends on the thread count"; fi
+expect 2 "a template has no values yet" "$DM" compare --measured "$TMP/plan.csv" --mesh 1,1
+contains err "(dx): empty"
+expect 0 "synth at the planned poses" "$DM" synth --robot zheng2017 --at "$TMP/plan.csv" --effect actuator_stiffness=2e4 --noise 5e-8 --seed 3 --mesh 1,1 --out "$TMP/planned.csv"
+if python3 -c "
+import csv, sys
+rows = lambda f: [r for r in csv.reader(l for l in open(f) if not l.startswith('#'))]
+a, b = rows('$TMP/plan.csv'), rows('$TMP/planned.csv')
+ok = len(a) == len(b) == 7 and all(x[:6] == y[:6] or all(abs(float(u) - float(v)) < 1e-12 for u, v in zip(x[:6], y[:6])) for x, y in zip(a[1:], b[1:]))
+sys.exit(0 if ok and all(all(c != '' for c in r) for r in b) else 1)"; then ok; else bad "synth --at keeps the template's poses and fills the values"; fi
+expect 2 "synth --at of another kind" "$DM" synth --robot zheng2017 --kind modal --at "$TMP/plan.csv"
+contains err "holds static data"
+expect 0 "plan json" "$DM" plan --robot zheng2017 --kind modal --effects payload_mass=0.5,actuator_stiffness --poses 6 --mesh 1,1 --region "x=-0.06:0.06:5,y=-0.06:0.06:5,z=-0.43:-0.37:3" --json
+json_true "len(d['design']) == 6 and d['candidates'] == 75 and all(e['sigma'][0] > 0 for e in d['effects']) and d['logdet'] >= d['logdet_random']"
+expect 0 "plan tracker" "$DM" plan --robot zheng2017 --kind tracker --effects error_base_radius,error_platform_radius --poses 30 --mesh 1,1 --out "$TMP/planned-run.csv"
+contains out "indistinguishable on this experiment"
+if grep -q "^t,x_cmd,y_cmd,z_cmd,x_meas,y_meas,z_meas$" "$TMP/planned-run.csv" && [ "$(grep -c ',,,$' "$TMP/planned-run.csv")" -eq 30 ]; then ok; else bad "tracker template"; fi
+expect 2 "plan unknown effect" "$DM" plan --robot zheng2017 --kind modal --effects payload_mass,bogus --poses 6
+contains err "'bogus' is not a candidate effect"
+expect 2 "plan invisible effect" "$DM" plan --robot zheng2017 --kind static --effects payload_mass --poses 6
+contains err "static data cannot see payload_mass"
+expect 2 "plan too few poses" "$DM" plan --robot zheng2017 --kind tracker --effects error_arm_length,payload_mass --poses 3
+contains err "fewer than the 4 parameters"
+expect 2 "plan empty region" "$DM" plan --robot zheng2017 --kind static --effects base_stiffness --poses 3 --region "x=1:2:3,y=0,z=-0.4"
+contains err "no reachable pose"
+expect 1 "plan without --poses" "$DM" plan --robot zheng2017 --kind modal --effects payload_mass
+contains err "--poses"
+
 # ---- plots (the project's Python environment) ----
 if [ -x .venv/bin/python ]; then
     expect 0 "plot trajectory" .venv/bin/python tools/plot_trajectory.py "$TMP/run.csv" -o "$TMP/run.png"
