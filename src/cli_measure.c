@@ -435,21 +435,29 @@ static void print_ident(const dm_dataset *d, const dm_robot *rb, const dm_diagno
         printf(": all of them.\n");
         return;
     }
-    printf("; they cannot tell apart\n");
+    printf("; not determined:\n");
+    int mixed = 0;
     for (int k = id->ndetermined, shown = 0; k < id->n && shown < 4; k++, shown++) {
+        int big = 0;
+        for (int j = 0; j < id->n; j++)
+            big += fabs(id->weight[k][j]) >= 0.3;
+        mixed |= big > 1;
         printf("            ");
         print_combination(&dg->best, id, k);
         printf("  (1-sigma %.2g)\n", id->sigma[k]);
     }
     if (id->n - id->ndetermined > 4)
         printf("            and %d more\n", id->n - id->ndetermined - 4);
-    printf("          (weights on parameters in units of their scale: relative for springs,\n"
-           "          masses and damping, 0.1 mm and 0.05 deg for geometry errors). To tell them\n"
-           "          apart, plan an experiment: deltamap plan --robot %s --kind %s --effects ",
-           rb->name, dm_data_kind_name(d->kind));
-    for (int i = 0; i < dg->best.ncand; i++)
-        printf("%s%s", i ? "," : "", dg->best.cand[i]->name);
-    printf(" --poses N\n");
+    printf("          (weights on the parameters in units of their scale: relative for springs,\n"
+           "          masses and damping, 0.1 mm and 0.05 deg for geometry errors).");
+    if (mixed) {
+        printf(" To tell them\n          apart, plan an experiment: deltamap plan --robot %s --kind %s "
+               "--effects ", rb->name, dm_data_kind_name(d->kind));
+        for (int i = 0; i < dg->best.ncand; i++)
+            printf("%s%s", i ? "," : "", dg->best.cand[i]->name);
+        printf(" --poses N");
+    }
+    printf("\n");
 }
 
 static void group_label(const dm_dataset *d, int g, char *buf, size_t n)
@@ -471,12 +479,13 @@ static void print_remains(const dm_dataset *d, const dm_noise_test *t)
             worst = k;
     }
     printf("          It remains in");
-    for (int k = 0, first = 1; k < t->ngroup; k++)
+    for (int k = 0, shown = 0; k < t->ngroup; k++)
         if (any ? t->group[k].chi2 > t->group[k].limit : k == worst) {
             char lb[16];
             group_label(d, t->group[k].group, lb, sizeof lb);
-            printf("%s %s (chi2/n %.3g)", first ? "" : ",", lb, t->group[k].chi2 / t->group[k].n);
-            first = 0;
+            printf("%s%s %s (%s%.3g)", shown ? "," : "", shown && shown % 4 == 0 ? "\n         " : "",
+                   lb, shown ? "" : "chi2/n ", t->group[k].chi2 / t->group[k].n);
+            shown++;
         }
     if (t->nregion > 0 && d->kind == DM_DATA_TRACKER)
         printf(",\n          most at t = %.4g..%.4g s (%d of %d held-out times carry half of it)",
@@ -495,8 +504,11 @@ static void print_ties(const dm_diagnosis *dg)
         for (int t = 0; t < dg->ntie; t++)
             printf("%s %s", t ? (t + 1 < dg->ntie ? "," : " or") : "",
                    dg->rank[dg->tie[t]].cand[0]->name);
-        printf("\n          (scores within %g): either explains them; other data must decide.\n",
-               DM_DIAG_TIE);
+        printf("\n          (scores within %g): either explains them; other data must decide\n"
+               "          (deltamap plan --effects %s", DM_DIAG_TIE, dg->best.cand[0]->name);
+        for (int t = 0; t < dg->ntie; t++)
+            printf(",%s", dg->rank[dg->tie[t]].cand[0]->name);
+        printf(" says which can).\n");
     }
     if (dg->has_simpler_choice) {
         char a[128], b[128];
@@ -549,7 +561,7 @@ static void print_verdict(const dm_dataset *d, const dm_robot *rb, const dm_diag
     } else {
         printf("partly explained by %s (", name);
         print_values(&dg->best);
-        printf(");\n          the residual is still %.1f sigma (held-out chi2/N %.3g, noise "
+        printf(");\n          the residual is still %.3g sigma (held-out chi2/N %.3g, noise "
                "<= %.3g): something outside\n          the candidates remains. Held-out RMS "
                "%.4g -> %.4g %s, gain %.1f %%.\n",
                t->sigmas, t->chi2 / t->n, t->limit / t->n, dg->base_held_rms, dg->best.held_rms,
