@@ -702,13 +702,18 @@ static int write_robot(const measure_args *a, const dm_robot *rb, const dm_diagn
     if (!dg->found)
         fprintf(stderr, "deltamap diagnose: nothing found; %s is the robot unchanged\n",
                 a->write_robot);
+    else if (!dg->sigma_known)
+        fprintf(stderr, "deltamap diagnose: %s has the effect found; without sigma whether it "
+                        "explains the data cannot be judged\n", a->write_robot);
     else if (!dg->explained)
         fprintf(stderr, "deltamap diagnose: %s has the effect found, which explains the data "
                         "only in part\n", a->write_robot);
     int rc = dg->found ? dm_fit_apply(rb, &dg->best, &fixed, &err) : (fixed = *rb, DM_OK);
     if (!rc && !(rc = dm_cli_out_open(&out, a->write_robot, &err))) {
         fprintf(out.f, "# %s extended by deltamap diagnose on %s%s\n", rb->name, a->measured,
-                dg->found && !dg->explained ? " (explains the data only in part)" : "");
+                !dg->found || dg->explained ? ""
+                : dg->sigma_known ? " (explains the data only in part)"
+                                  : " (no sigma: whether it explains the data cannot be judged)");
         dm_robot_write(&fixed, out.f);
         rc = dm_cli_out_commit(&out, &err);
     }

@@ -128,8 +128,7 @@ static void print_plan(const dm_robot *rb, const dm_plan_result *r)
     int p = r->nparam;
     printf("robot     %s: a %s %s of %d %s planned from %d candidate %s (noise %g %s)\n",
            rb->name, dm_data_kind_name(d->kind), d->kind == DM_DATA_TRACKER ? "run" : "survey",
-           d->kind == DM_DATA_TRACKER ? d->npose : d->npose,
-           d->kind == DM_DATA_TRACKER ? "samples" : "poses", r->ncandidates,
+           d->npose, d->kind == DM_DATA_TRACKER ? "samples" : "poses", r->ncandidates,
            d->kind == DM_DATA_TRACKER ? "paths" : "poses", r->noise, unit_of(r));
     printf("design    D-optimal: information %.3gx that of random candidates per parameter\n"
            "          (log det F %.4g against %.4g on average)\n",

@@ -137,6 +137,7 @@ typedef struct {
     const dm_diagnose_opts *o;
     const char *held;        /* per sample: 1 = held out */
     const double *w;         /* weights 1/sigma */
+    int sigma_known;         /* else w is 1/RMS of the baseline's residuals */
     double train_end_s;      /* tracker: time of the last training sample */
 } shared;
 
@@ -286,10 +287,13 @@ static void jacobian(problem *p, const double *x, int n, int m, const double *f0
 }
 
 /* Scale of the covariance: the reduced chi-square when above 1 (the model
- * misfits beyond the noise), else 1. */
-static double misfit_scale(double c2, int m, int n)
+ * misfits beyond the noise), else 1; without sigma the reduced chi-square
+ * itself (the noise variance estimated from the residuals, in units of the
+ * weights' baseline mean square). */
+static double misfit_scale(const shared *s, double c2, int m, int n)
 {
-    return fmax(1.0, c2 / (m > n ? m - n : 1));
+    double reduced = c2 / (m > n ? m - n : 1);
+    return s->sigma_known ? fmax(1.0, reduced) : reduced;
 }
 
 /* Singular values s (descending, min(m, n) of them), left vectors U (m x
@@ -318,7 +322,7 @@ static void lm_fit(problem *p, double *x, int n, int m, double *sig)
         int info = lmdif(residuals, p, m, n, x, fvec, 1e-6, 1e-6, 0.0, 25 * (n + 1), 0.0, diag,
                          1, 100.0, 0, &nfev, fjac, m, ipvt, qtf, wa1, wa2, wa3, wa4);
         if (info > 0) {
-            double scale = misfit_scale(sum_squares(fvec, m), m, n);
+            double scale = misfit_scale(p->s, sum_squares(fvec, m), m, n);
             covar(n, fjac, m, ipvt, 1e-12, wa1);
             for (int j = 0; j < n; j++) {
                 double c = fjac[(size_t)j * m + j];
@@ -403,7 +407,7 @@ static void chord_fit(problem *p, double *x, int n, int m, const double *sc, dou
             else
                 null += w2;
         }
-        sig[j] = null > 1e-12 ? INFINITY : sc[j] * sqrt(misfit_scale(best, m, n) * v);
+        sig[j] = null > 1e-12 ? INFINITY : sc[j] * sqrt(misfit_scale(p->s, best, m, n) * v);
     }
     *nseen = ok ? q : 0;
     free(f);
@@ -1022,11 +1026,11 @@ static void noise_test(const shared *s, const dm_diagnosis *dg, const linearisat
 /* What the data determine: the training Jacobian's SVD. Each
  * combination's sign makes its largest weight positive; the 1-sigma is
  * scaled by the reduced chi-square when the fit misfits. */
-static void identify(const dm_fit *f, const linearisation *L, dm_ident *id)
+static void identify(const shared *s, const dm_fit *f, const linearisation *L, dm_ident *id)
 {
     memset(id, 0, sizeof *id);
     id->n = L->n;
-    double scale = sqrt(misfit_scale(f->train_chi2, L->m, L->n));
+    double scale = sqrt(misfit_scale(s, f->train_chi2, L->m, L->n));
     for (int k = 0; k < L->n; k++) {
         id->sigma[k] = k < L->q ? scale / L->s[k] : INFINITY;
         int big = 0;
@@ -1047,7 +1051,7 @@ static void check_verdict(const shared *s, dm_diagnosis *dg)
     if (!linearise(s, &dg->best, &L)) {
         noise_test(s, dg, &L, &dg->noise);
         dg->explained = dg->noise.consistent;
-        identify(&dg->best, &L, &dg->ident);
+        identify(s, &dg->best, &L, &dg->ident);
     }
     linearisation_free(&L);
 }
@@ -1091,7 +1095,7 @@ int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts 
                  ? dm_fail(err, DM_EINVAL, "%s: too little data to hold a third out", d->source)
                  : dm_predict(rb, d, o->na, o->nb, pred, err);
     if (!rc) {
-        dg->sigma_known = weights(d, pred, w);
+        dg->sigma_known = s.sigma_known = weights(d, pred, w);
         double hs = 0;
         for (int i = 0; i < d->n; i++)
             hs += held[i] ? (d->s[i].value - pred[i]) * (d->s[i].value - pred[i]) : 0;
@@ -1143,7 +1147,7 @@ int dm_fit_effects(const dm_robot *rb, const dm_dataset *d, const char *const *n
     if (!rc) {
         dm_diagnosis dg = {.n_train = d->n};
         shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w};
-        dg.sigma_known = weights(d, pred, w);
+        dg.sigma_known = s.sigma_known = weights(d, pred, w);
         for (int i = 0; i < d->n; i++)
             s.train_end_s = fmax(s.train_end_s, d->s[i].t);
         double st[2][DM_DIAG_MAXV];

@@ -142,6 +142,7 @@ json_true "d['cause'] == 'payload_mass' and abs(d['parameters']['payload_mass'] 
 json_true "d['explained'] is True and d['noise_test']['consistent'] is True and d['partial'] is None"
 json_true "all(r['gain_percent'] <= 100 for r in d['ranking']) and d['held_out_rms'] < d['baseline_held_out_rms']"
 json_true "len(d['ranking']) >= 6 and all('gain_percent' in r for r in d['ranking'])"
+cp "$TMP/out" "$TMP/modal.json"
 expect 0 "extended robot fits" "$DM" compare --measured "$TMP/modal.csv" --robot "$TMP/fixed.ini" --mesh 1,1 --json
 json_true "d['exceeds_noise'] is False"
 expect 0 "synth noise only" "$DM" synth --robot zheng2017 --kind static --noise 1e-7 --poses 9 --seed 2 --mesh 1,1 --out "$TMP/null.csv"
@@ -168,12 +169,28 @@ contains out "give --sigma"
 # the truth outside the candidates (the rods' Young's modulus 10 % low): no
 # cause, what was found explains only part, and where the rest remains
 expect 0 "synth outside" "$DM" synth --robot zheng2017 --set rod.youngs_modulus=63e9 --kind modal --noise 0.02 --poses 12 --seed 1 --mesh 1,1 --out "$TMP/outside.csv"
-expect 0 "diagnose outside" "$DM" diagnose --measured "$TMP/outside.csv" --mesh 1,1 --no-pairs
+expect 0 "diagnose outside" "$DM" diagnose --measured "$TMP/outside.csv" --mesh 1,1 --no-pairs --write-robot "$TMP/partial.ini"
 contains out "something outside"
 contains out "It remains in mode"
+contains err "explains the data only in part"
+if head -1 "$TMP/partial.ini" | grep -q "explains the data only in part" && grep -q "^elbow_mass" "$TMP/partial.ini"; then ok; else bad "partial robot file"; fi
 expect 0 "diagnose outside json" "$DM" diagnose --measured "$TMP/outside.csv" --mesh 1,1 --no-pairs --json
 json_true "d['cause'] is None and d['causes'] == [] and d['explained'] is False and d['partial']['effect'] == d['best']['effect']"
 json_true "d['noise_test']['consistent'] is False and d['noise_test']['excess_sigmas'] > 5 and 0 < d['partial']['gain_percent'] <= 100"
+# without sigma a found effect cannot be judged: no cause, no claim about the rest
+python3 -c "
+import csv
+rows = [r for r in csv.reader(l for l in open('$TMP/modal.csv') if not l.startswith('#'))]
+with open('$TMP/nosigma.csv', 'w') as f:
+    f.write('# robot: zheng2017\\n')
+    for r in rows: f.write(','.join(r[:5]) + '\\n')"
+expect 0 "diagnose without sigma" "$DM" diagnose --measured "$TMP/nosigma.csv" --mesh 1,1 --no-pairs --write-robot "$TMP/nosigma.ini"
+contains out "cannot be judged"
+if head -1 "$TMP/nosigma.ini" | grep -q "cannot be judged" && grep -q "^payload_mass" "$TMP/nosigma.ini"; then ok; else bad "robot file without sigma"; fi
+expect 0 "diagnose without sigma json" "$DM" diagnose --measured "$TMP/nosigma.csv" --mesh 1,1 --no-pairs --json
+json_true "d['cause'] is None and d['judged'] is False and d['partial']['effect'] == 'payload_mass' and d['noise_test'] is None"
+# its uncertainty from the noise the residuals show, as when sigma is given
+json_true "0.5 < d['partial']['parameters']['payload_mass']['sigma'] / json.load(open('$TMP/modal.json'))['best']['parameters']['payload_mass']['sigma'] < 2"
 expect 2 "synth unknown effect" "$DM" synth --robot zheng2017 --kind static --effect bogus=1 --poses 3
 contains err "not a model extension"
 expect 1 "diagnose threads" "$DM" diagnose --measured "$TMP/radius.csv" --threads 0
