@@ -147,6 +147,8 @@ typedef struct dm_diagnose_opts {
     int pairs;                   /* try a second effect (default 1) */
     int threads;                 /* fits run in parallel (0: OpenMP's default); the
                                     result does not depend on it */
+    int force_long;              /* run even when estimated beyond DM_MAX_WORK_S (else
+                                    refused before any fit, dm_check_size) */
 } dm_diagnose_opts;
 
 int dm_diagnose(const dm_robot *robot, const dm_dataset *data, const dm_diagnose_opts *opts,

@@ -46,6 +46,8 @@ typedef struct dm_plan_opts {
     double force_n;             /* static: magnitude of the added force (default 50 N) */
     int ncandidates;            /* poses drawn without a grid (default 256) */
     int threads;                /* 0: OpenMP's default; the result does not depend on it */
+    int force_long;             /* run even when estimated beyond DM_MAX_WORK_S or
+                                   DM_MAX_BYTES (else refused before the predictions) */
 } dm_plan_opts;
 
 typedef struct dm_plan_pair {

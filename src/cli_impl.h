@@ -17,6 +17,8 @@ int dm_cli_usage(const char *cmd, const char *msg, const char *arg);
 int dm_cli_parse_list(const char *s, double *out, int n);
 
 int dm_cli_parse_int(const char *s, int lo, int hi, int *out);
+/* A whole number lo..hi, written as such or in exponent form (1e6). */
+int dm_cli_parse_count(const char *s, int lo, int hi, int *out);
 
 /* "NA,NB": elements per arm and per rod, whole numbers 1..64. */
 int dm_cli_parse_mesh(const char *s, int *na, int *nb);

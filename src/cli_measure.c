@@ -1,6 +1,7 @@
 /* deltamap compare / diagnose / synth: the model against measured data. */
 #include <getopt.h>
 #include <jansson.h>
+#include <limits.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -26,7 +27,7 @@ static const char COMPARE_HELP[] =
 static const char DIAGNOSE_HELP[] =
     "usage: deltamap diagnose --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"
     "                         [--sigma S] [--no-pairs] [--threads N]\n"
-    "                         [--write-robot FILE] [--json]\n"
+    "                         [--write-robot FILE] [--force-long] [--json]\n"
     "\n"
     "Fits every candidate effect of MODEL.md §6 (actuator, joint and base springs,\n"
     "payload, elbow masses, geometric stiffness, clearance; for tracker data also\n"
@@ -40,19 +41,22 @@ static const char DIAGNOSE_HELP[] =
     "experiment that can: deltamap plan), or that nothing beats the noise. Without\n"
     "sigma (in the file or --sigma) whether anything remains cannot be judged. Fits\n"
     "run on --threads N (default: all cores; the result does not depend on it).\n"
-    "--write-robot writes the extended robot file.\n";
+    "--write-robot writes the extended robot file. Data whose diagnosis is estimated\n"
+    "at more than 4 hours on its threads are refused before any fit unless\n"
+    "--force-long.\n";
 
 static const char SYNTH_HELP[] =
     "usage: deltamap synth --robot R --kind modal|static|tracker [--effect NAME=VALUE]...\n"
     "                      [--noise X] [--poses N] [--modes K] [--seed S] [--path P]\n"
-    "                      [--at TEMPLATE] [--mesh NA,NB] [--out FILE]\n"
+    "                      [--at TEMPLATE] [--mesh NA,NB] [--force-long] [--out FILE]\n"
     "\n"
     "Synthetic measured data from the robot extended by the given effects, with\n"
     "Gaussian noise (Hz for modal, m otherwise), in the formats of MEASURED.md:\n"
     "check whether an experiment can identify an effect before running it. Poses\n"
     "are drawn about home, or --at takes them (and modes, forces, times) from a\n"
     "measurement template such as `deltamap plan --out` writes (the kind is then\n"
-    "the template's).\n"
+    "the template's). Data that would take more than 4 hours or 2 GB to make are\n"
+    "refused before any work unless --force-long.\n"
     "Effects: actuator_stiffness, joint_stiffness, base_stiffness,\n"
     "base_stiffness_0/1/2 (N/m, isotropic), payload_mass, elbow_mass (kg),\n"
     "geometric_stiffness=on, damping_alpha (1/s), damping_beta (s), clearance,\n"
@@ -64,7 +68,7 @@ static const char SYNTH_HELP[] =
 typedef struct {
     const char *measured, *robot, *out, *write_robot;
     const char *sets[DM_CLI_MAXSET];
-    int nset, json, pairs, threads, na, nb;
+    int nset, json, pairs, threads, na, nb, force_long;
     double sigma;       /* --sigma: noise level for samples that give none */
 } measure_args;
 
@@ -74,7 +78,8 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
         {"measured", 1, 0, 'd'}, {"robot", 1, 0, 'r'}, {"out", 1, 0, 'o'},
         {"write-robot", 1, 0, 'w'}, {"set", 1, 0, 's'}, {"mesh", 1, 0, 'm'},
         {"no-pairs", 0, 0, 'P'}, {"threads", 1, 0, 'T'}, {"sigma", 1, 0, 'S'},
-        {"json", 0, 0, 'j'},     {"help", 0, 0, 'h'},    {0, 0, 0, 0}};
+        {"json", 0, 0, 'j'},     {"help", 0, 0, 'h'},    {"force-long", 0, 0, 'L'},
+        {0, 0, 0, 0}};
     int c;
     memset(a, 0, sizeof *a);
     a->pairs = 1;
@@ -88,6 +93,11 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
         case 'w': a->write_robot = optarg; break;
         case 'j': a->json = 1; break;
         case 'P': a->pairs = 0; break;
+        case 'L':
+            if (strcmp(cmd, "diagnose"))
+                return dm_cli_usage(cmd, "unknown or incomplete option", argv[optind - 1]);
+            a->force_long = 1;
+            break;
         case 'T':
             if (dm_cli_parse_int(optarg, 1, 1024, &a->threads))
                 return dm_cli_usage(cmd, "--threads takes a whole number >= 1", optarg);
@@ -732,7 +742,7 @@ int dm_cli_diagnose(int argc, char **argv)
     dm_robot rb;
     dm_error err;
     dm_diagnosis dg;
-    dm_diagnose_opts o = {a.na, a.nb, a.pairs, a.threads ? a.threads : all_cores};
+    dm_diagnose_opts o = {a.na, a.nb, a.pairs, a.threads ? a.threads : all_cores, a.force_long};
     if ((rc = load(&a, &d, &rb, &err)))
         return dm_cli_report(&err);
     if ((rc = dm_diagnose(&rb, &d, &o, &dg, &err))) {
@@ -758,7 +768,7 @@ int dm_cli_synth(int argc, char **argv)
         {"robot", 1, 0, 'r'}, {"kind", 1, 0, 'k'}, {"effect", 1, 0, 'e'}, {"noise", 1, 0, 'n'},
         {"poses", 1, 0, 'p'}, {"modes", 1, 0, 'M'}, {"seed", 1, 0, 'S'}, {"path", 1, 0, 'P'},
         {"mesh", 1, 0, 'm'}, {"out", 1, 0, 'o'}, {"set", 1, 0, 's'}, {"at", 1, 0, 'A'},
-        {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"force-long", 0, 0, 'L'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     const char *robot = NULL, *out_path = NULL, *effects[8], *sets[DM_CLI_MAXSET], *at = NULL;
     int neff = 0, nset = 0, c, have_kind = 0, seed = 1;
     dm_synth_opts o = {0};
@@ -789,9 +799,10 @@ int dm_cli_synth(int argc, char **argv)
                 return dm_cli_usage("synth", "--noise takes a value >= 0", optarg);
             break;
         case 'p':
-            if (dm_cli_parse_int(optarg, 3, 100000, &o.npose))
-                return dm_cli_usage("synth", "--poses takes a whole number >= 3", optarg);
+            if (dm_cli_parse_count(optarg, 3, INT_MAX, &o.npose))
+                return dm_cli_usage("synth", "--poses takes a whole number 3..2147483647", optarg);
             break;
+        case 'L': o.force_long = 1; break;
         case 'M':
             if (dm_cli_parse_int(optarg, 1, 64, &o.modes))
                 return dm_cli_usage("synth", "--modes takes 1..64", optarg);
@@ -838,6 +849,11 @@ int dm_cli_synth(int argc, char **argv)
                 rc = dm_fail(&err, DM_EINVAL, "%s holds %s data, not %s", at,
                              dm_data_kind_name(tpl.kind), dm_data_kind_name(o.kind));
             o.kind = tpl.kind;
+            double bytes, est = dm_predict_estimate_s(&rb, &tpl, o.na, o.nb, &bytes);
+            char what[300];
+            snprintf(what, sizeof what, "synth: %s: %d samples", at, tpl.n);
+            if (!rc)
+                rc = dm_check_size(what, est, bytes, "a smaller template", o.force_long, &err);
             if (!rc)
                 rc = dm_plan_observe(&rb, &tpl, o.noise, o.seed, o.na, o.nb, &d, &err);
             dm_dataset_free(&tpl);

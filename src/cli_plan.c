@@ -1,6 +1,7 @@
 /* deltamap plan: the experiment that can tell, before it is run. */
 #include <getopt.h>
 #include <jansson.h>
+#include <limits.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -13,7 +14,8 @@
 static const char PLAN_HELP[] =
     "usage: deltamap plan --robot R --kind modal|static|tracker --effects NAME[=V],...\n"
     "                     --poses N [--noise S] [--region GRID] [--seed S] [--mesh NA,NB]\n"
-    "                     [--modes K] [--threads N] [--set K=V]... [--out POSES.csv] [--json]\n"
+    "                     [--modes K] [--threads N] [--set K=V]... [--force-long]\n"
+    "                     [--out POSES.csv] [--json]\n"
     "\n"
     "Picks the N poses of a modal or static survey (tracker: one path of a small\n"
     "family of circles and ring-down moves, N samples at 1 ms) that make the named\n"
@@ -27,7 +29,9 @@ static const char PLAN_HELP[] =
     "points of --region (a grid as for sweep, e.g. x=-0.1:0.1:9,y=-0.1:0.1:9,z=-0.4),\n"
     "or 256 drawn from the box synth uses (--seed). --noise: Hz or m (default\n"
     "0.02 Hz, 50 nm, 2 um). --out writes the poses as a measurement template\n"
-    "(MEASURED.md, values empty). Deterministic for a seed, whatever --threads.\n";
+    "(MEASURED.md, values empty). Deterministic for a seed, whatever --threads.\n"
+    "A plan estimated at more than 4 hours or 2 GB is refused before its\n"
+    "predictions unless --force-long.\n";
 
 typedef struct {
     const char *robot, *effects, *out, *sets[DM_CLI_MAXSET];
@@ -42,7 +46,8 @@ static int parse(int argc, char **argv, plan_args *a)
         {"poses", 1, 0, 'p'}, {"noise", 1, 0, 'n'},   {"region", 1, 0, 'g'},
         {"seed", 1, 0, 'S'},  {"mesh", 1, 0, 'm'},    {"modes", 1, 0, 'M'},
         {"threads", 1, 0, 'T'}, {"set", 1, 0, 's'},   {"out", 1, 0, 'o'},
-        {"json", 0, 0, 'j'},  {"help", 0, 0, 'h'},    {0, 0, 0, 0}};
+        {"json", 0, 0, 'j'},  {"help", 0, 0, 'h'},    {"force-long", 0, 0, 'L'},
+        {0, 0, 0, 0}};
     int c, seed = 1;
     memset(a, 0, sizeof *a);
     optind = 1;
@@ -60,9 +65,10 @@ static int parse(int argc, char **argv, plan_args *a)
             a->have_kind = 1;
             break;
         case 'p':
-            if (dm_cli_parse_int(optarg, 1, 100000, &a->o.npose))
-                return dm_cli_usage("plan", "--poses takes a whole number >= 1", optarg);
+            if (dm_cli_parse_count(optarg, 1, INT_MAX, &a->o.npose))
+                return dm_cli_usage("plan", "--poses takes a whole number 1..2147483647", optarg);
             break;
+        case 'L': a->o.force_long = 1; break;
         case 'n':
             if (dm_cli_parse_list(optarg, &a->o.noise, 1) || !(a->o.noise > 0))
                 return dm_cli_usage("plan", "--noise takes a value > 0 (Hz or m)", optarg);

@@ -52,6 +52,16 @@ int dm_cli_parse_int(const char *s, int lo, int hi, int *out)
     return 0;
 }
 
+int dm_cli_parse_count(const char *s, int lo, int hi, int *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (end == s || *end || !(v >= lo && v <= hi) || v != floor(v))
+        return -1;
+    *out = (int)v;
+    return 0;
+}
+
 
 int dm_cli_out_open(dm_cli_out *out, const char *path, dm_error *err)
 {

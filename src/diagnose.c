@@ -1058,6 +1058,35 @@ static void check_verdict(const shared *s, dm_diagnosis *dg)
 
 /* ---- entry points ------------------------------------------------------------- */
 
+/* Predictions a diagnosis makes, as measured on the CLI tests' data: a
+ * candidate takes about 25 on a survey and the equivalent of 13 whole
+ * predictions on a tracker run (its first fits are on parts of the
+ * record), the second-effect search about twice as many again, and the
+ * verdict's checks one per parameter. */
+#define PREDICTIONS_PER_FIT(kind) ((kind) == DM_DATA_TRACKER ? 13.0 : 25.0)
+#define PAIR_FACTOR 3.0
+
+/* Refused before any work when the whole diagnosis is estimated beyond
+ * DM_MAX_WORK_S on its threads (dm_check_size). */
+static int check_work(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts *o,
+                      dm_error *err)
+{
+    int nc = 0;
+    for (int c = 0; c < NCAND; c++)
+        nc += (CANDIDATES[c].kinds & (1u << d->kind)) && &CANDIDATES[c] != UNION;
+    double bytes, one = dm_predict_estimate_s(rb, d, o->na, o->nb, &bytes);
+    double fits = nc * PREDICTIONS_PER_FIT(d->kind) * (o->pairs ? PAIR_FACTOR : 1) + DM_DIAG_MAXP;
+    int threads = thread_count(o);
+    char what[sizeof d->source + 160];
+    snprintf(what, sizeof what, "diagnose: %s: %d samples, %d candidates, about %.3g "
+             "predictions of %.3g s each on %d thread%s", d->source, d->n, nc, fits, one,
+             threads, threads > 1 ? "s" : "");
+    return dm_check_size(what, fits * one / threads, bytes * threads,
+                         d->kind == DM_DATA_TRACKER ? "a shorter stretch of the record, --mesh 2,2"
+                                                    : "fewer poses, a coarser --mesh",
+                         o->force_long, err);
+}
+
 /* Weights 1/sigma, or without sigma the baseline's RMS residual (pred):
  * chi2 is then in units of its mean square. Returns whether sigma is known. */
 static int weights(const dm_dataset *d, const double *pred, double *w)
@@ -1093,7 +1122,9 @@ int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts 
     dg->n_train = d->n - dg->n_held;
     int rc = (dg->n_held < 3 || dg->n_train < 3)
                  ? dm_fail(err, DM_EINVAL, "%s: too little data to hold a third out", d->source)
-                 : dm_predict(rb, d, o->na, o->nb, pred, err);
+                 : check_work(rb, d, o, err);
+    if (!rc)
+        rc = dm_predict(rb, d, o->na, o->nb, pred, err);
     if (!rc) {
         dg->sigma_known = s.sigma_known = weights(d, pred, w);
         double hs = 0;

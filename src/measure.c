@@ -2,6 +2,7 @@
 #include "dm_measure.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -447,6 +448,43 @@ static int predict_tracker(const dm_robot *rb, const dm_dataset *d, int na, int 
     return rc;
 }
 
+double dm_predict_cost_s(const dm_robot *rb, dm_data_kind kind, double count, int na, int nb)
+{
+    double s = dm_model_dofs(rb, na > 0 ? na : rb->na, nb > 0 ? nb : rb->nb) / 210.0;
+    double per = (kind == DM_DATA_STATIC ? 5e-3 : 2.5e-3) * (0.15 + 0.85 * s * s);
+    return count * per;
+}
+
+double dm_predict_estimate_s(const dm_robot *rb, const dm_dataset *d, int na, int nb,
+                             double *bytes)
+{
+    double count = d->npose, per_count = 0;
+    if (d->kind == DM_DATA_TRACKER && d->n > 0) { /* dm_predict's step: at most 1 ms */
+        double T = d->s[d->n - 1].t - d->s[0].t;
+        count = fmax(T / 1e-3, d->npose);
+        per_count = 4 * sizeof(double); /* the integrated error kept per step */
+    }
+    if (bytes)
+        *bytes = count * per_count + (double)d->n * 2 * sizeof(double);
+    return dm_predict_cost_s(rb, d->kind, count, na, nb);
+}
+
+int dm_check_size(const char *what, double est_s, double bytes, const char *hint, int force,
+                  dm_error *err)
+{
+    int slow = !(est_s <= DM_MAX_WORK_S), big = !(bytes <= DM_MAX_BYTES);
+    if (force || (!slow && !big))
+        return DM_OK;
+    char t[96] = "", m[96] = "";
+    if (slow)
+        snprintf(t, sizeof t, "about %.3g hours of work (the limit is %g)", est_s / 3600,
+                 DM_MAX_WORK_S / 3600);
+    if (big)
+        snprintf(m, sizeof m, "%s%.3g GB of memory (the limit is %g)", slow ? " and " : "about ",
+                 bytes / 1e9, DM_MAX_BYTES / 1e9);
+    return dm_fail(err, DM_EINVAL, "%s: %s%s: %s, or force it (--force-long)", what, t, m, hint);
+}
+
 int dm_predict(const dm_robot *rb, const dm_dataset *d, int na, int nb, double *pred, dm_error *err)
 {
     na = na > 0 ? na : rb->na;
@@ -490,7 +528,21 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
                      h[0], h[1], h[2], 0.2 * rb->arm_length_m, 4 * M_PI);
         if ((rc = dm_traj_make(spec, rb, &tr, err)))
             return rc;
-        int m = (int)floor(tr.duration_s / 1e-3 + 1e-9) + 1;
+        double steps = floor(tr.duration_s / 1e-3 + 1e-9) + 1;
+        char what[320];
+        snprintf(what, sizeof what, "synth: %s: %.4g s sampled every 1 ms", tr.name,
+                 tr.duration_s);
+        rc = dm_check_size(what, dm_predict_cost_s(rb, o->kind, steps, o->na, o->nb),
+                           steps * (3 * (sizeof(dm_sample) + sizeof(double)) + 4 * sizeof(double)),
+                           "a shorter path", o->force_long, err);
+        if (!rc && steps > INT_MAX / 3) /* the samples are counted in int */
+            rc = dm_fail(err, DM_EINVAL, "%s: %.3g samples, at most %d", what, 3 * steps,
+                         INT_MAX);
+        if (rc) {
+            dm_traj_free(&tr);
+            return rc;
+        }
+        int m = (int)steps;
         for (int i = 0; i < m && !rc; i++) {
             dm_sample s = {0};
             double v[3], a[3];
@@ -505,6 +557,17 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
         }
         dm_traj_free(&tr);
     } else {
+        double np = o->npose > 0 ? o->npose : 16;
+        double per = o->kind == DM_DATA_MODAL ? (o->modes > 0 ? o->modes : 6) : 3;
+        char what[96];
+        snprintf(what, sizeof what, "synth: %.0f poses", np);
+        if ((rc = dm_check_size(what, dm_predict_cost_s(rb, o->kind, np, o->na, o->nb),
+                                np * per * (sizeof(dm_sample) + sizeof(double)),
+                                "fewer poses", o->force_long, err)))
+            return rc;
+        if (np * per > INT_MAX) /* the samples are counted in int */
+            return dm_fail(err, DM_EINVAL, "%s: %.3g samples, at most %d", what, np * per,
+                           INT_MAX);
         for (int p = 0; p < (o->npose > 0 ? o->npose : 16) && !rc; p++) {
             dm_sample s = {0};
             if (draw_pose(rb, &rng, s.P))

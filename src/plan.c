@@ -2,6 +2,7 @@
 #include "dm_plan.h"
 
 #include <lapacke.h>
+#include <limits.h>
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
@@ -13,6 +14,7 @@
 
 #define DETECT 5.0     /* "seen": the effect moves the data by 5 sigma (norm over samples) */
 #define RANDOM_DRAWS 64
+#define NPATH 22 /* the tracker paths of the family (path_spec) */
 #define FD_STEP 1e-3   /* scaled units: 0.1 % of a spring, far below any 1-sigma that matters */
 #define RIDGE 1e-6     /* added to F's diagonal while choosing: a 1-sigma of 1000 scaled units */
 
@@ -373,6 +375,55 @@ static int candidate_poses(const dm_robot *rb, const dm_plan_opts *o, double **o
     return DM_OK;
 }
 
+/* ---- what a plan costs, judged before its predictions -------------------------- */
+
+/* Predictions of the assessment: the design's sensitivities and, per
+ * effect, a bisection of 30 steps on its signature. */
+#define ASSESS_PREDICTIONS(m) ((m)->p + 1 + 32.0 * (m)->neff)
+/* One log det of a p x p information (Cholesky through LAPACKE, its
+ * overhead included) and the exchange passes a design takes as a rule. */
+#define LOGDET_S(p) (2e-7 + 2e-9 * (double)(p) * (p) * (p))
+#define EXCHANGE_PASSES 4
+
+/* Survey: p + 1 predictions of the candidates' poses, the greedy choice
+ * and the exchanges (n x units log dets each), the assessment; memory:
+ * the units' information and the candidates' sensitivities. */
+static int check_survey(const model *m, const dm_dataset *cand, int nunit, dm_error *err)
+{
+    const dm_plan_opts *o = m->o;
+    int p = m->p, n = o->npose, threads = thread_count(o);
+    double per_pose = dm_predict_cost_s(m->rb, o->kind, 1, o->na, o->nb);
+    double est = (p + 1.0) * cand->npose * per_pose / fmin(threads, p + 1.0) +
+                 (1.0 + EXCHANGE_PASSES) * n * (double)nunit * LOGDET_S(p) +
+                 ASSESS_PREDICTIONS(m) * n * per_pose;
+    double bytes = (double)nunit * p * p * sizeof(double) +
+                   (double)cand->n * (p + 1) * sizeof(double);
+    char what[160];
+    snprintf(what, sizeof what, "plan: %d of %d candidate%s for %d parameter%s", n, nunit,
+             nunit == 1 ? "" : "s", p, p == 1 ? "" : "s");
+    return dm_check_size(what, est, bytes, "fewer poses or a smaller --region", o->force_long,
+                         err);
+}
+
+/* Tracker: p + 1 predictions of each of the NPATH paths of n samples (in
+ * parallel over the parameters), the assessment of the chosen one. */
+static int check_tracker(const model *m, dm_error *err)
+{
+    const dm_plan_opts *o = m->o;
+    int p = m->p, n = o->npose, threads = thread_count(o);
+    double run = dm_predict_cost_s(m->rb, o->kind, n, o->na, o->nb);
+    double est = NPATH * (p + 1.0) * run / threads + ASSESS_PREDICTIONS(m) * run;
+    double bytes = fmin(threads, NPATH) * 3.0 * n * (p + 2) * sizeof(double) +
+                   3.0 * n * sizeof(dm_sample) + 4.0 * n * sizeof(double);
+    char what[160];
+    snprintf(what, sizeof what, "plan: a tracker run of %d samples, %d paths, %d parameter%s",
+             n, NPATH, p, p == 1 ? "" : "s");
+    int rc = dm_check_size(what, est, bytes, "fewer samples", o->force_long, err);
+    if (!rc && n > INT_MAX / 3) /* the samples are counted in int */
+        rc = dm_fail(err, DM_EINVAL, "%s: %.3g samples, at most %d", what, 3.0 * n, INT_MAX);
+    return rc;
+}
+
 static const double DIRS[7][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1},           {1, 1, 1},
                                   {1, -1, 1}, {-1, 1, 1}, {-1, -1, 1}};
 
@@ -424,7 +475,6 @@ static int push_unit(dm_dataset *d, const dm_plan_opts *o, const double P[3], co
  * planes (two radii, centripetal 20 and 50 m/s^2) and bang-bang moves (two
  * lengths, five directions, 50 m/s^2, within half the record, shortened to
  * fit), then a dwell in which the structure rings down. */
-#define NPATH 22
 #define AMAX 50.0
 static void path_spec(const dm_robot *rb, int k, int n, char *spec, size_t len)
 {
@@ -560,6 +610,8 @@ static int plan_survey(const model *m, double noise, dm_plan_result *r, dm_error
     if (!rc && nunit < n)
         rc = dm_fail(err, DM_EINVAL, "--poses %d: the region has only %d candidate%s", n, nunit,
                      nunit == 1 ? "" : "s");
+    if (!rc && (rc = check_survey(m, &cand, nunit, err)))
+        dm_dataset_free(&cand), nunit = 0;
     double *pred = rc ? NULL : malloc(sizeof(double) * cand.n);
     double *J = rc ? NULL : malloc(sizeof(double) * cand.n * p);
     double *info = rc ? NULL : malloc(sizeof(double) * nunit * p * p);
@@ -589,6 +641,9 @@ static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_erro
     int p = m->p, n = m->o->npose, status[NPATH];
     double ld[NPATH], sig[NPATH][DM_DIAG_MAXP];
     dm_error perr[NPATH];
+    int rc0 = check_tracker(m, err);
+    if (rc0)
+        return rc0;
 #pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(m->o))
     for (int k = 0; k < NPATH; k++) {
         char spec[256];

@@ -248,6 +248,28 @@ contains err "no reachable pose"
 expect 1 "plan without --poses" "$DM" plan --robot zheng2017 --kind modal --effects payload_mass
 contains err "--poses"
 
+# ---- work of hours or gigabytes: refused at once, before any, unless --force-long ----
+expect 2 "synth 1e9 poses" timeout 10 "$DM" synth --robot zheng2017 --kind modal --poses 1e9 --out "$TMP/huge.csv"
+contains err "hours of work"
+contains err "force it (--force-long)"
+if [ -e "$TMP/huge.csv" ] || ls "$TMP"/huge.csv.tmp.* >/dev/null 2>&1; then bad "a refused synth wrote"; else ok; fi
+expect 1 "synth poses beyond an int" "$DM" synth --robot zheng2017 --kind modal --poses 1e12
+contains err "--poses takes a whole number 3..2147483647"
+expect 2 "synth a day-long record" timeout 10 "$DM" synth --robot zheng2017 --kind tracker --path "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=1e5"
+contains err "GB of memory"
+# six samples spread over an hour: each prediction integrates 3.6e6 steps
+printf '# robot: zheng2017\nt,x_cmd,y_cmd,z_cmd,x_meas,y_meas,z_meas\n' >"$TMP/long.csv"
+for t in 0 720 1440 2160 2880 3600; do echo "$t,0,0,-0.4,0,0,-0.4" >>"$TMP/long.csv"; done
+expect 2 "diagnose of hours" timeout 10 "$DM" diagnose --measured "$TMP/long.csv" --sigma 1e-6
+contains err "hours of work"
+expect 124 "diagnose --force-long runs (stopped by timeout)" timeout 2 "$DM" diagnose --measured "$TMP/long.csv" --sigma 1e-6 --force-long
+expect 2 "plan of 1e6 tracker samples" timeout 10 "$DM" plan --robot zheng2017 --kind tracker --effects payload_mass --poses 1e6
+contains err "hours of work"
+expect 124 "plan --force-long runs (stopped by timeout)" timeout 2 "$DM" plan --robot zheng2017 --kind tracker --effects payload_mass --poses 1e6 --force-long
+expect 2 "plan over many candidates" timeout 10 "$DM" plan --robot zheng2017 --kind static --effects actuator_stiffness,base_stiffness,joint_stiffness,base_stiffness_1 --poses 20000 --region "x=-0.05:0.05:40,y=-0.05:0.05:40,z=-0.43:-0.37:20"
+contains err "candidates for 4 parameters: about"
+expect 1 "compare has no --force-long" "$DM" compare --measured "$TMP/long.csv" --force-long
+
 # ---- plots (the project's Python environment) ----
 if [ -x .venv/bin/python ]; then
     expect 0 "plot trajectory" .venv/bin/python tools/plot_trajectory.py "$TMP/run.csv" -o "$TMP/run.png"
