@@ -2,10 +2,13 @@
 #
 #   make deps            install the Debian packages the project needs (idempotent)
 #   make / make all      build build/deltamap
-#   make test            deps + build + unit tests (cmocka) + CLI tests
+#   make test            deps + build + unit tests (cmocka) + CLI, store, shard tests
+#                        + a sweep as a job array on a real Slurm started here
 #   make test SANITIZE=1 the same built with -fsanitize=address,undefined
 #   make demo            deps + build + run the main job on a built-in robot
 #   make bench           speed and memory figures
+#   make fuzz            build the libFuzzer targets (clang) into build/fuzz/
+#   make fuzz-run        run each fuzz target FUZZ_SECONDS (600) with ASan/UBSan
 #   make install         install to $(PREFIX)/bin (PREFIX=/usr/local)
 
 CC      ?= cc
@@ -34,7 +37,8 @@ TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 TEST_BIN:= $(addprefix $(BUILD)/tests/,$(TESTS))
 BIN     := $(BUILD)/deltamap
 
-.PHONY: all deps test unit-tests cli-tests store-tests demo bench install clean help
+.PHONY: all deps test unit-tests cli-tests store-tests shard-tests slurm-tests fuzz-replay \
+        fault-tests demo bench install clean help fuzz fuzz-deps fuzz-run
 .DELETE_ON_ERROR:
 
 all: $(BIN)
@@ -78,9 +82,22 @@ cli-tests: $(BIN)
 store-tests: $(BIN)
 	@DELTAMAP=$(BIN) tests/store_tests.sh
 
+shard-tests: $(BIN)
+	@DELTAMAP=$(BIN) tests/shard_tests.sh
+
+# Its own munged, slurmctld and slurmd, stopped by pid when done. Without
+# the Slurm packages (make deps installs them) or root: SKIPPED (exit 77),
+# which `make test` reports as such, never as passed.
+slurm-tests: $(BIN)
+	@rm -f $(BUILD)/slurm-skipped; DELTAMAP=$(BIN) tests/slurm_tests.sh; rc=$$?; \
+	if [ $$rc -eq 77 ]; then touch $(BUILD)/slurm-skipped; else exit $$rc; fi
+
 test: deps
-	@$(MAKE) --no-print-directory unit-tests cli-tests store-tests
-	@echo "all tests passed"
+	@$(MAKE) --no-print-directory unit-tests cli-tests store-tests shard-tests slurm-tests \
+	    fuzz-replay fault-tests
+	@if [ -e $(BUILD)/slurm-skipped ]; then \
+	    echo "all tests passed but the Slurm test, which was SKIPPED (see above)"; \
+	else echo "all tests passed"; fi
 
 # The main job on a built-in robot: the mode table at the centre, then a
 # workspace sweep into maps/demo (resumable) and its maps as PNG.
@@ -98,6 +115,83 @@ bench: deps
 $(BUILD)/tests/bench: tests/bench.c $(BUILD)/libdeltamap.a | $(BUILD)/tests
 	$(CC) $(CFLAGS) $(PKG_CFLAGS) -Itests $< -o $@ $(BUILD)/libdeltamap.a \
 	    $(PKG_LIBS) $(SUNDIALS_LIBS) $(LDLIBS)
+
+# ---- fuzzing (tests/fuzz/README.md) ------------------------------------------
+# Each target tests/fuzz/fuzz_T.c is built twice: with libFuzzer (clang,
+# ASan/UBSan, coverage) by `make fuzz`, and with tests/fuzz/replay.c and the
+# normal compiler by `make test`, which replays every file of tests/fuzz/T/.
+FUZZ_TARGETS := robot grid path path_csv measure store
+FUZZ_SRC     := tests/fuzz/fuzz_util.c
+FUZZ_HDR     := tests/fuzz/fuzz.h
+REPLAY_BIN   := $(addprefix $(BUILD)/fuzz/replay-,$(FUZZ_TARGETS))
+
+$(BUILD)/fuzz/replay-%: tests/fuzz/fuzz_%.c tests/fuzz/replay.c $(FUZZ_SRC) $(FUZZ_HDR) \
+        $(BUILD)/libdeltamap.a | $(BUILD)/fuzz
+	$(CC) $(CFLAGS) $(PKG_CFLAGS) -Isrc -Itests/fuzz $< tests/fuzz/replay.c $(FUZZ_SRC) -o $@ \
+	    $(BUILD)/libdeltamap.a $(PKG_LIBS) $(SUNDIALS_LIBS) $(LDLIBS)
+
+# (the library's messages about the bad inputs are shown only when one fails)
+fuzz-replay: $(REPLAY_BIN)
+	@for t in $(FUZZ_TARGETS); do \
+	    if $(BUILD)/fuzz/replay-$$t tests/fuzz/$$t 2>$(BUILD)/fuzz/replay-$$t.log; then \
+	        tail -1 $(BUILD)/fuzz/replay-$$t.log; \
+	    else cat $(BUILD)/fuzz/replay-$$t.log; echo "FAIL: fuzz replay $$t"; exit 1; fi; \
+	done
+
+# ---- fault injection (tests/fault_tests.sh) ------------------------------------
+# deltamap whose allocations can be made to fail (tests/fault_alloc.c), and
+# an LD_PRELOAD shim whose write/rename fail with ENOSPC (tests/fault_write.c).
+$(BUILD)/tests/deltamap-faultinj: tests/fault_alloc.c $(BUILD)/libdeltamap.a | $(BUILD)/tests
+	$(CC) $(CFLAGS) $(PKG_CFLAGS) $< -o $@ -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc \
+	    $(BUILD)/libdeltamap.a $(PKG_LIBS) $(SUNDIALS_LIBS) $(LDLIBS)
+
+$(BUILD)/tests/fault_write.so: tests/fault_write.c | $(BUILD)/tests
+	$(CC) -std=c11 -D_GNU_SOURCE -O2 -Wall -Wextra -fPIC -shared $< -o $@ -ldl
+
+# (fewer sampled n under the sanitizers, which make every run slower)
+ifeq ($(SANITIZE),1)
+FAULT_SAMPLES := FAULT_FIRST=4 FAULT_MID=6 FAULT_LAST=4
+endif
+fault-tests: $(BIN) $(BUILD)/tests/deltamap-faultinj $(BUILD)/tests/fault_write.so
+	@DELTAMAP=$(BIN) FAULT_DELTAMAP=$(BUILD)/tests/deltamap-faultinj \
+	    FAULT_SHIM=$(BUILD)/tests/fault_write.so $(FAULT_SAMPLES) tests/fault_tests.sh
+
+FUZZ_CC      ?= $(shell command -v clang-14 || command -v clang)
+FUZZ_DIR     := build/fuzz-libfuzzer
+FUZZ_OPT     := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined \
+                -fno-sanitize-recover=undefined
+FUZZ_CFLAGS  := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(FUZZ_OPT) -Wall -Wextra \
+                -Wno-pass-failed -fopenmp -Iinclude
+FUZZ_LIB_OBJ := $(patsubst src/%.c,$(FUZZ_DIR)/obj/%.o,$(LIB_SRC)) $(FUZZ_DIR)/obj/presets.o
+FUZZ_BIN     := $(addprefix $(FUZZ_DIR)/fuzz-,$(FUZZ_TARGETS))
+FUZZ_SECONDS ?= 600
+
+fuzz-deps:
+	@tools/install-deps.sh --fuzz
+
+fuzz: fuzz-deps
+	@$(MAKE) --no-print-directory $(FUZZ_BIN)
+
+$(FUZZ_DIR)/obj/%.o: src/%.c $(wildcard include/*.h) | $(FUZZ_DIR)/obj
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer-no-link $(PKG_CFLAGS) -c $< -o $@
+
+$(FUZZ_DIR)/obj/presets.o: $(BUILD)/presets.c | $(FUZZ_DIR)/obj
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -c $< -o $@
+
+$(FUZZ_DIR)/libdeltamap.a: $(FUZZ_LIB_OBJ)
+	$(AR) rcs $@ $^
+
+$(FUZZ_DIR)/fuzz-%: tests/fuzz/fuzz_%.c $(FUZZ_SRC) $(FUZZ_HDR) $(FUZZ_DIR)/libdeltamap.a
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer $(PKG_CFLAGS) -Isrc -Itests/fuzz $< $(FUZZ_SRC) \
+	    -o $@ $(FUZZ_DIR)/libdeltamap.a $(PKG_LIBS) $(SUNDIALS_LIBS) $(LDLIBS)
+
+# Each target for FUZZ_SECONDS, one after another (FUZZ_TARGETS=... to pick);
+# new inputs go to build/, findings to build/fuzz-libfuzzer/findings/T/.
+fuzz-run: fuzz
+	@tools/fuzz-run.sh $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+
+$(BUILD)/fuzz $(FUZZ_DIR)/obj:
+	mkdir -p $@
 
 install: $(BIN)
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/deltamap/robots

@@ -80,6 +80,10 @@ void dm_arrow_pattern_release(dm_arrow_pattern *p);
  * (asserted). */
 void dm_arrow_add(dm_arrow *a, int i, int j, double v);
 
+/* A(idx[r], idx[c]) += E[c m + r] for an element's m x m contribution E
+ * (entries of the half that A does not store are not read). */
+void dm_arrow_add_matrix(dm_arrow *a, const int *idx, int m, const double *E);
+
 /* A(i, j) of the full matrix (0 outside the pattern). */
 double dm_arrow_get(const dm_arrow *a, int i, int j);
 

@@ -68,6 +68,17 @@ void dm_modal_forget(dm_modal *ws);
  * be caught by the Sturm count). */
 int dm_modal_set_start(dm_modal *ws, const double *X, int ncol, dm_error *err);
 
+/* A seed: what a solve leaves behind to start another from (the subspace
+ * and its Ritz values). A sweep starts each point from the seed of an
+ * anchor near it, so a point's result does not depend on which points were
+ * computed before it (or by which thread, or in which tile shape).
+ * dm_modal_seed_size: bytes of a seed (0 for the dense methods);
+ * dm_modal_seed_save: after a successful solve (returns 0 if there is
+ * nothing to save); dm_modal_seed_load: the next solve starts from it. */
+size_t dm_modal_seed_size(const dm_modal *ws);
+int dm_modal_seed_save(const dm_modal *ws, void *seed);
+void dm_modal_seed_load(dm_modal *ws, const void *seed);
+
 /* How the last solve went. */
 typedef struct dm_modal_stats {
     int iterations;     /* applications of K^-1 M (0: dense) */
@@ -87,14 +98,25 @@ void dm_modal_platform_share(dm_modal *ws, const dm_model *model);
 
 const char *dm_direction_name(int direction);
 
-/* Mode tracking by the modal assurance criterion. For each of the kr
- * reference shapes ref (n x kr, from a nearby pose, same DOF numbering)
- * find the mode of `modes` (its first kc) that matches best, each mode used
- * at most once, greedily by decreasing MAC:
- *   MAC(a, b) = (a' M b)^2 / ((a' M a)(b' M b)), M = this pose's mass matrix.
- * assign[i] = index of the mode for reference i, mac[i] its MAC. work needs
- * n*kr + kr*kc doubles. */
-void dm_modal_mac_match(const double *ref, int kr, const dm_modes *modes, int kc,
-                        const dm_model *model, int *assign, double *mac, double *work);
+/* Mode tracking by the modal assurance criterion, clusters as subspaces.
+ * For each of the kr reference shapes ref (n x kr, families from a nearby
+ * pose, same DOF numbering) find its mode among the first kc of `modes`.
+ * Modes whose frequencies are closer than DM_TRACK_GAP (relative) form a
+ * cluster: inside one the eigenvectors are an arbitrary basis that rounding
+ * can rotate, so a family is matched to a cluster by the MAC with its
+ * invariant subspace,
+ *   MAC(ref, C) = sum_{j in C} (ref' M phi_j)^2 / (ref' M ref),
+ * which no rotation changes; greedily by decreasing MAC, each cluster
+ * taking as many families as it has modes; inside a cluster the families,
+ * in index order, take its modes in ascending frequency. assign[f] = the
+ * mode of family f (-1: none), mac[f] its MAC. shapes (n x kr, may be
+ * NULL): each family's next reference, its shape projected on its cluster
+ * (M-normalised). work needs 2 n kr + kr kc doubles. kr <= kc <=
+ * DM_TRACK_MAX. */
+#define DM_TRACK_MAX 64
+#define DM_TRACK_GAP 1e-3
+void dm_modal_track(const double *ref, int kr, const dm_modes *modes, int kc,
+                    const dm_model *model, int *assign, double *mac, double *shapes,
+                    double *work);
 
 #endif

@@ -6,6 +6,9 @@
  * the bytes, appended little-endian). Metadata (`zarr.json`) is written
  * with jansson. Every file is written to a temporary name and renamed, so
  * a killed writer leaves either the old file or the new one, never half.
+ * Temporary names carry the writer's host and PID (PATH.tmp.HOST.PID):
+ * any number of processes, on any hosts, may write one store, and one
+ * removes only the temporaries of writers that are gone.
  *
  * A dm_store handle is shared read-only by threads after creation; chunk
  * writes to distinct chunks are independent (no shared mutable state). */
@@ -21,6 +24,11 @@
 
 #define DM_STORE_MAXDIM 5
 #define DM_STORE_MAXARR 32
+/* Limits on metadata read from disk: a chunk of at most 1 GiB (a sweep's
+ * largest, a 1e6-point tile of 64 frequencies, is 512 MB), extents up to
+ * 2^40. */
+#define DM_STORE_MAX_CHUNK_BYTES (1LL << 30)
+#define DM_STORE_MAX_EXTENT (1LL << 40)
 
 typedef enum { DM_DTYPE_FLOAT64 = 0, DM_DTYPE_UINT8, DM_DTYPE_INT32 } dm_dtype;
 
@@ -49,7 +57,11 @@ size_t dm_dtype_size(dm_dtype t);
 /* Write the group and array metadata (replacing what is there). */
 int dm_store_write_metadata(const dm_store *store, dm_error *err);
 
-/* Read a store's metadata (for info/resume). Caller frees with
+/* Read a store's metadata (for info/resume). Every field is checked:
+ * known data_type, 1..DM_STORE_MAXDIM dimensions, whole extents, chunks of
+ * at least one element per dimension and at most DM_STORE_MAX_CHUNK_BYTES,
+ * array names that are one plain path component; DM_EINVAL names the file
+ * and field otherwise (DM_EIO: missing or not JSON). Caller frees with
  * dm_store_release. */
 int dm_store_read_metadata(const char *path, dm_store *store, dm_error *err);
 void dm_store_release(dm_store *store);
@@ -61,7 +73,9 @@ void dm_store_chunk_path(const dm_store *store, int a, const int64_t *c, char *o
 size_t dm_store_chunk_elems(const dm_store *store, int a);
 
 /* Write one chunk atomically: data holds dm_store_chunk_elems() elements
- * in C order, native little-endian. */
+ * in C order, native little-endian. The array's directory must exist (the
+ * store's metadata written): a store removed under a writer is not
+ * recreated piecemeal. */
 int dm_store_write_chunk(const dm_store *store, int a, const int64_t *c, const void *data,
                          dm_error *err);
 
@@ -71,8 +85,26 @@ int dm_store_write_chunk(const dm_store *store, int a, const int64_t *c, const v
 int dm_store_read_chunk(const dm_store *store, int a, const int64_t *c, void *data,
                         int *missing, dm_error *err);
 
+/* Remove what dead writers left beside one chunk file (its temporaries). */
+void dm_store_clean_chunk(const dm_store *store, int a, const int64_t *c);
+
 /* Write any small file atomically (tmp + rename). */
 int dm_write_file_atomic(const char *path, const void *data, size_t n, dm_error *err);
+
+/* The temporary name of path for this process: PATH.tmp.HOST.PID. */
+void dm_temp_name(const char *path, char *out, size_t len);
+
+/* A temporary of another host counts as abandoned after this long. */
+#define DM_TEMP_STALE_S 3600
+
+/* In directory dir, remove the temporaries BASE.tmp.HOST.PID (any BASE when
+ * base is NULL; files or whole directories) whose writer is gone: on this
+ * host, no process PID exists; of another host, older than
+ * DM_TEMP_STALE_S. Returns how many were removed. */
+int dm_remove_stale_temporaries(const char *dir, const char *base);
+
+/* rm -r (0, or -1 with errno; an absent path is not an error) */
+int dm_remove_tree(const char *path);
 
 /* mkdir -p */
 int dm_mkdirs(const char *path, dm_error *err);

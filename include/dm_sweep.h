@@ -6,7 +6,14 @@
  * "z=-0.5" is fixed. Units m. Tiles are chunks of the spatial grid; each
  * tile is computed by one thread with its own workspaces, so results do
  * not depend on the number of threads. An interrupted sweep keeps every
- * finished tile and resumes where it stopped. */
+ * finished tile and resumes where it stopped.
+ *
+ * Several processes (on one host or many) may sweep into one store, each
+ * computing one shard of the tiles (dm_shard.h): the store they make is
+ * byte-identical to one process's, because a tile's values depend on the
+ * grid alone (mode-tracking anchors are computed, the same, by every
+ * process; each tile starts afresh). Store creation is atomic, so the
+ * processes may start in any order or all at once. */
 #ifndef DM_SWEEP_H
 #define DM_SWEEP_H
 
@@ -46,6 +53,18 @@ enum dm_point_status {
     DM_POINT_NOT_COMPUTED = 255
 };
 
+/* Where a running sweep is. */
+typedef struct dm_sweep_progress {
+    int phase;          /* DM_SWEEP_ANCHORS (mode tracking's references), then
+                           DM_SWEEP_TILES */
+    long done, total;   /* anchors or tiles of this run */
+    long points_per_tile;
+    double seconds;     /* since the sweep started */
+    int final;          /* the phase is over */
+} dm_sweep_progress;
+
+enum { DM_SWEEP_ANCHORS = 0, DM_SWEEP_TILES = 1 };
+
 typedef struct dm_sweep_opts {
     int k;              /* frequencies per point (default 10) */
     int na, nb;         /* mesh (0: the robot's) */
@@ -53,14 +72,30 @@ typedef struct dm_sweep_opts {
     int threads;        /* 0: OpenMP default */
     int dynamic;        /* standard moves along X, Y, Z (default 1) */
     dm_move_opts move;
-    int force;          /* overwrite a store of another robot/grid */
-    int progress;       /* 0 none, 1 bar, 2 periodic lines */
+    int force;          /* replace a store of another robot/grid/options */
+    int force_long;     /* run even beyond DM_SWEEP_MAX_SECONDS or DM_SWEEP_MAX_FILES */
+    int shard, shards;  /* compute only shard `shard` of `shards` (0: all) */
+    /* progress: called (from one thread at a time) as the anchors and the
+     * tiles get done; NULL: none. The caller draws it. */
+    void (*progress)(void *user, const struct dm_sweep_progress *p);
+    void *progress_user;
 } dm_sweep_opts;
 
 void dm_sweep_opts_default(dm_sweep_opts *opts);
 
+/* Refused before any work unless opts.force_long: a sweep whose share of
+ * points is estimated at more than DM_SWEEP_MAX_SECONDS of wall time on
+ * its threads (from the per-point cost measured on this project's
+ * development machine, 2.5 ms at 210 DOF with the standard moves, growing
+ * as n^2), or whose store would hold more than DM_SWEEP_MAX_FILES chunk
+ * files (larger tiles, or several stores, keep a file system usable). */
+#define DM_SWEEP_MAX_SECONDS (24 * 3600.0)
+#define DM_SWEEP_MAX_FILES 2000000L
+
 typedef struct dm_sweep_stats {
-    long tiles_total, tiles_present, tiles_computed;
+    long tiles_total;                  /* in the whole grid */
+    long tiles_mine;                   /* this shard's (all without shards) */
+    long tiles_present, tiles_computed; /* of this shard's */
     long points_total, points_ok, points_unreachable, points_near_singular, points_failed;
     double seconds;
     int interrupted;

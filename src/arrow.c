@@ -214,6 +214,34 @@ void dm_arrow_add(dm_arrow *a, int i, int j, double v)
         mark(a, s);
 }
 
+void dm_arrow_add_matrix(dm_arrow *a, const int *idx, int m, const double *E)
+{
+    const dm_arrow_layout *lay = &a->lay;
+    int bo = lay->border, blk[2 * 16], loc[2 * 16];
+    assert(m <= 32);
+    for (int r = 0; r < m; r++) { /* block and local index of each DOF */
+        blk[r] = block_of(lay, idx[r]);
+        loc[r] = idx[r] - (blk[r] == NB ? bo : lay->off[blk[r]]);
+    }
+    for (int c = 0; c < m; c++)
+        for (int r = 0; r < m; r++) {
+            double *s;
+            if (blk[c] == NB)
+                s = blk[r] == NB ? &a->pp[loc[c] * NP + loc[r]]
+                                 : &a->cpl[blk[r]][loc[r] + (size_t)loc[c] * lay->nb[blk[r]]];
+            else if (blk[r] == blk[c] && loc[r] >= loc[c]) {
+                assert(loc[r] - loc[c] <= lay->kd[blk[r]]);
+                s = &a->band[blk[r]][(loc[r] - loc[c]) + (size_t)loc[c] * (lay->kd[blk[r]] + 1)];
+            } else {
+                assert(blk[r] == NB || blk[r] == blk[c]); /* blocks meet only at the border */
+                continue; /* the half that is not stored */
+            }
+            *s += E[c * m + r];
+            if (a->touched[0])
+                mark(a, s);
+        }
+}
+
 double dm_arrow_get(const dm_arrow *a, int i, int j)
 {
     const dm_arrow_layout *lay = &a->lay;
@@ -236,6 +264,17 @@ double dm_arrow_get(const dm_arrow *a, int i, int j)
  * X[i q .. i q + q - 1], so every band entry updates q contiguous values
  * (vectorised), and one vector (q = 1) is an ordinary array. */
 
+/* The kernels below run over blocks of q values; where the CPU has AVX2 a
+ * clone built for it is chosen when the program loads (the baseline
+ * x86-64 build has only SSE2, half the width). The result does not depend
+ * on it beyond the last bits of round-off, and is the same from run to
+ * run on one machine. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define VECTOR_CLONES __attribute__((target_clones("default", "avx2")))
+#else
+#define VECTOR_CLONES
+#endif
+
 /* y_i += a x_j over q values */
 static inline void axpy_q(double *restrict y, double a, const double *restrict x, int q)
 {
@@ -246,7 +285,7 @@ static inline void axpy_q(double *restrict y, double a, const double *restrict x
 
 /* Y_c += A_c X_c for one banded block (symmetric, lower band storage):
  * the pattern's entries, or every non-zero of the band. */
-static void band_mult(const double *ab, int n, int kd, const dm_arrow_pattern *pat, int c,
+VECTOR_CLONES static void band_mult(const double *ab, int n, int kd, const dm_arrow_pattern *pat, int c,
                       const double *X, double *Y, int q)
 {
     int ld = kd + 1;
@@ -275,7 +314,7 @@ static void band_mult(const double *ab, int n, int kd, const dm_arrow_pattern *p
 }
 
 /* Y_c += C_c X_P and Y_P += C_c' X_c */
-static void coupling_mult(const dm_arrow *a, int c, const double *X, double *Y, int q)
+VECTOR_CLONES static void coupling_mult(const dm_arrow *a, int c, const double *X, double *Y, int q)
 {
     const dm_arrow_layout *lay = &a->lay;
     int nb = lay->nb[c];
@@ -424,7 +463,7 @@ static int column_end(const int *colend, int j, int n, int kd)
 }
 
 /* X_c = L_c^-1 X_c (lower band, forward) */
-static void band_forward(const double *L, int n, int kd, const int *colend, double *X, int q)
+VECTOR_CLONES static void band_forward(const double *L, int n, int kd, const int *colend, double *X, int q)
 {
     int ld = kd + 1;
     for (int j = 0; j < n; j++) {
@@ -441,7 +480,7 @@ static void band_forward(const double *L, int n, int kd, const int *colend, doub
 }
 
 /* X_c = L_c^-T X_c (backward) */
-static void band_backward(const double *L, int n, int kd, const int *colend, double *X, int q)
+VECTOR_CLONES static void band_backward(const double *L, int n, int kd, const int *colend, double *X, int q)
 {
     int ld = kd + 1;
     for (int j = n - 1; j >= 0; j--) {

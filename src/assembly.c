@@ -412,7 +412,7 @@ static int element_map(const dm_element *e, double El[12][2 * DM_NODEMAP_MAX],
 static void scatter(dm_arrow *X, const double Ke[144], double El[12][2 * DM_NODEMAP_MAX],
                     const int idx[], int m, int m0)
 {
-    double KE[12][2 * DM_NODEMAP_MAX];
+    double KE[12][2 * DM_NODEMAP_MAX], E[4 * DM_NODEMAP_MAX * DM_NODEMAP_MAX];
     int border = X->lay.border;
     for (int r = 0; r < 12; r++)
         for (int j = 0; j < m; j++) {
@@ -422,17 +422,17 @@ static void scatter(dm_arrow *X, const double Ke[144], double El[12][2 * DM_NODE
                 s += Ke[r * 12 + k] * El[k][j];
             KE[r][j] = s;
         }
-    for (int a = 0; a < m; a++) {
-        int k0 = a < m0 ? 0 : 6;
-        for (int b = 0; b < m; b++) {
+    for (int b = 0; b < m; b++)
+        for (int a = 0; a < m; a++) {
             if (!(idx[b] >= border || (idx[a] < border && idx[a] >= idx[b])))
                 continue; /* the mirrored entry, which X does not store */
+            int k0 = a < m0 ? 0 : 6;
             double s = 0;
             for (int k = k0; k < k0 + 6; k++)
                 s += El[k][a] * KE[k][b];
-            dm_arrow_add(X, idx[a], idx[b], s);
+            E[b * m + a] = s;
         }
-    }
+    dm_arrow_add_matrix(X, idx, m, E);
 }
 
 void dm_model_add_element_load(const dm_model *md, const dm_element *e, const double a12[12],

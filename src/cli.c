@@ -39,7 +39,7 @@ static const char MAIN_HELP[] =
 
 static const char MODES_HELP[] =
     "usage: deltamap modes --robot R [--at X,Y,Z] [--modes K] [--mesh NA,NB]\n"
-    "                      [--method partial|all] [--set SECTION.KEY=V]... [--json]\n"
+    "                      [--method partial|dense|all] [--set SECTION.KEY=V]... [--json]\n"
     "\n"
     "Frozen-configuration modal analysis at one platform pose (MODEL.md §2-5).\n"
     "\n"
@@ -48,8 +48,10 @@ static const char MODES_HELP[] =
     "  --modes K       number of modes to compute and print (default 10)\n"
     "  --mesh NA,NB    elements per arm and per rod (default: the robot file's\n"
     "                  [mesh], 4,4 for the presets; 1,1 is Chen's 48-DOF model)\n"
-    "  --method M      eigen solver: partial (k lowest modes only, default) or\n"
-    "                  all (every mode, dsygvd); results agree to round-off\n"
+    "  --method M      eigen solver: partial (default: the k lowest modes by\n"
+    "                  subspace iteration on the factor of K, proven complete\n"
+    "                  by a Sturm count), dense (the k lowest by LAPACK on the\n"
+    "                  dense matrices) or all (every mode, dsygvd)\n"
     "  --set K=V       override a robot-file key, e.g. arm.side=0.025 (repeatable)\n"
     "  --json          one JSON object on stdout instead of the table\n";
 
@@ -104,8 +106,10 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
                 o->method = DM_EIGEN_PARTIAL;
             else if (!strcmp(optarg, "all"))
                 o->method = DM_EIGEN_ALL;
+            else if (!strcmp(optarg, "dense"))
+                o->method = DM_EIGEN_DENSE;
             else
-                return dm_cli_usage("modes", "--method is partial or all", optarg);
+                return dm_cli_usage("modes", "--method is partial, dense or all", optarg);
             break;
         case 'j': o->json = 1; break;
         case 's':

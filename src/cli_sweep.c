@@ -1,21 +1,25 @@
 /* deltamap sweep / deltamap info: workspace maps and what a store holds. */
+#include <dirent.h>
 #include <getopt.h>
 #include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "cli_impl.h"
+#include "dm_shard.h"
 #include "dm_store.h"
 #include "dm_sweep.h"
 
 static const char SWEEP_HELP[] =
     "usage: deltamap sweep --robot R --grid SPEC --out maps/NAME [--modes K]\n"
     "                      [--mesh NA,NB] [--tile A,B,C] [--threads N] [--no-dynamic]\n"
-    "                      [--amax A] [--tau T] [--force] [--progress bar|lines|none]\n"
-    "                      [--set SECTION.KEY=V]...\n"
+    "                      [--amax A] [--tau T] [--force] [--force-long]\n"
+    "                      [--progress bar|lines|none]\n"
+    "                      [--shard K/N|slurm|slurm/N] [--set SECTION.KEY=V]...\n"
     "\n"
     "Frequencies, static gravity error, stiffness, singularity and the dynamic\n"
     "error of the standard move (MODEL.md §5) on a grid of poses, in parallel,\n"
@@ -31,8 +35,19 @@ static const char SWEEP_HELP[] =
     "  --no-dynamic    skip the standard moves (X, Y, Z)\n"
     "  --amax A        standard move acceleration, m/s^2 (default 50)\n"
     "  --tau T         standard move duration, s (default 0.05)\n"
-    "  --force         overwrite a store of another robot, grid or options\n"
-    "  --progress M    bar (default on a terminal), lines (default otherwise), none\n";
+    "  --force         replace a store of another robot, grid or options (a store\n"
+    "                  of this very sweep is always resumed, never replaced)\n"
+    "  --force-long    run even when the sweep is estimated at more than 24 hours\n"
+    "                  of work on its threads, or its store at more than 2e6 files\n"
+    "                  (refused before any work otherwise)\n"
+    "  --progress M    bar (default on a terminal), lines (default otherwise), none\n"
+    "  --shard K/N     compute only shard K (0..N-1) of N: run N such processes, at\n"
+    "                  once or not, on any hosts, into one store; together they make\n"
+    "                  the store one process makes (docs/cluster.md)\n"
+    "  --shard slurm   K and N from a Slurm job array: K = SLURM_ARRAY_TASK_ID -\n"
+    "                  SLURM_ARRAY_TASK_MIN, N = SLURM_ARRAY_TASK_COUNT\n"
+    "  --shard slurm/N K = SLURM_ARRAY_TASK_ID, N given: for rerunning some tasks of\n"
+    "                  an array indexed 0..N-1 (sbatch --array=3,7)\n";
 
 static volatile sig_atomic_t stop_requested;
 
@@ -43,10 +58,11 @@ static void on_signal(int sig)
 }
 
 typedef struct {
-    const char *robot, *grid, *out;
+    const char *robot, *grid, *out, *shard;
     const char *sets[16];
     int nset;
     dm_sweep_opts o;
+    int progress;       /* 0 none, 1 bar, 2 periodic lines */
 } sweep_args;
 
 static int parse_sweep(int argc, char **argv, sweep_args *a)
@@ -55,12 +71,14 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
         {"robot", 1, 0, 'r'}, {"grid", 1, 0, 'g'}, {"out", 1, 0, 'o'}, {"modes", 1, 0, 'k'},
         {"mesh", 1, 0, 'm'}, {"tile", 1, 0, 't'}, {"threads", 1, 0, 'T'},
         {"no-dynamic", 0, 0, 'D'}, {"amax", 1, 0, 'A'}, {"tau", 1, 0, 'U'}, {"force", 0, 0, 'f'},
-        {"progress", 1, 0, 'p'}, {"set", 1, 0, 's'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"progress", 1, 0, 'p'}, {"set", 1, 0, 's'}, {"shard", 1, 0, 'S'}, {"help", 0, 0, 'h'},
+        {"force-long", 0, 0, 'L'},
+        {0, 0, 0, 0}};
     int c;
     double v[3];
     memset(a, 0, sizeof *a);
     dm_sweep_opts_default(&a->o);
-    a->o.progress = isatty(STDERR_FILENO) ? 1 : 2;
+    a->progress = isatty(STDERR_FILENO) ? 1 : 2;
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
@@ -68,7 +86,9 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
         case 'r': a->robot = optarg; break;
         case 'g': a->grid = optarg; break;
         case 'o': a->out = optarg; break;
+        case 'S': a->shard = optarg; break;
         case 'f': a->o.force = 1; break;
+        case 'L': a->o.force_long = 1; break;
         case 'D': a->o.dynamic = 0; break;
         case 's':
             if (dm_cli_add_set("sweep", a->sets, &a->nset, optarg))
@@ -102,11 +122,11 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
             break;
         case 'p':
             if (!strcmp(optarg, "bar"))
-                a->o.progress = 1;
+                a->progress = 1;
             else if (!strcmp(optarg, "lines"))
-                a->o.progress = 2;
+                a->progress = 2;
             else if (!strcmp(optarg, "none"))
-                a->o.progress = 0;
+                a->progress = 0;
             else
                 return dm_cli_usage("sweep", "--progress is bar, lines or none", optarg);
             break;
@@ -121,10 +141,132 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
     return 0;
 }
 
+/* ---- --shard ------------------------------------------------------------- */
+
+#define MAX_SHARDS 1000000
+
+/* "K/N" with 0 <= K < N */
+static int parse_fraction(const char *s, int *k, int *n)
+{
+    const char *slash = strchr(s, '/');
+    char kt[32];
+    if (!slash || slash == s || (size_t)(slash - s) >= sizeof kt)
+        return -1;
+    snprintf(kt, sizeof kt, "%.*s", (int)(slash - s), s);
+    return dm_cli_parse_int(kt, 0, MAX_SHARDS - 1, k) ||
+           dm_cli_parse_int(slash + 1, 1, MAX_SHARDS, n) || *k >= *n ? -1 : 0;
+}
+
+/* A Slurm variable as a whole number >= 0. */
+static int slurm_var(const char *name, long *v, dm_error *err)
+{
+    const char *s = getenv(name);
+    char *end;
+    if (!s || !*s)
+        return dm_fail(err, DM_EINVAL,
+                       "--shard slurm: %s is not set (run it as a task of a job array: "
+                       "sbatch --array=0-7 ...)",
+                       name);
+    *v = strtol(s, &end, 10);
+    if (*end || *v < 0 || *v > MAX_SHARDS)
+        return dm_fail(err, DM_EINVAL, "--shard slurm: %s is not a whole number 0..%d: %s",
+                       name, MAX_SHARDS, s);
+    return DM_OK;
+}
+
+/* --shard slurm: K relative to the array's first task, N its task count,
+ * for an array of consecutive tasks (a partial rerun, --array=3,7, would
+ * renumber the shards: it needs slurm/N). --shard slurm/N: K is the task
+ * id itself. */
+static int slurm_shard(const char *spec, int *k, int *n, dm_error *err)
+{
+    long id, lo, hi, count;
+    int rc = slurm_var("SLURM_ARRAY_TASK_ID", &id, err);
+    if (!rc && spec[5] == '/') {
+        if (dm_cli_parse_int(spec + 6, 1, MAX_SHARDS, n))
+            return dm_fail(err, DM_EINVAL, "--shard slurm/N: N must be a whole number 1..%d: %s",
+                           MAX_SHARDS, spec);
+        if (id >= *n)
+            return dm_fail(err, DM_EINVAL,
+                           "--shard %s: SLURM_ARRAY_TASK_ID=%ld is not a shard 0..%d", spec, id,
+                           *n - 1);
+        *k = (int)id;
+        return DM_OK;
+    }
+    if (!rc)
+        rc = slurm_var("SLURM_ARRAY_TASK_MIN", &lo, err);
+    if (!rc)
+        rc = slurm_var("SLURM_ARRAY_TASK_COUNT", &count, err);
+    if (!rc)
+        rc = slurm_var("SLURM_ARRAY_TASK_MAX", &hi, err);
+    if (!rc && (hi - lo + 1 != count || id < lo || id > hi || count < 1))
+        rc = dm_fail(err, DM_EINVAL,
+                     "--shard slurm: the array's tasks %ld..%ld are not %ld consecutive ones "
+                     "(a rerun of some tasks? use --shard slurm/N with the sweep's N)",
+                     lo, hi, count);
+    if (!rc) {
+        *k = (int)(id - lo);
+        *n = (int)count;
+    }
+    return rc;
+}
+
+/* The sweep's progress on stderr: a bar redrawn 4 times a second, or a line
+ * every 10 s; each phase (the anchors, then the tiles) shows at once. */
+typedef struct {
+    int mode;
+    double last, phase_start;
+} progress_view;
+
+static void draw_progress(void *user, const dm_sweep_progress *p)
+{
+    progress_view *v = user;
+    if (p->done == 0 && !p->final)
+        v->phase_start = p->seconds;
+    else if (!p->final && p->seconds - v->last < (v->mode == 1 ? 0.25 : 10.0))
+        return;
+    v->last = p->seconds;
+    double el = p->seconds - v->phase_start;
+    int pct = p->total ? (int)(100 * p->done / p->total) : 100;
+    double eta = p->done ? el * (p->total - p->done) / p->done : 0;
+    char what[96];
+    if (p->phase == DM_SWEEP_ANCHORS)
+        snprintf(what, sizeof what, "mode-tracking anchors %ld/%ld", p->done, p->total);
+    else
+        snprintf(what, sizeof what, "%ld/%ld tiles  %.0f points/s  ETA %.0f s", p->done,
+                 p->total, el > 0 ? p->done * p->points_per_tile / el : 0.0, eta);
+    if (v->mode == 1) {
+        char bar[31];
+        for (int i = 0; i < 30; i++)
+            bar[i] = i < pct * 30 / 100 ? '#' : '.';
+        bar[30] = '\0';
+        fprintf(stderr, "\r[%s] %3d%%  %s  (%.0f s)   %s", bar, pct, what, p->seconds,
+                p->final ? "\n" : "");
+    } else {
+        fprintf(stderr, "sweep: %s (%d%%), %.0f s\n", what, pct, p->seconds);
+    }
+    fflush(stderr);
+}
+
+/* Resolve --shard into opts (a usage error: 1; bad environment: 2). */
+static int resolve_shard(const char *spec, dm_sweep_opts *o)
+{
+    dm_error err;
+    if (!spec)
+        return 0;
+    if (!strncmp(spec, "slurm", 5) && (!spec[5] || spec[5] == '/'))
+        return slurm_shard(spec, &o->shard, &o->shards, &err) ? dm_cli_report(&err) : 0;
+    if (parse_fraction(spec, &o->shard, &o->shards))
+        return dm_cli_usage("sweep", "--shard takes K/N (0 <= K < N), slurm or slurm/N", spec);
+    return 0;
+}
+
 int dm_cli_sweep(int argc, char **argv)
 {
     sweep_args a;
     int rc = parse_sweep(argc, argv, &a);
+    if (!rc)
+        rc = resolve_shard(a.shard, &a.o);
     if (rc)
         return rc;
     dm_robot rb;
@@ -140,11 +282,19 @@ int dm_cli_sweep(int argc, char **argv)
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
     dm_sweep_stats st;
+    progress_view view = {a.progress, -1e9, 0};
+    if (a.progress) {
+        a.o.progress = draw_progress;
+        a.o.progress_user = &view;
+    }
     rc = dm_sweep_run(&rb, &grid, &a.o, a.out, &stop_requested, &st, &err);
     if (rc && rc != DM_EINTERRUPT)
         return dm_cli_report(&err);
-    printf("sweep   %s on %s: %ld points in %ld tiles (%ld already done, %ld computed) in %.1f s\n",
-           rb.name, a.grid, st.points_total, st.tiles_total, st.tiles_present, st.tiles_computed,
+    printf("sweep   %s on %s: %ld points in %ld tiles", rb.name, a.grid, st.points_total,
+           st.tiles_total);
+    if (a.o.shards > 1)
+        printf(", shard %d of %d: %ld tiles", a.o.shard, a.o.shards, st.tiles_mine);
+    printf(" (%ld already done, %ld computed) in %.1f s\n", st.tiles_present, st.tiles_computed,
            st.seconds);
     printf("points  computed now: %ld ok, %ld near-singular, %ld unreachable, %ld failed\n",
            st.points_ok, st.points_near_singular, st.points_unreachable, st.points_failed);
@@ -156,6 +306,13 @@ int dm_cli_sweep(int argc, char **argv)
 
 /* ---- info ------------------------------------------------------------------ */
 
+static const char INFO_HELP[] =
+    "usage: deltamap info maps/NAME [--shards N]\n"
+    "\n"
+    "What a map store holds, how complete it is and whether its checksums hold;\n"
+    "which tiles are still to compute and, given --shards N, which of the N\n"
+    "shards of a sharded sweep (sweep --shard K/N) still have work.\n";
+
 static void print_dims(const dm_array_spec *a)
 {
     printf("(");
@@ -164,19 +321,198 @@ static void print_dims(const dm_array_spec *a)
     printf(")");
 }
 
+/* What the scan of a store's tiles found. */
+typedef struct {
+    long nt[3], tiles, complete, corrupt, missing_chunks, counts[256];
+    char *done; /* per tile: every chunk present and valid */
+} tile_census;
+
+/* Read and verify every chunk of tile t; count its point statuses. */
+static int census_tile(const dm_store *st, int status, long t, tile_census *tc, void *buf)
+{
+    const dm_array_spec *sa = &st->arr[status];
+    int64_t c[4] = {t / (tc->nt[1] * tc->nt[2]), (t / tc->nt[2]) % tc->nt[1], t % tc->nt[2], 0};
+    int ok = 1;
+    dm_error err;
+    for (int a = 0; a < st->narr; a++) {
+        if (st->arr[a].ndim < 3)
+            continue; /* coordinates */
+        int missing;
+        if (dm_store_read_chunk(st, a, c, buf, &missing, &err)) {
+            ok = 0;
+            missing ? tc->missing_chunks++ : tc->corrupt++;
+            if (!missing)
+                printf("  corrupt: %s\n", err.msg);
+            continue;
+        }
+        if (a != status)
+            continue;
+        const unsigned char *s = buf;
+        for (int i0 = 0; i0 < sa->chunk[0]; i0++)
+            for (int i1 = 0; i1 < sa->chunk[1]; i1++)
+                for (int i2 = 0; i2 < sa->chunk[2]; i2++)
+                    if (c[0] * sa->chunk[0] + i0 < sa->shape[0] &&
+                        c[1] * sa->chunk[1] + i1 < sa->shape[1] &&
+                        c[2] * sa->chunk[2] + i2 < sa->shape[2])
+                        tc->counts[s[((size_t)i0 * sa->chunk[1] + i1) * sa->chunk[2] + i2]]++;
+    }
+    return ok;
+}
+
+/* Every tile of the status array's chunk grid (the data arrays share it). */
+static int census(const dm_store *st, int status, tile_census *tc)
+{
+    const dm_array_spec *sa = &st->arr[status];
+    memset(tc, 0, sizeof *tc);
+    tc->tiles = 1;
+    for (int d = 0; d < 3; d++) {
+        tc->nt[d] = (sa->shape[d] + sa->chunk[d] - 1) / sa->chunk[d];
+        tc->tiles *= tc->nt[d];
+    }
+    size_t maxbytes = 0;
+    for (int a = 0; a < st->narr; a++)
+        if (dm_store_chunk_elems(st, a) * dm_dtype_size(st->arr[a].dtype) > maxbytes)
+            maxbytes = dm_store_chunk_elems(st, a) * dm_dtype_size(st->arr[a].dtype);
+    unsigned char *buf = malloc(maxbytes);
+    tc->done = calloc((size_t)tc->tiles, 1);
+    if (!buf || !tc->done) {
+        free(buf);
+        return -1;
+    }
+    for (long t = 0; t < tc->tiles; t++) {
+        tc->done[t] = (char)census_tile(st, status, t, tc, buf);
+        tc->complete += tc->done[t];
+    }
+    free(buf);
+    return 0;
+}
+
+/* Files named *.tmp.* below dir: temporaries of writers that were killed
+ * (or are writing at this moment). */
+static long count_temporaries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return 0;
+    long n = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
+            continue;
+        char path[2048];
+        struct stat sb;
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        int is_dir = e->d_type == DT_DIR ||
+                     (e->d_type == DT_UNKNOWN && !lstat(path, &sb) && S_ISDIR(sb.st_mode));
+        if (strstr(e->d_name, ".tmp."))
+            n++;
+        else if (is_dir)
+            n += count_temporaries(path);
+    }
+    closedir(d);
+    return n;
+}
+
+/* v[0..n-1] ascending as "0-3,7,9-12" */
+static void print_ranges(const long *v, long n)
+{
+    for (long i = 0; i < n;) {
+        long j = i;
+        while (j + 1 < n && v[j + 1] == v[j] + 1)
+            j++;
+        printf(i ? ",%ld" : "%ld", v[i]);
+        if (j > i)
+            printf(j == i + 1 ? ",%ld" : "-%ld", v[j]);
+        i = j + 1;
+    }
+}
+
+static void print_missing(const tile_census *tc)
+{
+    long todo = tc->tiles - tc->complete, shown = 0;
+    if (!todo)
+        return;
+    printf("missing %ld tile%s (i,j,k):", todo, todo == 1 ? "" : "s");
+    for (long t = 0; t < tc->tiles && shown < 12; t++)
+        if (!tc->done[t]) {
+            printf(" %ld,%ld,%ld", t / (tc->nt[1] * tc->nt[2]), (t / tc->nt[2]) % tc->nt[1],
+                   t % tc->nt[2]);
+            shown++;
+        }
+    printf(todo > shown ? " ... and %ld more\n" : "\n", todo - shown);
+}
+
+/* Which shards of a sweep split n ways still have tiles to compute, and
+ * how to rerun just those. */
+static int print_shards(const tile_census *tc, long n)
+{
+    long *busy = malloc(sizeof(long) * n), nbusy = 0;
+    char *work = calloc((size_t)n, 1);
+    if (!busy || !work) {
+        free(busy);
+        free(work);
+        return -1;
+    }
+    for (long t = 0; t < tc->tiles; t++)
+        if (!tc->done[t])
+            work[dm_shard_of(t, n)] = 1;
+    for (long k = 0; k < n; k++)
+        if (work[k])
+            busy[nbusy++] = k;
+    if (!nbusy)
+        printf("shards  none of %ld has work left\n", n);
+    else {
+        printf("shards  %ld of %ld still have work: ", nbusy, n);
+        print_ranges(busy, nbusy);
+        printf("\nrerun   sbatch --array=");
+        print_ranges(busy, nbusy);
+        printf(" --export=ALL,SHARDS=%ld tools/slurm/sweep.sbatch SWEEP-OPTIONS\n", n);
+        printf("        (or deltamap sweep SWEEP-OPTIONS --shard K/%ld for each K above)\n", n);
+    }
+    free(busy);
+    free(work);
+    return 0;
+}
+
+static int parse_info(int argc, char **argv, const char **store, long *shards)
+{
+    static const struct option lo[] = {{"shards", 1, 0, 'n'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    int c, n;
+    *store = NULL;
+    *shards = 0;
+    optind = 1;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+        if (c == 'h') {
+            fputs(INFO_HELP, stdout);
+            exit(0);
+        }
+        if (c != 'n')
+            return dm_cli_usage("info", "unknown or incomplete option", argv[optind - 1]);
+        if (dm_cli_parse_int(optarg, 1, MAX_SHARDS, &n))
+            return dm_cli_usage("info", "--shards takes a whole number 1..1000000", optarg);
+        *shards = n;
+    }
+    if (optind != argc - 1)
+        return dm_cli_usage("info", optind < argc ? "one store only" : "which store?",
+                            optind < argc ? argv[optind + 1] : NULL);
+    *store = argv[optind];
+    return 0;
+}
+
 int dm_cli_info(int argc, char **argv)
 {
-    if (argc != 2 || !strcmp(argv[1], "--help")) {
-        printf("usage: deltamap info maps/NAME\n\nWhat a map store holds, how complete it is "
-               "and whether its checksums hold.\n");
-        return argc == 2 ? 0 : EXIT_USAGE;
-    }
+    const char *path;
+    long shards;
+    int rc = parse_info(argc, argv, &path, &shards);
+    if (rc)
+        return rc;
     dm_store st;
     dm_error err;
-    if (dm_store_read_metadata(argv[1], &st, &err))
+    if (dm_store_read_metadata(path, &st, &err))
         return dm_cli_report(&err);
     json_t *dm = json_object_get(st.group_attributes, "deltamap");
-    printf("store   %s (Zarr v3 group)\n", argv[1]);
+    printf("store   %s (Zarr v3 group)\n", path);
     printf("robot   %s\n", json_string_value(json_object_get(dm, "robot")));
     printf("grid    %s (%s)\n", json_string_value(json_object_get(dm, "grid")),
            json_string_value(json_object_get(dm, "grid_kind")));
@@ -190,56 +526,36 @@ int dm_cli_info(int argc, char **argv)
         if (!strcmp(s->name, "status"))
             status = a;
     }
-    if (status < 0) {
+    if (status < 0 || st.arr[status].ndim < 3 || st.arr[status].dtype != DM_DTYPE_UINT8) {
         dm_store_release(&st);
-        fprintf(stderr, "deltamap: %s: no status array\n", argv[1]);
+        fprintf(stderr, "deltamap: %s: no status array (uint8, x, y, z): not a map store\n",
+                path);
         return DM_EINVAL;
     }
-    /* tiles: the chunk grid of the status array; data arrays share it */
-    const dm_array_spec *sa = &st.arr[status];
-    long nt[3], tiles = 1, complete = 0, corrupt = 0, missing_chunks = 0, counts[256] = {0};
-    for (int d = 0; d < 3; d++) {
-        nt[d] = (sa->shape[d] + sa->chunk[d] - 1) / sa->chunk[d];
-        tiles *= nt[d];
+    tile_census tc;
+    if (census(&st, status, &tc)) {
+        dm_store_release(&st);
+        fprintf(stderr, "deltamap: out of memory\n");
+        return DM_ENOMEM;
     }
-    size_t maxbytes = 0;
-    for (int a = 0; a < st.narr; a++)
-        if (dm_store_chunk_elems(&st, a) * dm_dtype_size(st.arr[a].dtype) > maxbytes)
-            maxbytes = dm_store_chunk_elems(&st, a) * dm_dtype_size(st.arr[a].dtype);
-    unsigned char *buf = malloc(maxbytes);
-    for (long t = 0; t < tiles && buf; t++) {
-        int64_t tc[4] = {t / (nt[1] * nt[2]), (t / nt[2]) % nt[1], t % nt[2], 0};
-        int ok = 1;
-        for (int a = 0; a < st.narr; a++) {
-            if (st.arr[a].ndim < 3)
-                continue; /* coordinates */
-            int missing;
-            if (dm_store_read_chunk(&st, a, tc, buf, &missing, &err)) {
-                ok = 0;
-                missing ? missing_chunks++ : corrupt++;
-                if (!missing)
-                    printf("  corrupt: %s\n", err.msg);
-            } else if (a == status) {
-                for (int d = 0; d < 3; d++)
-                    if (tc[d] * sa->chunk[d] >= sa->shape[d])
-                        ok = 0;
-                for (int i0 = 0; i0 < sa->chunk[0]; i0++)
-                    for (int i1 = 0; i1 < sa->chunk[1]; i1++)
-                        for (int i2 = 0; i2 < sa->chunk[2]; i2++)
-                            if (tc[0] * sa->chunk[0] + i0 < sa->shape[0] &&
-                                tc[1] * sa->chunk[1] + i1 < sa->shape[1] &&
-                                tc[2] * sa->chunk[2] + i2 < sa->shape[2])
-                                counts[buf[((size_t)i0 * sa->chunk[1] + i1) * sa->chunk[2] + i2]]++;
-            }
-        }
-        complete += ok;
-    }
-    free(buf);
     printf("\ntiles   %ld of %ld complete (%.1f %%); %ld chunk files missing, %ld corrupt\n",
-           complete, tiles, 100.0 * complete / tiles, missing_chunks, corrupt);
-    printf("points  %ld ok, %ld near-singular, %ld unreachable, %ld solver failure\n", counts[0],
-           counts[2], counts[1], counts[3]);
-    printf("checksums %s\n", corrupt ? "FAILED: re-run the sweep command to recompute" : "ok");
+           tc.complete, tc.tiles, 100.0 * tc.complete / tc.tiles, tc.missing_chunks, tc.corrupt);
+    printf("points  %ld ok, %ld near-singular, %ld unreachable, %ld solver failure\n",
+           tc.counts[0], tc.counts[2], tc.counts[1], tc.counts[3]);
+    printf("checksums %s\n", tc.corrupt ? "FAILED: re-run the sweep command to recompute" : "ok");
+    print_missing(&tc);
+    rc = shards ? print_shards(&tc, shards) : 0;
+    long temps = count_temporaries(path);
+    if (temps)
+        printf("temps   %ld temporary files, of writers at work or killed (readers ignore "
+               "them; a sweep removes dead writers' ones beside the tiles it recomputes; with "
+               "no sweep running: find %s -name '*.tmp.*' -delete)\n",
+               temps, path);
+    free(tc.done);
     dm_store_release(&st);
-    return corrupt ? DM_EIO : 0;
+    if (rc) {
+        fprintf(stderr, "deltamap: out of memory\n");
+        return DM_ENOMEM;
+    }
+    return tc.corrupt ? DM_EIO : 0;
 }

@@ -1,10 +1,14 @@
 /* deltamap trajectory: 6-D elastic error of the platform along a path. */
+#define _XOPEN_SOURCE 700 /* nftw */
+#include <errno.h>
+#include <ftw.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "cli_impl.h"
 #include "dm_integrate.h"
@@ -13,9 +17,9 @@
 static const char HELP[] =
     "usage: deltamap trajectory --robot R --path P [--modes K|all] [--dt S]\n"
     "                           [--integrator cvode|closed-form|full] [--rtol X] [--atol X]\n"
-    "                           [--quasi-static] [--from-rest] [--no-reference]\n"
+    "                           [--no-quasi-static] [--from-rest] [--no-reference]\n"
     "                           [--mesh NA,NB] [--tool X,Y,Z] [--force FX,FY,FZ]\n"
-    "                           [--set SECTION.KEY=V]...\n"
+    "                           [--set SECTION.KEY=V]... [--force-long]\n"
     "                           [--out FILE.csv] [--json]\n"
     "\n"
     "Normal-coordinate integration along a trajectory (MODEL.md §4): the robot is\n"
@@ -35,9 +39,13 @@ static const char HELP[] =
     "  --integrator M   cvode (default), closed-form (exact per step, cross-check) or\n"
     "                   full (full model with CVODE, validation)\n"
     "  --rtol, --atol   CVODE tolerances (default 1e-8, 1e-14 in sqrt(kg)*m)\n"
-    "  --quasi-static   add the static response of the dropped modes to the outputs\n"
+    "  --no-quasi-static  leave out the static response of the dropped modes (on by\n"
+    "                   default: 10 modes then give the all-modes answer for the slow\n"
+    "                   part; --quasi-static is accepted and is the default)\n"
     "  --from-rest      start undeformed (default: static equilibrium under gravity)\n"
     "  --no-reference   skip the all-modes run that measures the truncation error\n"
+    "                   (for an undamped robot both runs of that figure get a light\n"
+    "                   damping, beta = 1e-4 s, and the output says so)\n"
     "  --mesh NA,NB     elements per arm and rod (default: the robot file's)\n"
     "  --set K=V        override a robot-file key (repeatable)\n"
     "  --force FX,FY,FZ constant external force at the platform centre, N (also in\n"
@@ -46,6 +54,8 @@ static const char HELP[] =
     "  --out FILE       per-step CSV: t, pose, six error components, |error|, tool\n"
     "                   error, first three frequencies; a name ending in .zarr writes\n"
     "                   the same as a Zarr v3 group (the map store's format)\n"
+    "  --force-long     run even when the estimated work exceeds 4 hours (refused\n"
+    "                   before it starts otherwise)\n"
     "  --json           summary as JSON: mean_error_m, peak_error_m, truncation_error\n";
 
 typedef struct {
@@ -61,9 +71,11 @@ static int parse(int argc, char **argv, traj_opts *t)
     static const struct option lo[] = {
         {"robot", 1, 0, 'r'}, {"path", 1, 0, 'p'}, {"modes", 1, 0, 'k'}, {"dt", 1, 0, 'd'},
         {"integrator", 1, 0, 'i'}, {"rtol", 1, 0, 'R'}, {"atol", 1, 0, 'A'},
-        {"quasi-static", 0, 0, 'q'}, {"from-rest", 0, 0, 'z'}, {"no-reference", 0, 0, 'n'},
+        {"quasi-static", 0, 0, 'q'}, {"no-quasi-static", 0, 0, 'Q'}, {"from-rest", 0, 0, 'z'},
+        {"no-reference", 0, 0, 'n'},
         {"mesh", 1, 0, 'm'}, {"tool", 1, 0, 't'}, {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'},
-        {"set", 1, 0, 's'}, {"force", 1, 0, 'F'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"set", 1, 0, 's'}, {"force", 1, 0, 'F'}, {"force-long", 0, 0, 'L'},
+        {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     int c;
     double v[2];
     memset(t, 0, sizeof *t);
@@ -77,6 +89,8 @@ static int parse(int argc, char **argv, traj_opts *t)
         case 'o': t->out = optarg; break;
         case 'j': t->json = 1; break;
         case 'q': t->o.quasi_static = 1; break;
+        case 'Q': t->o.quasi_static = 0; break;
+        case 'L': t->o.force = 1; break;
         case 'z': t->o.from_rest = 1; break;
         case 's':
             if (dm_cli_add_set("trajectory", t->sets, &t->nset, optarg))
@@ -209,12 +223,44 @@ static double sample_value(const dm_integ_sample *s, int array, int j)
     }
 }
 
+static int remove_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw)
+{
+    (void)sb, (void)flag, (void)ftw;
+    return remove(path);
+}
+
+/* A run's store appears whole or not at all: it is written as PATH.tmp.PID
+ * and renamed over PATH, replacing an earlier run's store (a directory
+ * whose zarr.json is a deltamap trajectory run) but nothing else. */
+static int replace_store(const char *tmp, const char *path, dm_error *err)
+{
+    if (!rename(tmp, path))
+        return DM_OK;
+    if (errno == ENOTEMPTY || errno == EEXIST) {
+        char file[1100];
+        snprintf(file, sizeof file, "%s/zarr.json", path);
+        json_error_t je;
+        json_t *g = json_load_file(file, 0, &je);
+        if (!g && json_error_code(&je) == json_error_out_of_memory)
+            return dm_fail(err, DM_ENOMEM, "%s: out of memory", file);
+        const char *title = json_string_value(json_object_get(json_object_get(g, "attributes"), "title"));
+        int ours = title && !strcmp(title, "deltamap trajectory run");
+        json_decref(g);
+        if (!ours)
+            return dm_fail(err, DM_EINVAL, "%s exists and is not a trajectory store written by "
+                           "deltamap; choose another --out", path);
+        if (!nftw(path, remove_entry, 16, FTW_DEPTH | FTW_PHYS) && !rename(tmp, path))
+            return DM_OK;
+    }
+    return dm_fail(err, DM_EIO, "%s: cannot replace: %s", path, strerror(errno));
+}
+
 static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory *tr,
                       const sample_list *l, int nfreq, dm_error *err)
 {
     dm_store st;
     memset(&st, 0, sizeof st);
-    snprintf(st.path, sizeof st.path, "%s", path);
+    snprintf(st.path, sizeof st.path, "%s.tmp.%ld", path, (long)getpid());
     time_array(&st, "time", NULL, 1, "s", "time", l->n);
     time_array(&st, "position", "axis", 3, "m", "commanded platform centre", l->n);
     time_array(&st, "error", "component", 6, "m, rad", "platform error dx dy dz (m) ex ey ez (rad)", l->n);
@@ -245,6 +291,10 @@ static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory 
     for (int a = 0; a < st.narr; a++)
         json_decref(st.arr[a].attributes);
     json_decref(st.group_attributes);
+    if (!rc)
+        rc = replace_store(st.path, path, err);
+    if (rc)
+        nftw(st.path, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
     return rc;
 }
 
@@ -270,6 +320,9 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
         json_object_set_new(o, "reference_mean_error_m",
                             isnan(s->reference_mean_error_m) ? json_null()
                                                              : json_real(s->reference_mean_error_m));
+        json_object_set_new(o, "quasi_static", json_boolean(t->o.quasi_static));
+        json_object_set_new(o, "truncation_damping_beta_s",
+                            s->truncation_beta_s > 0 ? json_real(s->truncation_beta_s) : json_null());
         json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(17));
         putchar('\n');
         json_decref(o);
@@ -281,7 +334,12 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
            t->o.dt_s);
     printf("mean error  %.6e m   (Chen eq. 27: (1/T) sum dt |Delta|)\n", s->mean_error_m);
     printf("peak error  %.6e m\n", s->peak_error_m);
-    if (!isnan(s->truncation_error))
+    if (!isnan(s->truncation_error) && s->truncation_beta_s > 0)
+        printf("truncation  %.3f %% (RMS of Delta_k - Delta_all over RMS of Delta_all, both with "
+               "Rayleigh beta = %g s: undamped, the all-modes run is not converged in dt; all %d "
+               "modes so damped: mean error %.6e m)\n",
+               100 * s->truncation_error, s->truncation_beta_s, s->n, s->reference_mean_error_m);
+    else if (!isnan(s->truncation_error))
         printf("truncation  %.3f %% (RMS of Delta_k - Delta_all over RMS of Delta_all; all %d "
                "modes: mean error %.6e m)\n",
                100 * s->truncation_error, s->n, s->reference_mean_error_m);
@@ -331,11 +389,10 @@ int dm_cli_trajectory(int argc, char **argv)
     }
     if (sum.aliasing_risk)
         fprintf(stderr,
-                "deltamap: warning: undamped run with %s and dt %g s > 1.25e-4 s: step-boundary "
-                "projections can alias into high modes and grow (MODEL.md §4). Add damping, "
-                "keep <= 20 modes%s, or use --dt 1.25e-4.\n",
-                sum.k > 20 ? "more than 20 modes" : "an all-modes reference", t.o.dt_s,
-                t.o.reference ? " and --no-reference" : "");
+                "deltamap: warning: undamped run with more than 20 modes and dt %g s > 1.25e-4 "
+                "s: step-boundary projections can alias into high modes and grow (MODEL.md "
+                "§4). Add damping, keep <= 20 modes, or use --dt 1.25e-4.\n",
+                t.o.dt_s);
     print_summary(&t, &rb, &tr, &sum);
     dm_traj_free(&tr);
     return 0;

@@ -139,7 +139,16 @@ typedef struct {
     const double *w;         /* weights 1/sigma */
     int sigma_known;         /* else w is 1/RMS of the baseline's residuals */
     double train_end_s;      /* tracker: time of the last training sample */
+    int *nomem;              /* set when a fit ran out of memory (the result is void) */
 } shared;
+
+/* A fit that fails for want of memory must not pass for one that does
+ * not fit: the diagnosis is then an out-of-memory error. */
+static void out_of_memory(const shared *s)
+{
+#pragma omp atomic write
+    *s->nomem = 1;
+}
 
 /* One fit: its effects, the leading `nfixed` of them held at `fixed`, and
  * its own prediction buffer. */
@@ -231,7 +240,10 @@ static int residuals(void *user, int m, int n, const double *x, double *fvec, in
     const shared *s = p->s;
     double value[2][DM_DIAG_MAXV];
     to_values(p, x, value);
-    if (predict_with(p, value, NULL)) {
+    int rc = predict_with(p, value, NULL);
+    if (rc == DM_ENOMEM)
+        out_of_memory(s);
+    if (rc) {
         for (int i = 0; i < m; i++)
             fvec[i] = 1e3; /* unphysical region: steer the search away */
         return 0;
@@ -318,7 +330,9 @@ static void lm_fit(problem *p, double *x, int n, int m, double *sig)
     int ipvt[DM_DIAG_MAXP], nfev = 0;
     for (int j = 0; j < n; j++)
         sig[j] = INFINITY;
-    if (fvec && fjac && wa4) {
+    if (!fvec || !fjac || !wa4)
+        out_of_memory(p->s);
+    else {
         int info = lmdif(residuals, p, m, n, x, fvec, 1e-6, 1e-6, 0.0, 25 * (n + 1), 0.0, diag,
                          1, 100.0, 0, &nfev, fjac, m, ipvt, qtf, wa1, wa2, wa3, wa4);
         if (info > 0) {
@@ -359,6 +373,8 @@ static void chord_fit(problem *p, double *x, int n, int m, const double *sc, dou
     *nseen = 0;
     if (!f || !f1 || !J || !U || r < 1) {
         free(f), free(f1), free(J), free(U);
+        if (r >= 1)
+            out_of_memory(p->s);
         return;
     }
     residuals(p, m, n, x, f, 1);
@@ -514,6 +530,7 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][DM_DIAG_MAXV
     if (!fvec || !p->pred) {
         f->held_chi2 = f->score = INFINITY;
         free(fvec), free(p->pred);
+        out_of_memory(p->s);
         return;
     }
     const dm_candidate *lone = n == 1 && !linear && !start ? p->cand[p->ncand - 1] : NULL;
@@ -535,7 +552,10 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][DM_DIAG_MAXV
             f->sigma[i][k] = p->cand[i]->linear ? sig[j] : value[i][k] * log(10.0) * sig[j];
     memcpy(f->value, value, sizeof value);
     f->nfree = linear && n > 0 ? ntotal - n + nseen : ntotal;
-    f->ok = predict_with(p, value, NULL) == DM_OK;
+    int rc = predict_with(p, value, NULL);
+    if (rc == DM_ENOMEM)
+        out_of_memory(p->s);
+    f->ok = rc == DM_OK;
     if (f->ok)
         score_fit(p, dg, f);
     else
@@ -843,6 +863,7 @@ static void locate_excess(const shared *s, const double *r, dm_noise_test *t)
     int *order = malloc(sizeof(int) * d->npose), n = 0;
     if (!ex || !order) {
         free(ex), free(order);
+        out_of_memory(s);
         return;
     }
     for (int i = 0; i < d->n; i++)
@@ -1048,7 +1069,10 @@ static void identify(const shared *s, const dm_fit *f, const linearisation *L, d
 static void check_verdict(const shared *s, dm_diagnosis *dg)
 {
     linearisation L;
-    if (!linearise(s, &dg->best, &L)) {
+    int rc = linearise(s, &dg->best, &L);
+    if (rc == DM_ENOMEM)
+        out_of_memory(s);
+    if (!rc) {
         noise_test(s, dg, &L, &dg->noise);
         dg->explained = dg->noise.consistent;
         identify(s, &dg->best, &L, &dg->ident);
@@ -1112,7 +1136,8 @@ int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts 
         free(held), free(pred), free(w);
         return dm_fail(err, DM_ENOMEM, "out of memory");
     }
-    shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w};
+    int nomem = 0;
+    shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w, .nomem = &nomem};
     split_samples(d, held);
     for (int i = 0; i < d->n; i++) {
         dg->n_held += held[i];
@@ -1149,6 +1174,9 @@ int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts 
         } else {
             dg->has_simpler_choice = 0;
         }
+        if (nomem)
+            rc = dm_fail(err, DM_ENOMEM, "%s: out of memory while fitting the effects",
+                         d->source);
     }
     free(held);
     free(pred);
@@ -1177,7 +1205,8 @@ int dm_fit_effects(const dm_robot *rb, const dm_dataset *d, const char *const *n
                                   : dm_predict(rb, d, o->na, o->nb, pred, err);
     if (!rc) {
         dm_diagnosis dg = {.n_train = d->n};
-        shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w};
+        int nomem = 0;
+        shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w, .nomem = &nomem};
         dg.sigma_known = s.sigma_known = weights(d, pred, w);
         for (int i = 0; i < d->n; i++)
             s.train_end_s = fmax(s.train_end_s, d->s[i].t);
@@ -1186,7 +1215,10 @@ int dm_fit_effects(const dm_robot *rb, const dm_dataset *d, const char *const *n
             memcpy(st, start, sizeof st);
         p.s = &s;
         fit(&p, &dg, start ? st : NULL, f);
-        if (!f->ok)
+        if (nomem)
+            rc = dm_fail(err, DM_ENOMEM, "%s: out of memory while fitting %s", d->source,
+                         names[0]);
+        else if (!f->ok)
             rc = dm_fail(err, DM_ENUMERIC, "the fit of %s failed", names[0]);
     }
     free(held);

@@ -43,12 +43,17 @@ static int parse_axis(const char *text, dm_grid_axis *ax, const char *spec, dm_e
         ax->from = v[0];
         ax->to = v[1];
         ax->count = (int)v[2];
+        if (!isfinite((ax->to - ax->from) * (ax->count - 1))) /* dm_grid_value's product */
+            return dm_fail(err, DM_EINVAL, "grid '%s': axis %s: range %g:%g is too large", spec,
+                           ax->name, ax->from, ax->to);
         if (ax->count > 1 && ax->from == ax->to)
             return dm_fail(err, DM_EINVAL, "grid '%s': axis %s has %d points on an empty range",
                            spec, ax->name, ax->count);
         if (ax->count == 1 && ax->from != ax->to)
             return dm_fail(err, DM_EINVAL, "grid '%s': axis %s: one point cannot span %g:%g",
                            spec, ax->name, ax->from, ax->to);
+        if (ax->count == 1)
+            ax->to = ax->from; /* 0:-0:1 is the one point 0, as "0" reads */
     } else {
         return dm_fail(err, DM_EINVAL, "grid '%s': axis %s: N must be a whole number 1..1000000",
                        spec, ax->name);

@@ -55,6 +55,7 @@ struct dm_stepper {
     double *Mx, *q, *qd, *f0, *f1, *omega, *zeta; /* modal buffers */
     double *Minv_K, *b0, *b1, *Mfac;              /* full-model buffers */
     double alpha, beta, h;                        /* current step */
+    int own_damping;                              /* alpha, beta set, not the robot's */
     SUNContext ctx;
     void *cvode;
     N_Vector y;
@@ -205,6 +206,24 @@ static int full_jac(realtype t, N_Vector y, N_Vector fy, SUNMatrix J, void *user
     return 0;
 }
 
+static void quiet(int code, const char *module, const char *function, char *msg, void *user)
+{
+    (void)code, (void)module, (void)function, (void)msg, (void)user;
+}
+
+/* A CVODE call's flag: negative is failure, named with the call and
+ * SUNDIALS' name for the flag (linear-solver calls have their own). */
+static int cv_check(int flag, const char *call, int linear, dm_error *err)
+{
+    if (flag >= 0)
+        return DM_OK;
+    char *name = linear ? CVodeGetLinReturnFlagName(flag) : CVodeGetReturnFlagName(flag);
+    int rc = dm_fail(err, DM_ENUMERIC, "CVODE: %s failed: %s (flag %d)", call,
+                     name ? name : "?", flag);
+    free(name);
+    return rc;
+}
+
 static int ensure_cvode(dm_stepper *st, int size, dm_error *err)
 {
     if (st->ode_size == size)
@@ -222,13 +241,27 @@ static int ensure_cvode(dm_stepper *st, int size, dm_error *err)
         return dm_fail(err, DM_ENOMEM, "out of memory for CVODE");
     }
     N_VConst(0.0, st->y);
-    if (CVodeInit(st->cvode, full ? full_rhs : modal_rhs, 0.0, st->y) ||
-        CVodeSStolerances(st->cvode, st->rtol, st->atol) ||
-        CVodeSetUserData(st->cvode, st) || CVodeSetLinearSolver(st->cvode, st->LS, st->J) ||
-        CVodeSetJacFn(st->cvode, full ? full_jac : modal_jac) ||
-        CVodeSetMaxNumSteps(st->cvode, 1000000)) {
+    /* CVODE's own handler prints to stderr; our errors say the same */
+    int rc = cv_check(CVodeSetErrHandlerFn(st->cvode, quiet, NULL), "CVodeSetErrHandlerFn", 0, err);
+    if (!rc)
+        rc = cv_check(CVodeInit(st->cvode, full ? full_rhs : modal_rhs, 0.0, st->y), "CVodeInit",
+                      0, err);
+    if (!rc)
+        rc = cv_check(CVodeSStolerances(st->cvode, st->rtol, st->atol), "CVodeSStolerances", 0,
+                      err);
+    if (!rc)
+        rc = cv_check(CVodeSetUserData(st->cvode, st), "CVodeSetUserData", 0, err);
+    if (!rc)
+        rc = cv_check(CVodeSetLinearSolver(st->cvode, st->LS, st->J), "CVodeSetLinearSolver", 1,
+                      err);
+    if (!rc)
+        rc = cv_check(CVodeSetJacFn(st->cvode, full ? full_jac : modal_jac), "CVodeSetJacFn", 1,
+                      err);
+    if (!rc)
+        rc = cv_check(CVodeSetMaxNumSteps(st->cvode, 1000000), "CVodeSetMaxNumSteps", 0, err);
+    if (rc) {
         free_cvode(st);
-        return dm_fail(err, DM_ENUMERIC, "CVODE set-up failed");
+        return rc;
     }
     st->ode_size = size;
     return DM_OK;
@@ -237,16 +270,26 @@ static int ensure_cvode(dm_stepper *st, int size, dm_error *err)
 static int run_cvode(dm_stepper *st, double h, dm_error *err)
 {
     realtype tret;
-    if (CVodeReInit(st->cvode, 0.0, st->y) || CVodeSetStopTime(st->cvode, h))
-        return dm_fail(err, DM_ENUMERIC, "CVODE re-initialisation failed");
-    int flag = CVode(st->cvode, h, st->y, &tret, CV_NORMAL);
-    if (flag < 0)
-        return dm_fail(err, DM_ENUMERIC, "CVODE failed over a step of %g s (flag %d)", h, flag);
-    return DM_OK;
+    int rc = cv_check(CVodeReInit(st->cvode, 0.0, st->y), "CVodeReInit", 0, err);
+    if (!rc)
+        rc = cv_check(CVodeSetStopTime(st->cvode, h), "CVodeSetStopTime", 0, err);
+    if (!rc)
+        rc = cv_check(CVode(st->cvode, h, st->y, &tret, CV_NORMAL), "CVode (one frozen step)", 0,
+                      err);
+    return rc;
+}
+
+void dm_stepper_set_damping(dm_stepper *st, double alpha, double beta)
+{
+    st->alpha = alpha;
+    st->beta = beta;
+    st->own_damping = 1;
 }
 
 static void set_damping(dm_stepper *st, const dm_model *md)
 {
+    if (st->own_damping)
+        return;
     st->alpha = md->robot->rayleigh_alpha;
     st->beta = md->robot->rayleigh_beta;
 }

@@ -19,6 +19,7 @@ void dm_integ_opts_default(dm_integ_opts *o)
     o->rtol = 1e-8;
     o->atol = 1e-14;
     o->reference = 1;
+    o->quasi_static = 1;
     o->nfreq = 3;
 }
 
@@ -31,7 +32,12 @@ typedef struct {
     dm_modal *modal, *modal_all;
     dm_static *statics;
     dm_stepper *stepper, *ref_stepper;
-    double *x, *xd, *xr, *xrd, *F0, *F1, *xout;
+    /* an undamped robot's truncation figure: k modes and all modes, both
+     * with DM_TRUNCATION_BETA (the figure run; NULL when the robot has
+     * damping and the main run serves) */
+    dm_stepper *fig_stepper;
+    double fig_beta;
+    double *x, *xd, *xr, *xrd, *xf, *xfd, *F0, *F1, *xout, *xfout;
     /* the pose the model, modes and factor were last made for: a step at
      * the very same pose (a robot standing still) reuses them */
     dm_pose frozen;
@@ -47,10 +53,14 @@ static void free_ws(run_ws *w)
     dm_static_free(w->statics);
     dm_stepper_free(w->stepper);
     dm_stepper_free(w->ref_stepper);
+    dm_stepper_free(w->fig_stepper);
     free(w->x);
     free(w->xd);
     free(w->xr);
     free(w->xrd);
+    free(w->xf);
+    free(w->xfd);
+    free(w->xfout);
     free(w->F0);
     free(w->F1);
     free(w->xout);
@@ -75,16 +85,28 @@ static int alloc_ws(run_ws *w, dm_error *err)
         w->ref_stepper = w->modal_all ? dm_stepper_alloc(n, n, DM_ODE_CLOSED_FORM, 0, 0, err) : NULL;
         if (!w->ref_stepper)
             return err ? err->code : DM_ENOMEM;
+        if (w->rb->rayleigh_alpha == 0 && w->rb->rayleigh_beta == 0 && w->k < n) {
+            w->fig_beta = DM_TRUNCATION_BETA;
+            w->fig_stepper = dm_stepper_alloc(n, w->k, o->method, o->rtol, o->atol, err);
+            if (!w->fig_stepper)
+                return err ? err->code : DM_ENOMEM;
+            dm_stepper_set_damping(w->ref_stepper, 0, w->fig_beta);
+            dm_stepper_set_damping(w->fig_stepper, 0, w->fig_beta);
+        }
     }
     size_t sz = sizeof(double) * n;
     w->x = calloc(1, sz);
     w->xd = calloc(1, sz);
     w->xr = calloc(1, sz);
     w->xrd = calloc(1, sz);
+    w->xf = calloc(1, sz);
+    w->xfd = calloc(1, sz);
+    w->xfout = malloc(sz);
     w->F0 = malloc(sz);
     w->F1 = malloc(sz);
     w->xout = malloc(sz);
-    if (!w->x || !w->xd || !w->xr || !w->xrd || !w->F0 || !w->F1 || !w->xout)
+    if (!w->x || !w->xd || !w->xr || !w->xrd || !w->xf || !w->xfd || !w->xfout || !w->F0 ||
+        !w->F1 || !w->xout)
         return dm_fail(err, DM_ENOMEM, "out of memory for the trajectory run");
     return DM_OK;
 }
@@ -122,13 +144,14 @@ static int load_at(const run_ws *w, double t, double *F, dm_error *err)
     return DM_OK;
 }
 
-/* Output displacement: the state, plus with quasi_static the static part of
- * the dropped modes, K^-1 F - sum_j phi_j phi_j' F / omega_j^2, with the
- * factor of K made with the step's model. */
-static int output_state(run_ws *w, const dm_modes *mo, const double *F, dm_error *err)
+/* Output displacement: the state x, plus with quasi_static the static part
+ * of the dropped modes, K^-1 F - sum_j phi_j phi_j' F / omega_j^2, with the
+ * factor of K made with the step's model, into out. */
+static int output_state(run_ws *w, const dm_modes *mo, const double *F, const double *x,
+                        double *xout, dm_error *err)
 {
     int n = w->n;
-    memcpy(w->xout, w->x, sizeof(double) * n);
+    memcpy(xout, x, sizeof(double) * n);
     if (!w->o.quasi_static || w->k == n)
         return DM_OK;
     double *s = w->F0 == F ? w->F1 : w->F0; /* scratch that is not F */
@@ -145,7 +168,7 @@ static int output_state(run_ws *w, const dm_modes *mo, const double *F, dm_error
             s[i] -= ph[i] * f / w2;
     }
     for (int i = 0; i < n; i++)
-        w->xout[i] += s[i];
+        xout[i] += s[i];
     return DM_OK;
 }
 
@@ -187,6 +210,7 @@ static int initial_state(run_ws *w, dm_error *err)
     dm_loads_add_platform_wrench(w->md, w->o.force_n, no_torque, w->x);
     int rc = dm_static_solve(w->statics, w->x, 1, err); /* factored with the step's model */
     memcpy(w->xr, w->x, sizeof(double) * w->n);
+    memcpy(w->xf, w->x, sizeof(double) * w->n);
     return rc;
 }
 
@@ -232,7 +256,12 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
         rc = dm_stepper_advance(w->ref_stepper, w->md, w->mo_all, w->n, w->F0, w->F1, h, w->xr,
                                 w->xrd, err);
     if (!rc) rc = dm_stepper_advance(w->stepper, w->md, mo, w->k, w->F0, w->F1, h, w->x, w->xd, err);
-    if (!rc) rc = output_state(w, mo, w->F1, err);
+    if (!rc && w->fig_stepper)
+        rc = dm_stepper_advance(w->fig_stepper, w->md, mo, w->k, w->F0, w->F1, h, w->xf, w->xfd, err);
+    /* outputs last: they use F0 as scratch */
+    if (!rc) rc = output_state(w, mo, w->F1, w->x, w->xout, err);
+    if (!rc && w->fig_stepper)
+        rc = output_state(w, mo, w->F1, w->xf, w->xfout, err);
     if (rc)
         return rc;
     fill_sample(w, t1, w->xout, mo, &s);
@@ -241,7 +270,7 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     rs->peak = fmax(rs->peak, e);
     if (w->ref_stepper) {
         double er = dm_norm3(w->xr + w->md->platform_dof);
-        double d = platform_diff(w, w->xout, w->xr);
+        double d = platform_diff(w, w->fig_stepper ? w->xfout : w->xout, w->xr);
         rs->ref_mean += h * er;
         rs->ref_sq += h * er * er;
         rs->diff_sq += h * d * d;
@@ -249,11 +278,30 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     return sink && sink(user, &s) ? DM_EINTERRUPT : DM_OK;
 }
 
+double dm_integ_estimate_s(long steps, int n, int k, int reference)
+{
+    double s = n / 210.0, per_step = 2e-3 * s * s * fmax(1.0, k / 10.0);
+    if (reference)
+        per_step += 5e-3 * s * s * s;
+    return steps * per_step;
+}
+
 int dm_integrate_trajectory(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
                             dm_integ_sink sink, void *user, dm_integ_summary *sum, dm_error *err)
 {
     if (!(o->dt_s > 0) || !(tr->duration_s > 0))
         return dm_fail(err, DM_EINVAL, "time step and duration must be > 0");
+    double steps_d = ceil(tr->duration_s / o->dt_s - 1e-9);
+    int n = dm_model_dofs(rb, o->na ? o->na : rb->na, o->nb ? o->nb : rb->nb);
+    int k = o->k <= 0 || o->k > n ? n : o->k;
+    double est = steps_d > 1e15 ? INFINITY : dm_integ_estimate_s((long)steps_d, n, k, o->reference);
+    if (est > DM_INTEG_MAX_SECONDS && !o->force)
+        return dm_fail(err, DM_EINVAL,
+                       "%s: %.6g s at a step of %g s is %.3g steps, about %.3g hours of work "
+                       "for a %d-DOF model (the limit is %g hours; a larger step, a shorter "
+                       "path or no all-modes reference would do, or force it)",
+                       tr->name, tr->duration_s, o->dt_s, steps_d, est / 3600, n,
+                       DM_INTEG_MAX_SECONDS / 3600);
     int rc = dm_traj_check_reachable(tr, rb, o->dt_s, err);
     if (rc)
         return rc;
@@ -273,8 +321,9 @@ int dm_integrate_trajectory(const dm_robot *rb, const dm_trajectory *tr, const d
         sum->peak_error_m = rs.peak;
         sum->truncation_error = o->reference ? sqrt(rs.diff_sq / rs.ref_sq) : NAN;
         sum->reference_mean_error_m = o->reference ? rs.ref_mean / tr->duration_s : NAN;
+        sum->truncation_beta_s = w.fig_beta;
         int undamped = rb->rayleigh_alpha == 0 && rb->rayleigh_beta == 0;
-        sum->aliasing_risk = undamped && o->dt_s > 1.25e-4 && (w.k > 20 || o->reference);
+        sum->aliasing_risk = undamped && o->dt_s > 1.25e-4 && w.k > 20;
     }
     free_ws(&w);
     return rc;

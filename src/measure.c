@@ -2,6 +2,7 @@
 #include "dm_measure.h"
 
 #include <errno.h>
+#include <float.h>
 #include <limits.h>
 #include <math.h>
 #include <stdlib.h>
@@ -49,13 +50,13 @@ int dm_data_kind_parse(const char *name, dm_data_kind *k)
     return -1;
 }
 
-static int push(dm_dataset *d, const dm_sample *s)
+static int push(dm_dataset *d, const dm_sample *s, dm_error *err)
 {
     if (d->n == d->cap) {
         int cap = d->cap ? 2 * d->cap : 256;
         dm_sample *g = realloc(d->s, sizeof *g * cap);
         if (!g)
-            return DM_ENOMEM;
+            return dm_fail(err, DM_ENOMEM, "%s: out of memory for %d samples", d->source, cap);
         d->s = g;
         d->cap = cap;
     }
@@ -136,9 +137,12 @@ static int cell(const csv_ctx *c, char *cells[], int ncells, const char *name, i
     char *end;
     errno = 0;
     *out = strtod(cells[i], &end);
-    if (end == cells[i] || *end || !isfinite(*out) || errno == ERANGE)
-        return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): '%s' is not a number", c->path,
-                       c->line, i + 1, name, cells[i]);
+    /* subnormals refused however written (0x1p-1074 reads without ERANGE,
+     * 4.94e-324 with), so that what dm_dataset_write makes reads back */
+    if (end == cells[i] || *end || !isfinite(*out) || errno == ERANGE ||
+        (*out != 0 && fabs(*out) < DBL_MIN))
+        return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): '%s' is not a number in range",
+                       c->path, c->line, i + 1, name, cells[i]);
     return DM_OK;
 }
 
@@ -175,7 +179,7 @@ static int read_row(csv_ctx *c, dm_dataset *d, char *cells[], int nc, double *la
             d->npose++;
         memcpy(last_P, s.P, sizeof s.P);
         s.pose_id = d->npose - 1;
-        return push(d, &s);
+        return push(d, &s, c->err);
     }
     if (d->kind == DM_DATA_STATIC) {
         static const char *const names[9] = {"x", "y", "z", "fx", "fy", "fz", "dx", "dy", "dz"};
@@ -194,7 +198,7 @@ static int read_row(csv_ctx *c, dm_dataset *d, char *cells[], int nc, double *la
         for (int k = 0; k < 3; k++) {
             s.comp = k;
             s.value = all[6 + k];
-            if ((rc = push(d, &s)))
+            if ((rc = push(d, &s, c->err)))
                 return rc;
         }
         return DM_OK;
@@ -211,7 +215,7 @@ static int read_row(csv_ctx *c, dm_dataset *d, char *cells[], int nc, double *la
     for (int k = 0; k < 3; k++) {
         s.comp = k;
         s.value = v[4 + k] - v[1 + k];
-        if ((rc = push(d, &s)))
+        if ((rc = push(d, &s, c->err)))
             return rc;
     }
     return DM_OK;
@@ -295,20 +299,30 @@ int dm_dataset_write(const dm_dataset *d, FILE *out)
 {
     if (d->robot[0])
         fprintf(out, "# robot: %s\n", d->robot);
+    /* the sigma column only when every sample has one (> 0, as the reader
+     * requires; 0 means not given: equal weights) */
+    int sigma = d->n > 0;
+    for (int i = 0; i < d->n; i++)
+        sigma &= d->s[i].sigma > 0;
     if (d->kind == DM_DATA_MODAL) {
-        fprintf(out, "x,y,z,mode,freq_hz,sigma_hz\n");
+        fprintf(out, "x,y,z,mode,freq_hz%s\n", sigma ? ",sigma_hz" : "");
         for (int i = 0; i < d->n; i++) {
             const dm_sample *s = &d->s[i];
-            fprintf(out, "%.9g,%.9g,%.9g,%d,%.12g,%.6g\n", s->P[0], s->P[1], s->P[2], s->mode,
-                    s->value, s->sigma);
+            fprintf(out, "%.9g,%.9g,%.9g,%d,%.12g", s->P[0], s->P[1], s->P[2], s->mode, s->value);
+            if (sigma)
+                fprintf(out, ",%.6g", s->sigma);
+            fputc('\n', out);
         }
     } else if (d->kind == DM_DATA_STATIC) {
-        fprintf(out, "x,y,z,fx,fy,fz,dx,dy,dz,sigma_m\n");
+        fprintf(out, "x,y,z,fx,fy,fz,dx,dy,dz%s\n", sigma ? ",sigma_m" : "");
         for (int i = 0; i + 2 < d->n; i += 3) {
             const dm_sample *s = &d->s[i];
-            fprintf(out, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.12g,%.12g,%.12g,%.6g\n", s->P[0], s->P[1],
+            fprintf(out, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.12g,%.12g,%.12g", s->P[0], s->P[1],
                     s->P[2], s->force[0], s->force[1], s->force[2], s->value, d->s[i + 1].value,
-                    d->s[i + 2].value, s->sigma);
+                    d->s[i + 2].value);
+            if (sigma)
+                fprintf(out, ",%.6g", s->sigma);
+            fputc('\n', out);
         }
     } else {
         fprintf(out, "t,x_cmd,y_cmd,z_cmd,x_meas,y_meas,z_meas\n");
@@ -341,9 +355,10 @@ static int predict_poses(const dm_robot *rb, const dm_dataset *d, int na, int nb
     if (kmax > n)
         return dm_fail(err, DM_EINVAL, "%s: mode %d is beyond the model's %d modes", d->source,
                        kmax, n);
-    dm_analysis *an = dm_analysis_alloc(rb, na, nb, kmax, DM_EIGEN_PARTIAL, err);
+    dm_error aerr; /* err may be NULL */
+    dm_analysis *an = dm_analysis_alloc(rb, na, nb, kmax, DM_EIGEN_PARTIAL, &aerr);
     if (!an)
-        return err->code;
+        return dm_fail(err, aerr.code, "%s", aerr.msg);
     dm_pose_result res;
     dm_pose loaded;
     int rc = DM_OK, last = -1;
@@ -430,6 +445,7 @@ static int predict_tracker(const dm_robot *rb, const dm_dataset *d, int na, int 
         o.na = na;
         o.nb = nb;
         o.dt_s = fmin(1e-3, t[m - 1] / (m - 1));
+        o.force = 1; /* the work of the whole command is judged before it (dm_check_size) */
         rc = dm_integrate_trajectory(rb, &tr, &o, keep, &tk, &sum, err);
         dm_traj_free(&tr);
     }
@@ -552,7 +568,7 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
             s.sigma = o->noise;
             for (int k = 0; k < 3 && !rc; k++) {
                 s.comp = k;
-                rc = push(d, &s);
+                rc = push(d, &s, err);
             }
         }
         dm_traj_free(&tr);
@@ -577,7 +593,7 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
             if (o->kind == DM_DATA_MODAL) {
                 for (int j = 1; j <= (o->modes > 0 ? o->modes : 6) && !rc; j++) {
                     s.mode = j;
-                    rc = push(d, &s);
+                    rc = push(d, &s, err);
                 }
             } else {
                 double u[3] = {dm_rng_normal(&rng), dm_rng_normal(&rng), dm_rng_normal(&rng)};
@@ -586,7 +602,7 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
                     s.force[k] = (o->force_n > 0 ? o->force_n : 50.0) * u[k] / nu;
                 for (int k = 0; k < 3 && !rc; k++) {
                     s.comp = k;
-                    rc = push(d, &s);
+                    rc = push(d, &s, err);
                 }
             }
         }

@@ -31,12 +31,14 @@ struct dm_modal {
     double *C;               /* nl x q: their M-products with the active block */
     double *X, *MX, *T, *MT, *Y; /* active block, n x (q - nl): Ritz vectors, M X,
                                     A X, M A X, filter */
+    double *Xs, *Ts, *MXs;   /* X, A X, M X at the start of a round (a retry) */
     double *Kt, *Mt, *theta, *res, *scale; /* projections, Ritz values, residuals */
     double *phi;             /* n x kmax, column-major: the modes handed out */
     double *swork;
     lapack_int *siwork, slwork, sliwork;
     dm_arrow_ldl ldl;        /* Sturm counts */
     int have_start;
+    double warm_error;       /* how far off the last warm start was */
     dm_modal_stats stats;
     dm_modes modes;
 };
@@ -64,8 +66,14 @@ static int subspace_max(int n, int k)
  * outside it is at least this many times the last wanted one: the filter
  * then damps what is outside by T_d(1 + 2 gamma), gamma >= 7. */
 #define SUBSPACE_RATIO 8.0
-/* A warm start from a neighbouring pose is assumed this far off. */
+/* A warm start from a neighbouring pose is first assumed this far off;
+ * then each warm solve measures how far off its start was and the next
+ * one plans its first filter with that (poses along a path are spaced
+ * alike: 1e-4 for a trajectory's steps, 1e-2 for a coarse grid). */
 #define WARM_ERROR 1e-2
+/* A filter is planned to bring the residuals this far below CONVERGED
+ * (its gain is a worst case: most components are damped far more). */
+#define TARGET 0.5
 #define MAX_DEGREE 8
 #define MAX_ROUNDS 8
 
@@ -149,7 +157,7 @@ static int alloc_dense(dm_modal *ws)
 static int alloc_subspace(dm_modal *ws, const dm_model *md)
 {
     size_t nq = (size_t)ws->n * ws->qmax, qq = (size_t)ws->qmax * ws->qmax;
-    double **nbuf[] = {&ws->X, &ws->MX, &ws->T, &ws->MT, &ws->Y, &ws->XL};
+    double **nbuf[] = {&ws->X, &ws->MX, &ws->T, &ws->MT, &ws->Y, &ws->XL, &ws->Xs, &ws->Ts, &ws->MXs};
     for (size_t i = 0; i < sizeof nbuf / sizeof nbuf[0]; i++)
         if (!(*nbuf[i] = malloc(nq * sizeof(double))))
             return DM_ENOMEM;
@@ -183,6 +191,7 @@ dm_modal *dm_modal_alloc(const dm_model *md, int kmax, dm_eigen_method method, d
         ws->n = n;
         ws->kmax = kmax;
         ws->method = method;
+        ws->warm_error = WARM_ERROR;
         ws->qmax = subspace_max(n, kmax);
         /* the dense partial path also starts the subspace iteration: it
          * computes one pair more than a subspace holds, to size it */
@@ -213,7 +222,8 @@ void dm_modal_free(dm_modal *ws)
     void *p[] = {ws->A,  ws->B,     ws->Z,   ws->w,     ws->work,   ws->iwork,
                  ws->isuppz, ws->d, ws->iblock, ws->X, ws->MX,    ws->T,
                  ws->MT, ws->Y,     ws->Kt,  ws->Mt,    ws->theta,  ws->res,
-                 ws->scale, ws->phi, ws->swork, ws->siwork, ws->XL, ws->C, ws->modes.freq_hz,
+                 ws->scale, ws->phi, ws->swork, ws->siwork, ws->XL, ws->C, ws->Xs, ws->Ts,
+                 ws->MXs, ws->modes.freq_hz,
                  ws->modes.omega_rad_s, ws->modes.platform_share, ws->modes.direction};
     for (size_t i = 0; i < sizeof p / sizeof p[0]; i++)
         free(p[i]);
@@ -221,9 +231,52 @@ void dm_modal_free(dm_modal *ws)
     free(ws);
 }
 
-void dm_modal_forget(dm_modal *ws) { ws->have_start = 0; }
+void dm_modal_forget(dm_modal *ws)
+{
+    ws->have_start = 0;
+    ws->warm_error = WARM_ERROR; /* nothing carried over, not even this */
+}
 
 void dm_modal_last_stats(const dm_modal *ws, dm_modal_stats *stats) { *stats = ws->stats; }
+
+/* A seed: q, then q Ritz values (double), then the block (float: it is
+ * only a start; half the memory of an anchor lattice). */
+size_t dm_modal_seed_size(const dm_modal *ws)
+{
+    if (!uses_subspace(ws))
+        return 0;
+    return sizeof(double) * (1 + ws->qmax) + sizeof(float) * ws->n * ws->qmax;
+}
+
+int dm_modal_seed_save(const dm_modal *ws, void *seed)
+{
+    if (!uses_subspace(ws) || !ws->have_start)
+        return 0;
+    double *head = seed;
+    float *X = (float *)(head + 1 + ws->qmax);
+    head[0] = ws->q;
+    memcpy(head + 1, ws->theta, sizeof(double) * ws->q);
+    for (size_t i = 0; i < (size_t)ws->n * ws->q; i++)
+        X[i] = (float)ws->X[i];
+    return 1;
+}
+
+void dm_modal_seed_load(dm_modal *ws, const void *seed)
+{
+    const double *head = seed;
+    if (!uses_subspace(ws))
+        return;
+    int q = (int)head[0];
+    assert(q >= 1 && q <= ws->qmax);
+    const float *X = (const float *)(head + 1 + ws->qmax);
+    ws->q = q;
+    ws->nl = 0;
+    memcpy(ws->theta, head + 1, sizeof(double) * q);
+    for (size_t i = 0; i < (size_t)ws->n * q; i++)
+        ws->X[i] = X[i];
+    ws->have_start = 1;
+    ws->warm_error = WARM_ERROR; /* nothing of the last solve carried over */
+}
 
 int dm_modal_set_start(dm_modal *ws, const double *X, int ncol, dm_error *err)
 {
@@ -363,10 +416,15 @@ static void apply_A(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, co
                 out, qa);
 }
 
+/* A filtered block whose scaled Gram matrix has a Cholesky pivot below
+ * this has (numerically) lost a direction: the round is redone with a
+ * lower degree. */
+#define COLLAPSED_PIVOT 1e-6
+
 /* Rayleigh-Ritz on span(V), the active block: K~ = V' K V, M~ = V' M V
  * with K V and M V given, the columns scaled to unit M-norm first (a
  * filtered block is far from orthogonal); then X = V Q, ascending Ritz
- * values after the locked ones. */
+ * values after the locked ones. DM_ENUMERIC when V has collapsed. */
 static int rayleigh_ritz(dm_modal *ws, const double *V, const double *KV, const double *MV)
 {
     int n = ws->n, q = active(ws);
@@ -381,10 +439,19 @@ static int rayleigh_ritz(dm_modal *ws, const double *V, const double *KV, const 
             ws->Kt[j * q + i] = 0.5 * (ws->Kt[j * q + i] + ws->Kt[i * q + j]) * sij;
             ws->Mt[j * q + i] = 0.5 * (ws->Mt[j * q + i] + ws->Mt[i * q + j]) * sij;
         }
-    lapack_int info = LAPACKE_dsygvd_work(LAPACK_COL_MAJOR, 1, 'V', 'U', q, ws->Kt, q, ws->Mt, q,
-                                          theta, ws->swork, ws->slwork, ws->siwork, ws->sliwork);
-    if (info)
+    /* M~ = R'R, C = R^-T K~ R^-1 = Z Theta Z', Q = R^-1 Z (what dsygvd does,
+     * with a look at the pivots) */
+    if (LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'U', q, ws->Mt, q))
         return DM_ENUMERIC;
+    for (int j = 0; j < q; j++)
+        if (!(ws->Mt[j * q + j] >= COLLAPSED_PIVOT))
+            return DM_ENUMERIC;
+    if (LAPACKE_dsygst_work(LAPACK_COL_MAJOR, 1, 'U', q, ws->Kt, q, ws->Mt, q) ||
+        LAPACKE_dsyevd_work(LAPACK_COL_MAJOR, 'V', 'U', q, ws->Kt, q, theta, ws->swork,
+                            ws->slwork, ws->siwork, ws->sliwork))
+        return DM_ENUMERIC;
+    cblas_dtrsm(CblasColMajor, CblasLeft, CblasUpper, CblasNoTrans, CblasNonUnit, q, q, 1.0,
+                ws->Mt, q, ws->Kt, q);
     for (int j = 0; j < q; j++) /* undo the scaling: X = V D Q */
         for (int i = 0; i < q; i++)
             ws->Kt[j * q + i] *= ws->scale[i];
@@ -484,9 +551,9 @@ static void chebyshev_step(double *prev, const double *cur, const double *T, dou
         prev[i] = 2 * (c * T[i] - cur[i]) - prev[i];
 }
 
-/* Filter the active block by degree d and project: V = A p_{d-1}(A) X. */
-static int filter_and_project(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, int d,
-                              double c, int have_mt)
+/* One filter of degree d on the active block, then Rayleigh-Ritz. */
+static int filter_once(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, int d,
+                       double c, int have_mt)
 {
     int qa = active(ws);
     size_t len = (size_t)ws->n * qa;
@@ -509,41 +576,105 @@ static int filter_and_project(dm_modal *ws, const dm_model *md, const dm_arrow_c
     return rayleigh_ritz(ws, ws->T, ws->MX, ws->MT);
 }
 
-/* Rounds of filter + Rayleigh-Ritz from the block in ws->X (q vectors,
- * nothing locked) until the wanted pairs converge and are locked. `ritz`:
- * X holds Ritz pairs of this pose (theta valid). Returns the number of
- * converged pairs (>= k), or 0. */
-static int iterate(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, int k, int ritz)
+/* Filter the active block by degree d and project: V = A p_{d-1}(A) X,
+ * from X, T = A X and M X; a block that collapsed is filtered again from
+ * the same start with a lower degree. Returns the degree used, 0 if even
+ * d = 1 collapsed. */
+static int filter_and_project(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, int d,
+                              double c, int have_mt)
 {
+    size_t len = (size_t)ws->n * active(ws);
+    memcpy(ws->Xs, ws->X, sizeof(double) * len);
+    memcpy(ws->Ts, ws->T, sizeof(double) * len);
+    memcpy(ws->MXs, ws->MX, sizeof(double) * len);
+    for (; d >= 1; d--) {
+        if (filter_once(ws, md, L, d, c, have_mt) == DM_OK)
+            return d;
+        memcpy(ws->X, ws->Xs, sizeof(double) * len);
+        memcpy(ws->T, ws->Ts, sizeof(double) * len);
+        memcpy(ws->MX, ws->MXs, sizeof(double) * len);
+        have_mt = 0;
+    }
+    return 0;
+}
+
+
+/* What the block in ws->X is at the start of iterate(). */
+enum start {
+    START_WARM,  /* another pose's Ritz pairs: theta approximate */
+    START_DENSE, /* this pose's eigenpairs from the dense solver: vectors
+                    good, values only to eps * lambda_max */
+};
+
+/* The dense start converged as it is: one Rayleigh-Ritz on span(A X)
+ * gives the values to the vectors' accuracy (its K-projection X' M A X
+ * needs no product with K, whose round-off is what the dense values
+ * carry), then the kw wanted pairs are locked. */
+static int finish_dense(dm_modal *ws, int kw)
+{
+    if (rayleigh_ritz(ws, ws->T, ws->MX, ws->MT))
+        return 0;
+    ws->stats.rounds++;
+    for (int j = 0; j < kw; j++)
+        ws->res[j] = 0; /* converged before the projection, which keeps them */
+    lock_converged(ws, kw);
+    return ws->nl >= kw ? kw : 0;
+}
+
+/* Rounds of filter + Rayleigh-Ritz from the block in ws->X (q vectors,
+ * nothing locked) until the wanted pairs converge and are locked. Returns
+ * the number of converged pairs (>= k), or 0. */
+static int iterate(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, int k,
+                   enum start start)
+{
+    int ritz = start == START_DENSE; /* X holds pairs of this pose */
     int q = ws->q;
+    double first_gain = 0; /* of a warm start's first filter */
     ws->nl = 0;
     for (int round = 0; round <= MAX_ROUNDS; round++) {
         apply_A(ws, md, L, ws->X, ws->MX, ws->T); /* T = A X */
         ws->stats.iterations++;
         int kw = wanted_count(ws->theta, q, k);
-        double error = WARM_ERROR;
+        double error = ws->warm_error;
         if (ritz) { /* check the pairs in X, lock the converged */
             dm_model_mult_M(md, ws->T, active(ws), ws->MT);
             residuals(ws);
-            if (kw)
+            if (kw && start == START_DENSE && round == 0) {
+                double worst = 0;
+                for (int j = 0; j < kw; j++)
+                    worst = fmax(worst, ws->res[j]);
+                if (worst <= CONVERGED) {
+                    ws->stats.residual = worst;
+                    return finish_dense(ws, kw);
+                }
+            } else if (kw) {
                 lock_converged(ws, kw);
+            }
             if (kw && ws->nl >= kw)
                 return kw;
             error = 0; /* of the wanted pairs: the buffer's do not count */
             for (int j = 0; j < (kw ? kw : k) - ws->nl; j++)
                 error = fmax(error, ws->res[j]);
         }
+        if (start == START_WARM && round == 1 && first_gain > 0) /* how far off the start was */
+            ws->warm_error = fmin(1e-1, fmax(1e-9, error * first_gain));
         if (round == MAX_ROUNDS)
             break;
         /* the filter: unwanted interval [0, b], b = 1 / theta_q, with the
          * Ritz values of this pose, or of the last one for a warm start;
          * without any (a start given from outside): plain subspace iteration */
         double t0 = ws->theta[ws->nl], tw = ws->theta[(kw ? kw : k) - 1], tq = ws->theta[q - 1];
+        /* the skew limit needs how far a column strays towards the lowest
+         * modes, which residuals do not show (the projection removes it):
+         * for another pose's vectors, assume WARM_ERROR */
+        double mix = ritz ? error : fmax(error, WARM_ERROR);
         int d = t0 > 0 && tw > t0 && tq > tw
-                    ? filter_degree(fmax(error, CONVERGED) / (0.1 * CONVERGED), error, t0, tw, tq)
+                    ? filter_degree(fmax(error, CONVERGED) / (TARGET * CONVERGED), mix, t0, tw, tq)
                     : 1;
-        if (filter_and_project(ws, md, L, d, 2 * tq, ritz))
+        if (!(d = filter_and_project(ws, md, L, d, 2 * tq, ritz)))
             return 0;
+        if (round == 0 && start == START_WARM)
+            first_gain = filter_gain(d, tq / tw - 1);
         ritz = 1;
         ws->stats.rounds++;
     }
@@ -621,7 +752,7 @@ static int solve_subspace(dm_modal *ws, const dm_model *md, const dm_static *fac
     ws->stats.warm = ws->have_start;
     int kw = 0, rc = DM_OK;
     if (ws->have_start) {
-        kw = iterate(ws, md, L, k, 0);
+        kw = iterate(ws, md, L, k, START_WARM);
         if (kw && !sturm_check(ws, md, kw))
             kw = 0;
         ws->stats.fallback = !kw;
@@ -631,7 +762,7 @@ static int solve_subspace(dm_modal *ws, const dm_model *md, const dm_static *fac
         if ((rc = cold_start(ws, md, k, err)))
             return rc;
         /* the dense pairs are the lowest: iterate only to converge them */
-        if (!(kw = iterate(ws, md, L, k, 1)) || !sturm_check(ws, md, kw))
+        if (!(kw = iterate(ws, md, L, k, START_DENSE)) || !sturm_check(ws, md, kw))
             return dm_fail(err, DM_ENUMERIC,
                            "eigen solve: subspace iteration did not converge on %d modes", k);
     }
@@ -708,36 +839,84 @@ const char *dm_direction_name(int d)
     return d >= 0 && d < 6 ? names[d] : "?";
 }
 
-void dm_modal_mac_match(const double *ref, int kr, const dm_modes *mo, int kc,
-                        const dm_model *md, int *assign, double *mac, double *work)
+/* M-products of the references: a[f + kr j] = ref_f' M phi_j, and
+ * norms2[f] = ref_f' M ref_f. work: 2 n kr doubles. */
+static void reference_products(const double *ref, int kr, const dm_modes *mo, int kc,
+                               const dm_model *md, double *a, double *norms2, double *work)
 {
     int n = md->n;
-    double *Mref = work, *W = work + (size_t)n * kr; /* W[i + kr j] = ref_i' M phi_j */
+    double *R = work, *MR = work + (size_t)n * kr; /* interleaved */
     for (int i = 0; i < kr; i++)
-        dm_model_mult_M(md, ref + (size_t)i * n, 1, Mref + (size_t)i * n);
-    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, kr, kc, n, 1.0, Mref, n, mo->phi, n, 0.0,
-                W, kr);
-    for (int i = 0; i < kr; i++) { /* normalise: phi' M phi = 1 already */
-        double aMa = cblas_ddot(n, ref + (size_t)i * n, 1, Mref + (size_t)i * n, 1);
-        for (int j = 0; j < kc; j++)
-            W[i + (size_t)kr * j] = W[i + (size_t)kr * j] * W[i + (size_t)kr * j] / aMa;
-        assign[i] = -1;
-    }
+        for (int r = 0; r < n; r++)
+            R[(size_t)r * kr + i] = ref[(size_t)i * n + r];
+    dm_model_mult_M(md, R, kr, MR);
+    /* MR interleaved == column-major kr x n */
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, kr, kc, n, 1.0, MR, kr, mo->phi, n, 0.0,
+                a, kr);
+    for (int i = 0; i < kr; i++)
+        norms2[i] = cblas_ddot(n, R + i, kr, MR + i, kr);
+}
+
+void dm_modal_track(const double *ref, int kr, const dm_modes *mo, int kc, const dm_model *md,
+                    int *assign, double *mac, double *shapes, double *work)
+{
+    int n = md->n;
+    assert(kr <= DM_TRACK_MAX && kc <= DM_TRACK_MAX && kr <= kc);
+    double *a = work + 2 * (size_t)n * kr, norms2[DM_TRACK_MAX], cm[DM_TRACK_MAX][DM_TRACK_MAX];
+    int first[DM_TRACK_MAX + 1], nclu = 0, room[DM_TRACK_MAX], of[DM_TRACK_MAX];
+    reference_products(ref, kr, mo, kc, md, a, norms2, work);
+    /* clusters: runs of modes closer than DM_TRACK_GAP (relative) */
+    for (int j = 0; j < kc; j++)
+        if (j == 0 || mo->freq_hz[j] > mo->freq_hz[j - 1] * (1 + DM_TRACK_GAP))
+            first[nclu++] = j;
+    first[nclu] = kc;
+    /* each family's MAC with each cluster's invariant subspace */
+    for (int f = 0; f < kr; f++)
+        for (int c = 0; c < nclu; c++) {
+            double s = 0;
+            for (int j = first[c]; j < first[c + 1]; j++)
+                s += a[f + (size_t)kr * j] * a[f + (size_t)kr * j];
+            cm[f][c] = s / norms2[f];
+        }
+    for (int c = 0; c < nclu; c++)
+        room[c] = first[c + 1] - first[c];
+    for (int f = 0; f < kr; f++)
+        of[f] = -1;
+    /* greedy by decreasing MAC; values within 1e-9 count as equal and go
+     * in index order, so rounding cannot reorder them */
     for (int round = 0; round < kr; round++) {
-        int bi = -1, bj = -1;
-        double best = -1;
-        for (int i = 0; i < kr; i++)
-            for (int j = 0; j < kc && assign[i] < 0; j++)
-                if (W[i + (size_t)kr * j] > best) {
-                    best = W[i + (size_t)kr * j];
-                    bi = i;
-                    bj = j;
+        int bf = -1, bc = -1;
+        for (int f = 0; f < kr; f++)
+            for (int c = 0; c < nclu && of[f] < 0; c++)
+                if (room[c] && (bf < 0 || cm[f][c] > cm[bf][bc] + 1e-9)) {
+                    bf = f;
+                    bc = c;
                 }
-        if (bi < 0)
+        if (bf < 0)
             break;
-        assign[bi] = bj;
-        mac[bi] = best;
-        for (int i = 0; i < kr; i++) /* mode bj is taken */
-            W[i + (size_t)kr * bj] = -2;
+        of[bf] = bc;
+        room[bc]--;
+        mac[bf] = cm[bf][bc];
+    }
+    /* inside a cluster its families, in index order, take its modes in
+     * ascending frequency: the tracked order there is a function of the
+     * frequencies, not of an arbitrary basis */
+    int next[DM_TRACK_MAX];
+    for (int c = 0; c < nclu; c++)
+        next[c] = first[c];
+    for (int f = 0; f < kr; f++) {
+        assign[f] = of[f] < 0 ? -1 : next[of[f]]++;
+        if (of[f] < 0 || !shapes)
+            continue;
+        /* the family's next reference: its shape projected on the cluster */
+        double *dst = shapes + (size_t)f * n, s2 = 0;
+        memset(dst, 0, sizeof(double) * n);
+        for (int j = first[of[f]]; j < first[of[f] + 1]; j++) {
+            double c = a[f + (size_t)kr * j];
+            s2 += c * c;
+            cblas_daxpy(n, c, mo->phi + (size_t)j * n, 1, dst, 1);
+        }
+        if (s2 > 0)
+            cblas_dscal(n, 1 / sqrt(s2), dst, 1);
     }
 }

@@ -8,6 +8,7 @@
 #include "dm_robot.h"
 
 #include <errno.h>
+#include <float.h>
 #include <stdarg.h>
 #include <math.h>
 #include <stddef.h>
@@ -115,7 +116,10 @@ static int parse_double(const char *s, double *out)
     double v = strtod(s, &end);
     while (*end == ' ' || *end == '\t')
         end++;
-    if (end == s || *end != '\0' || errno == ERANGE || !isfinite(v))
+    /* subnormals are refused whatever their spelling (0x1p-1074 reads without
+     * ERANGE, its decimal form 4.94e-324 with): the written file must read back */
+    if (end == s || *end != '\0' || errno == ERANGE || !isfinite(v) ||
+        (v != 0 && fabs(v) < DBL_MIN))
         return -1;
     *out = v;
     return 0;
@@ -163,6 +167,9 @@ static int store_value(parse_state *st, const key_spec *ks, const char *value)
         if (strlen(value) >= DM_NAME_LEN || !*value)
             return key_error(st, st->line, ks->section, ks->key,
                              "name must be 1 to 63 characters, got '%s'", value);
+        if (strchr(value, ';')) /* written as "name = a ;b" it would read back as "a" */
+            return key_error(st, st->line, ks->section, ks->key,
+                             "'%s': a name cannot hold ';' (it starts a comment)", value);
         strcpy(dst, value);
         return 1;
     case KEY_SHAPE: {
@@ -212,7 +219,8 @@ static int store_value(parse_state *st, const key_spec *ks, const char *value)
         break;
     }
     if (parse_double(value, &v))
-        return key_error(st, st->line, ks->section, ks->key, "'%s' is not a number", value);
+        return key_error(st, st->line, ks->section, ks->key, "'%s' is not a number in range",
+                         value);
     if (ks->kind == KEY_POSITIVE && !(v > 0))
         return key_error(st, st->line, ks->section, ks->key, "must be > 0, got %s", value);
     if (ks->kind == KEY_NONNEG && v < 0)
@@ -579,6 +587,24 @@ int dm_section_compute(const dm_member *m, dm_section *out, dm_error *err)
 
 /* ---- writing ------------------------------------------------------------- */
 
+/* Degrees that the parser (v * (M_PI / 180.0)) turns back into exactly
+ * these radians: rad * 180 / pi may miss by an ulp, which every write and
+ * read would add (and dm_robot_set writes and reads). The nearest such
+ * double, if one lies within 16 ulps (every parsed value has one). */
+static double degrees_of(double rad)
+{
+    double d = rad * 180.0 / M_PI, lo = d, hi = d;
+    for (int i = 0; i < 16 && d * (M_PI / 180.0) != rad; i++) {
+        lo = nextafter(lo, -INFINITY);
+        hi = nextafter(hi, INFINITY);
+        if (lo * (M_PI / 180.0) == rad)
+            return lo;
+        if (hi * (M_PI / 180.0) == rad)
+            return hi;
+    }
+    return d;
+}
+
 static void write_member(FILE *out, const char *sec, const dm_member *m)
 {
     static const char *const shapes[] = {"rect", "square", "circle", "tube"};
@@ -627,17 +653,20 @@ static void write_effects(FILE *out, const dm_effects *e)
     const struct {
         const char *key;
         const double *v;
-        double scale;
-    } errs[] = {{"error_arm_length", e->err_arm_length_m, 1},
-                {"error_rod_length", e->err_rod_length_m, 1},
-                {"error_base_radius", e->err_base_radius_m, 1},
-                {"error_platform_radius", e->err_platform_radius_m, 1},
-                {"error_theta_deg", e->err_theta_rad, 180.0 / M_PI},
-                {"error_alpha0_deg", e->err_alpha0_rad, 180.0 / M_PI}};
-    for (int k = 0; k < 6; k++)
-        if (errs[k].v[0] || errs[k].v[1] || errs[k].v[2])
-            fprintf(out, "%s = %.17g, %.17g, %.17g\n", errs[k].key, errs[k].scale * errs[k].v[0],
-                    errs[k].scale * errs[k].v[1], errs[k].scale * errs[k].v[2]);
+        int degrees;
+    } errs[] = {{"error_arm_length", e->err_arm_length_m, 0},
+                {"error_rod_length", e->err_rod_length_m, 0},
+                {"error_base_radius", e->err_base_radius_m, 0},
+                {"error_platform_radius", e->err_platform_radius_m, 0},
+                {"error_theta_deg", e->err_theta_rad, 1},
+                {"error_alpha0_deg", e->err_alpha0_rad, 1}};
+    for (int k = 0; k < 6; k++) {
+        double v[3];
+        for (int i = 0; i < 3; i++)
+            v[i] = errs[k].degrees ? degrees_of(errs[k].v[i]) : errs[k].v[i];
+        if (v[0] || v[1] || v[2])
+            fprintf(out, "%s = %.17g, %.17g, %.17g\n", errs[k].key, v[0], v[1], v[2]);
+    }
 }
 
 int dm_robot_write(const dm_robot *rb, FILE *out)
@@ -647,7 +676,7 @@ int dm_robot_write(const dm_robot *rb, FILE *out)
                  "arm_length = %.17g\nrod_length = %.17g\nrod_half_spacing = %.17g\n"
                  "theta0_deg = %.17g\nelbow = %s\n",
             rb->base_radius_m, rb->platform_radius_m, rb->arm_length_m, rb->rod_length_m,
-            rb->rod_half_spacing_m, rb->theta0_rad * 180.0 / M_PI, rb->elbow_in ? "in" : "out");
+            rb->rod_half_spacing_m, degrees_of(rb->theta0_rad), rb->elbow_in ? "in" : "out");
     write_member(out, "arm", &rb->arm);
     write_member(out, "rod", &rb->rod);
     const double *J = rb->platform_inertia_kgm2, *g = rb->gravity_ms2, *h = rb->home_m;
@@ -721,7 +750,10 @@ int dm_robot_set(dm_robot *robot, const char *assignment, dm_error *err)
     if (!mem)
         return dm_fail(err, DM_ENOMEM, "out of memory");
     dm_robot_write(robot, mem);
-    fclose(mem);
+    if (fclose(mem) || !text) {
+        free(text);
+        return dm_fail(err, DM_ENOMEM, "out of memory");
+    }
     int rc = edit_text(text, section, key, value, &edited);
     free(text);
     if (rc)

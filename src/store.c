@@ -1,12 +1,17 @@
 /* Zarr v3 store: metadata with jansson, checksummed chunk files. */
+#define _XOPEN_SOURCE 700 /* nftw */
 #include "dm_store.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <ftw.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 /* ---- CRC-32C ---------------------------------------------------------------
@@ -45,27 +50,111 @@ static const char *dtype_name(dm_dtype t)
 
 /* ---- files ------------------------------------------------------------------ */
 
-int dm_mkdirs(const char *path, dm_error *err)
+/* mkdir -p of path, creating no component within its first `keep`
+ * characters. Deepest first: on a network filesystem every mkdir is a
+ * round trip to the metadata server, and as a rule the parent exists. */
+static int mkdirs_from(const char *path, size_t keep, dm_error *err)
 {
-    char buf[1024];
-    snprintf(buf, sizeof buf, "%s", path);
-    for (char *p = buf + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        if (mkdir(buf, 0777) && errno != EEXIST)
-            return dm_fail(err, DM_EIO, "%s: cannot create directory: %s", buf, strerror(errno));
-        *p = '/';
-    }
-    if (mkdir(buf, 0777) && errno != EEXIST)
-        return dm_fail(err, DM_EIO, "%s: cannot create directory: %s", buf, strerror(errno));
+    if (!mkdir(path, 0777) || errno == EEXIST)
+        return DM_OK;
+    char parent[1024];
+    const char *slash = strrchr(path, '/');
+    int e = errno;
+    if (e != ENOENT || !slash || slash == path || (size_t)(slash - path) <= keep ||
+        (size_t)(slash - path) >= sizeof parent)
+        return dm_fail(err, DM_EIO, "%s: cannot create directory: %s", path, strerror(e));
+    snprintf(parent, sizeof parent, "%.*s", (int)(slash - path), path);
+    int rc = mkdirs_from(parent, keep, err);
+    if (rc)
+        return rc;
+    if (mkdir(path, 0777) && errno != EEXIST)
+        return dm_fail(err, DM_EIO, "%s: cannot create directory: %s", path, strerror(errno));
     return DM_OK;
+}
+
+int dm_mkdirs(const char *path, dm_error *err) { return mkdirs_from(path, 0, err); }
+
+/* ---- temporaries -------------------------------------------------------------
+ * PATH.tmp.HOST.PID: the host and process that write it, so that another
+ * process can tell a live writer's file from a dead one's. */
+
+static void host_name(char *out, size_t len)
+{
+    if (gethostname(out, len) || !out[0])
+        snprintf(out, len, "localhost");
+    out[len - 1] = '\0';
+    for (char *p = out; *p; p++)
+        if (*p == '/')
+            *p = '_';
+}
+
+void dm_temp_name(const char *path, char *out, size_t len)
+{
+    char host[64];
+    host_name(host, sizeof host);
+    snprintf(out, len, "%s.tmp.%s.%ld", path, host, (long)getpid());
+}
+
+/* "HOST.PID" (or "PID", as earlier versions wrote them) after ".tmp.": is its
+ * writer gone? On this host: its process no longer exists. On another:
+ * the file is older than DM_TEMP_STALE_S (a writer holds one for
+ * milliseconds), as no process here can ask that host. */
+static int temp_is_stale(const char *writer, time_t mtime)
+{
+    const char *dot = strrchr(writer, '.');
+    char *end;
+    long pid = strtol(dot ? dot + 1 : writer, &end, 10);
+    if (*end || pid <= 0)
+        return 0; /* not our naming: leave it */
+    char host[64], theirs[64] = "";
+    host_name(host, sizeof host);
+    if (dot)
+        snprintf(theirs, sizeof theirs, "%.*s", (int)(dot - writer), writer);
+    if (dot && strcmp(theirs, host))
+        return time(NULL) - mtime > DM_TEMP_STALE_S;
+    return pid != (long)getpid() && kill((pid_t)pid, 0) && errno == ESRCH;
+}
+
+static int remove_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw)
+{
+    (void)sb, (void)flag, (void)ftw;
+    return remove(path) && errno != ENOENT;
+}
+
+int dm_remove_tree(const char *path)
+{
+    struct stat sb;
+    if (lstat(path, &sb))
+        return errno == ENOENT ? 0 : -1;
+    return nftw(path, remove_entry, 16, FTW_DEPTH | FTW_PHYS) ? -1 : 0;
+}
+
+int dm_remove_stale_temporaries(const char *dir, const char *base)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return 0;
+    size_t blen = base ? strlen(base) : 0;
+    int removed = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        const char *tag = base ? e->d_name + blen : strstr(e->d_name, ".tmp.");
+        if ((base && strncmp(e->d_name, base, blen)) || !tag || strncmp(tag, ".tmp.", 5))
+            continue;
+        char path[2048];
+        struct stat sb;
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        if (!lstat(path, &sb) && temp_is_stale(tag + 5, sb.st_mtime) && !dm_remove_tree(path))
+            removed++;
+    }
+    closedir(d);
+    return removed;
 }
 
 int dm_write_file_atomic(const char *path, const void *data, size_t n, dm_error *err)
 {
-    char tmp[1100];
-    snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
+    char tmp[1200];
+    dm_temp_name(path, tmp, sizeof tmp);
     int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC, 0666);
     if (fd < 0)
         return dm_fail(err, DM_EIO, "%s: cannot write: %s", tmp, strerror(errno));
@@ -154,12 +243,40 @@ int dm_store_write_metadata(const dm_store *st, dm_error *err)
     return rc;
 }
 
+/* jansson reports a failed allocation as a parse error, or as none: a file
+ * that does not parse is taken as out of memory when a few times its size
+ * cannot be allocated either (then it was not read, so it is not judged). */
+static int load_failed_for_memory(const char *path, const json_error_t *je)
+{
+    if (json_error_code(je) == json_error_out_of_memory)
+        return 1;
+    struct stat sb;
+    size_t want = (stat(path, &sb) == 0 ? (size_t)sb.st_size : 0) * 8 + 65536;
+    void *probe = malloc(want);
+    int failed = probe == NULL;
+    free(probe);
+    return failed;
+}
+
+/* A whole number in [lo, hi] at json_array_get(list, d), or -1 when it is not. */
+static int64_t json_whole(json_t *list, int d, int64_t lo, int64_t hi)
+{
+    json_t *v = json_array_get(list, (size_t)d);
+    if (!json_is_integer(v) || json_integer_value(v) < lo || json_integer_value(v) > hi)
+        return -1;
+    return json_integer_value(v);
+}
+
+/* Metadata read from disk is input: every field is checked before it is
+ * used for sizes, file names or loops. */
 static int parse_array(const char *path, const char *name, dm_array_spec *a, dm_error *err)
 {
     json_error_t je;
     json_t *o = json_load_file(path, 0, &je);
     if (!o)
-        return dm_fail(err, DM_EIO, "%s:%d: %s", path, je.line, je.text);
+        return load_failed_for_memory(path, &je)
+                   ? dm_fail(err, DM_ENOMEM, "%s: out of memory reading it", path)
+                   : dm_fail(err, DM_EIO, "%s:%d: %s", path, je.line, je.text);
     memset(a, 0, sizeof *a);
     snprintf(a->name, sizeof a->name, "%s", name);
     json_t *shape = json_object_get(o, "shape"), *dims = json_object_get(o, "dimension_names");
@@ -167,23 +284,50 @@ static int parse_array(const char *path, const char *name, dm_array_spec *a, dm_
                                                     "configuration"), "chunk_shape");
     const char *dt = json_string_value(json_object_get(o, "data_type"));
     int rc = DM_OK;
-    if (!json_is_array(shape) || !json_is_array(chunk) || !dt ||
+    if (!json_is_array(shape) || !json_is_array(chunk) || !dt || json_array_size(shape) < 1 ||
         json_array_size(shape) > DM_STORE_MAXDIM || json_array_size(shape) != json_array_size(chunk))
-        rc = dm_fail(err, DM_EINVAL, "%s: not an array written by deltamap", path);
+        rc = dm_fail(err, DM_EINVAL, "%s: not an array written by deltamap (shape, chunk_shape "
+                     "or data_type missing, or not 1 to %d dimensions)", path, DM_STORE_MAXDIM);
+    else if (strcmp(dt, "float64") && strcmp(dt, "int32") && strcmp(dt, "uint8"))
+        rc = dm_fail(err, DM_EINVAL, "%s: data_type '%.40s' is not float64, int32 or uint8", path, dt);
     else {
         a->ndim = (int)json_array_size(shape);
         a->dtype = !strcmp(dt, "float64") ? DM_DTYPE_FLOAT64
                    : !strcmp(dt, "int32") ? DM_DTYPE_INT32 : DM_DTYPE_UINT8;
-        for (int d = 0; d < a->ndim; d++) {
-            a->shape[d] = json_integer_value(json_array_get(shape, d));
-            a->chunk[d] = (int)json_integer_value(json_array_get(chunk, d));
-            snprintf(a->dims[d], sizeof a->dims[d], "%s",
-                     json_string_value(json_array_get(dims, d)) ? json_string_value(json_array_get(dims, d)) : "?");
+        uint64_t bytes = dm_dtype_size(a->dtype);
+        for (int d = 0; d < a->ndim && !rc; d++) {
+            int64_t n = json_whole(shape, d, 0, DM_STORE_MAX_EXTENT);
+            int64_t c = json_whole(chunk, d, 1, DM_STORE_MAX_CHUNK_BYTES);
+            if (n < 0)
+                rc = dm_fail(err, DM_EINVAL, "%s: shape[%d] is not a whole number from 0 to %lld",
+                             path, d, (long long)DM_STORE_MAX_EXTENT);
+            else if (c < 0 || (bytes *= (uint64_t)c) > DM_STORE_MAX_CHUNK_BYTES)
+                rc = dm_fail(err, DM_EINVAL, "%s: chunk_shape[%d]: chunks must have at least one "
+                             "element along each dimension and at most %lld bytes",
+                             path, d, (long long)DM_STORE_MAX_CHUNK_BYTES);
+            else {
+                a->shape[d] = n;
+                a->chunk[d] = (int)c;
+                const char *dn = json_string_value(json_array_get(dims, (size_t)d));
+                snprintf(a->dims[d], sizeof a->dims[d], "%s", dn ? dn : "?");
+            }
         }
-        a->attributes = json_incref(json_object_get(o, "attributes"));
+        if (!rc)
+            a->attributes = json_incref(json_object_get(o, "attributes"));
     }
     json_decref(o);
     return rc;
+}
+
+/* An array name is one plain path component that fits dm_array_spec. */
+static int array_name_ok(const char *name)
+{
+    if (!name || !*name || name[0] == '.' || strlen(name) >= sizeof ((dm_array_spec *)0)->name)
+        return 0;
+    for (const char *p = name; *p; p++)
+        if (*p == '/' || *p == '\\' || (unsigned char)*p < 0x20)
+            return 0;
+    return 1;
 }
 
 int dm_store_read_metadata(const char *path, dm_store *st, dm_error *err)
@@ -194,6 +338,8 @@ int dm_store_read_metadata(const char *path, dm_store *st, dm_error *err)
     snprintf(st->path, sizeof st->path, "%s", path);
     snprintf(file, sizeof file, "%s/zarr.json", path);
     json_t *g = json_load_file(file, 0, &je);
+    if (!g && load_failed_for_memory(file, &je))
+        return dm_fail(err, DM_ENOMEM, "%s: out of memory reading zarr.json", path);
     if (!g)
         return dm_fail(err, DM_EIO, "%s: not a map store (%s)", path, je.text);
     st->group_attributes = json_incref(json_object_get(g, "attributes"));
@@ -204,8 +350,14 @@ int dm_store_read_metadata(const char *path, dm_store *st, dm_error *err)
     json_array_foreach(names, i, v) {
         if (st->narr == DM_STORE_MAXARR)
             break;
-        snprintf(file, sizeof file, "%s/%s/zarr.json", path, json_string_value(v));
-        int rc = parse_array(file, json_string_value(v), &st->arr[st->narr], err);
+        const char *name = json_string_value(v);
+        if (!array_name_ok(name)) {
+            dm_store_release(st);
+            return dm_fail(err, DM_EINVAL, "%s: attributes.deltamap.arrays[%zu] is not an array "
+                           "name (1 to 47 characters, no '/', not starting with '.')", file, i);
+        }
+        snprintf(file, sizeof file, "%s/%s/zarr.json", path, name);
+        int rc = parse_array(file, name, &st->arr[st->narr], err);
         if (rc) {
             dm_store_release(st);
             return rc;
@@ -254,14 +406,26 @@ int dm_store_write_chunk(const dm_store *st, int a, const int64_t *c, const void
     for (int b = 0; b < 4; b++)
         buf[nbytes + b] = (unsigned char)(crc >> (8 * b));
     dm_store_chunk_path(st, a, c, path, sizeof path);
+    /* directories below the array's own, never the array or the store: a
+     * writer whose store was removed (or replaced by --force) fails here
+     * instead of leaving a stray tree */
     char *slash = strrchr(path, '/');
     *slash = '\0';
-    int rc = dm_mkdirs(path, err);
+    int rc = mkdirs_from(path, strlen(st->path) + strlen(st->arr[a].name) + 1, err);
     *slash = '/';
     if (!rc)
         rc = dm_write_file_atomic(path, buf, nbytes + 4, err);
     free(buf);
     return rc;
+}
+
+void dm_store_clean_chunk(const dm_store *st, int a, const int64_t *c)
+{
+    char path[1200];
+    dm_store_chunk_path(st, a, c, path, sizeof path);
+    char *slash = strrchr(path, '/');
+    *slash = '\0';
+    dm_remove_stale_temporaries(path, slash + 1);
 }
 
 int dm_store_read_chunk(const dm_store *st, int a, const int64_t *c, void *data, int *missing,

@@ -2,6 +2,7 @@
 #include "dm_trajectory.h"
 
 #include <errno.h>
+#include <float.h>
 #include <lapacke.h>
 #include <math.h>
 #include <stdio.h>
@@ -226,6 +227,45 @@ static int positive(double v, const char *what, const char *spec, dm_error *err)
     return v > 0 ? DM_OK : dm_fail(err, DM_EINVAL, "path '%s': %s must be > 0", spec, what);
 }
 
+/* The motion must be finite everywhere: positions, speeds, accelerations
+ * and the phase angle (huge or subnormal values that each parse make
+ * infinities or NaN when combined). */
+static int circle_finite(const double c[3], double R, double w, double T, double ph,
+                         const char *spec, dm_error *err)
+{
+    int ok = isfinite(fabs(w) * T) && isfinite(R * w * w) && isfinite(R * fabs(w)) &&
+             isfinite(ph * M_PI / 180 + fabs(w) * T);
+    for (int k = 0; k < 3; k++)
+        ok &= isfinite(fabs(c[k]) + R);
+    return ok ? DM_OK
+              : dm_fail(err, DM_EINVAL, "path '%s': centre, radius, rate, phase and duration "
+                        "give a motion that overflows (radius * rate^2 = %g m/s^2, rate * "
+                        "duration = %g rad)", spec, R * w * w, w * T);
+}
+
+/* Every segment's speed and acceleration (at most 2 pi |D| / T^2 for the
+ * laws here) and the total duration finite. */
+static int segments_finite(const dm_trajectory *tr, const char *spec, dm_error *err)
+{
+    for (int j = 0; j < tr->nseg; j++) {
+        const dm_segment *sg = &tr->seg[j];
+        double T2 = sg->duration_s * sg->duration_s;
+        int ok = T2 >= DBL_MIN;
+        for (int k = 0; k < 3 && ok; k++) {
+            double D = fabs(sg->to_m[k] - sg->from_m[k]);
+            ok = isfinite(D) && isfinite(8 * D / T2) && isfinite(fabs(sg->from_m[k]) + D);
+        }
+        if (!ok)
+            return dm_fail(err, DM_EINVAL, "path '%s': segment %d (%g s from %g, %g, %g to %g, "
+                           "%g, %g m): its speed or acceleration overflows (duration too short "
+                           "or distance too large)", spec, j + 1, sg->duration_s, sg->from_m[0],
+                           sg->from_m[1], sg->from_m[2], sg->to_m[0], sg->to_m[1], sg->to_m[2]);
+    }
+    if (!isfinite(tr->duration_s))
+        return dm_fail(err, DM_EINVAL, "path '%s': the total duration overflows", spec);
+    return DM_OK;
+}
+
 static int make_circle(const char *spec, const char *list, dm_trajectory *tr, dm_error *err)
 {
     static const char *const allowed[] = {"centre", "radius", "rate", "duration", "plane", "phase", NULL};
@@ -239,6 +279,7 @@ static int make_circle(const char *spec, const char *list, dm_trajectory *tr, dm
     if (!rc) rc = num_field(list, "phase", spec, 1, &ph, 0, err);
     if (!rc) rc = positive(R, "radius", spec, err);
     if (!rc) rc = positive(T, "duration", spec, err);
+    if (!rc) rc = circle_finite(c, R, w, T, ph, spec, err);
     if (rc)
         return rc;
     field(list, "plane", plane, sizeof plane);
@@ -290,7 +331,7 @@ static int make_p2p(const char *spec, const char *list, dm_trajectory *tr, dm_er
     add_segment(tr, a, b, T, law);
     if (dwell > 0)
         add_segment(tr, b, b, dwell, law);
-    return DM_OK;
+    return segments_finite(tr, spec, err);
 }
 
 /* 25 mm up, 305 mm across, 25 mm down; times in proportion to sqrt(length)
@@ -335,7 +376,7 @@ static int make_pick(const char *spec, const char *list, const dm_robot *rb,
     tr->duration_s = T;
     if (dwell > 0)
         add_segment(tr, p3, p3, dwell, law);
-    return DM_OK;
+    return segments_finite(tr, spec, err);
 }
 
 /* ---- CSV samples --------------------------------------------------------- */
@@ -365,7 +406,25 @@ static int spline(dm_trajectory *tr, dm_error *err)
     free(d);
     free(du);
     free(rhs);
-    return rc ? dm_fail(err, rc, "%s: cannot fit a spline through the samples", tr->name) : DM_OK;
+    if (rc)
+        return dm_fail(err, rc, "%s: cannot fit a spline through the samples", tr->name);
+    /* bounds of every term of eval_samples finite, or the motion overflows
+     * (positions too large, or samples too close in time for their distance) */
+    for (int i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            int j = i + 1 < n ? i + 1 : i;
+            double h = tr->t_s[j] - tr->t_s[i], y0 = tr->xyz_m[3 * i + k];
+            double y1 = tr->xyz_m[3 * j + k];
+            double m = fabs(tr->m2[3 * i + k]) + fabs(tr->m2[3 * j + k]);
+            double slope = j > i ? (y1 - y0) / h : 0;
+            if (!isfinite(slope) || !isfinite(fabs(y0) + fabs(y1) + m * h * h) ||
+                !isfinite(fabs(slope) + m * h) || !isfinite(tr->t_s[i]))
+                return dm_fail(err, DM_EINVAL,
+                               "%s: sample %d (t = %g s): the path's speed or acceleration "
+                               "overflows (positions too large or samples too close in time)",
+                               tr->name, i + 1, tr->t_s[i]);
+        }
+    return DM_OK;
 }
 
 static int csv_columns(char *header, int col[4], const char *path, int line, dm_error *err)

@@ -1,10 +1,16 @@
-/* make bench: speed and memory of deltamap, as figures and ratios.
- *   1. per-pose cost split (kinematics, assembly, eigen, statics, standard
- *      moves, mode tracking, tile I/O) against a bare LAPACK dsygvd of the
- *      same matrices in the same run (the lower bound to match, then beat);
- *   2. sweep throughput in poses/s on all cores, default and finer mesh;
- *   3. peak memory (max RSS) of two sweeps whose grids differ 10x.
+/* make bench: speed, memory and accuracy of deltamap, as figures and as
+ * ratios against bare LAPACK calls on the same matrices in the same run.
+ *   1. the sweep's per-pose pipeline (kinematics, assembly, statics, eigen
+ *      solve of k + 4 modes, three standard moves, mode tracking, tile I/O)
+ *      along a tile's serpentine path, for the three presets at meshes
+ *      1,1, 4,4 and 8,8, each part against bare dsygvx (10 modes) and
+ *      dsygvd (all) of the same M and K;
+ *   2. eigenvalue error against an extended-precision reference;
+ *   3. sweep throughput on 1 and 2 threads and what it implies for 1e6
+ *      poses; trajectories; tracker diagnoses;
+ *   4. peak memory (max RSS) of two sweeps whose grids differ 10x.
  * Nothing is asserted: timings are not tests. */
+#include <cblas.h>
 #include <lapacke.h>
 #include <math.h>
 #include <omp.h>
@@ -17,9 +23,13 @@
 #include <unistd.h>
 
 #include "dm_analysis.h"
+#include "dm_diagnose.h"
 #include "dm_integrate.h"
+#include "dm_measure.h"
+#include "dm_reference.h"
 #include "dm_store.h"
 #include "dm_sweep.h"
+#include "dm_trajectory.h"
 
 static double now_s(void)
 {
@@ -28,17 +38,75 @@ static double now_s(void)
     return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
 
-#define NPOSE 48
+/* A tile's serpentine path: 8 x 6 poses 0.04 la apart around home. */
+#define PATH_X 8
+#define PATH_Y 6
+#define NPOSE (PATH_X * PATH_Y)
 
 static void pose_at(const dm_robot *rb, int j, double P[3])
 {
-    double a = 6.283185307179586 * j / NPOSE, rad = 0.1 * rb->arm_length_m;
-    P[0] = rb->home_m[0] + rad * cos(a);
-    P[1] = rb->home_m[1] + rad * sin(3 * a);
-    P[2] = rb->home_m[2] + 0.05 * rb->arm_length_m * sin(a);
+    int row = j / PATH_X, col = row % 2 ? PATH_X - 1 - j % PATH_X : j % PATH_X;
+    double h = 0.04 * rb->arm_length_m;
+    P[0] = rb->home_m[0] + h * (col - 0.5 * (PATH_X - 1));
+    P[1] = rb->home_m[1] + h * (row - 0.5 * (PATH_Y - 1));
+    P[2] = rb->home_m[2];
 }
 
-static void per_pose(const char *preset, int mesh, int k)
+enum { T_KIN, T_ASM, T_STATIC, T_EIGEN, T_MOVES, T_MAC, T_IO, NPART };
+static const char *const PART[NPART] = {"kin", "asm", "static", "eigen", "moves", "mac", "io"};
+
+typedef struct {
+    double t[NPART], dsygvx, dsygvd;
+    double applications, rounds, fallbacks;
+    int n;
+} pose_costs;
+
+/* Bare LAPACK on dense copies of the same matrices: dsygvx for the 10
+ * lowest pairs and dsygvd for all (the copies are not timed). */
+static void bare_lapack(const dm_model *md, double *A, double *B, double *w, double *Z,
+                        lapack_int *ifail, double *tx, double *td)
+{
+    int n = md->n;
+    lapack_int m;
+    dm_model_dense(md, A, B);
+    double t0 = now_s();
+    LAPACKE_dsygvx(LAPACK_COL_MAJOR, 1, 'V', 'I', 'U', n, A, n, B, n, 0, 0, 1, 10, 0.0, &m, w,
+                   Z, n, ifail);
+    *tx += now_s() - t0;
+    dm_model_dense(md, A, B);
+    t0 = now_s();
+    LAPACKE_dsygvd(LAPACK_COL_MAJOR, 1, 'V', 'U', n, A, n, B, n, w);
+    *td += now_s() - t0;
+}
+
+/* A 16 x 16 tile of every data array, written once per 256 poses. */
+static void tile_io(dm_store *st, const double *tile, double *t)
+{
+    const int64_t c0[4] = {0, 0, 0, 0};
+    double ti = now_s();
+    if (!dm_store_write_metadata(st, NULL))
+        for (int a = 0; a < st->narr; a++)
+            dm_store_write_chunk(st, a, c0, tile, NULL);
+    *t += (now_s() - ti) / 256.0;
+}
+
+static void tile_store(dm_store *st, char *dir, int k)
+{
+    memset(st, 0, sizeof *st);
+    snprintf(st->path, sizeof st->path, "%s", dir);
+    const int extra[11] = {1, k, k, 6, 1, 3, 1, 1, 3, 3, 3};
+    for (int a = 0; a < 11; a++) {
+        dm_array_spec *s = &st->arr[st->narr++];
+        snprintf(s->name, sizeof s->name, "a%d", a);
+        s->dtype = DM_DTYPE_FLOAT64;
+        s->ndim = 4;
+        s->shape[0] = s->shape[1] = s->chunk[0] = s->chunk[1] = 16;
+        s->shape[2] = s->chunk[2] = 1;
+        s->shape[3] = s->chunk[3] = extra[a];
+    }
+}
+
+static void per_pose(const char *preset, int mesh, int k, pose_costs *pc)
 {
     dm_robot rb;
     dm_robot_load(preset, &rb, NULL);
@@ -49,38 +117,27 @@ static void per_pose(const char *preset, int mesh, int k)
     dm_move_opts mo;
     dm_move_opts_default(&mo);
     double *A = malloc(sizeof(double) * n * n), *B = malloc(sizeof(double) * n * n);
-    double *w = malloc(sizeof(double) * n), *work = malloc(sizeof(double) * (n * kc + k * kc));
-    double *prev = malloc(sizeof(double) * n * k), mac[64];
-    int assign[64];
-    double t[8] = {0}; /* kin, asm, eig, static, moves, mac, io, bare */
-    int reps = mesh <= 2 ? 4 : 1;
-    /* tile I/O: a 16x16 tile of every data array, timed per point */
+    double *w = malloc(sizeof(double) * n), *Z = malloc(sizeof(double) * n * 10);
+    double *work = malloc(sizeof(double) * (2 * n * k + k * kc)), *prev = malloc(sizeof(double) * n * k);
+    double *tile = calloc(16 * 16 * 64, sizeof(double)), mac[64];
+    lapack_int *ifail = malloc(sizeof(lapack_int) * n);
+    int assign[64], reps = mesh <= 1 ? 4 : 1;
     char dir[] = "/tmp/dm_bench_XXXXXX";
-    mkdtemp(dir);
     dm_store st;
-    memset(&st, 0, sizeof st);
-    snprintf(st.path, sizeof st.path, "%s", dir);
-    const int extra[11] = {1, k, k, 6, 1, 3, 1, 1, 3, 3, 3};
-    for (int a = 0; a < 11; a++) {
-        dm_array_spec *s = &st.arr[st.narr++];
-        snprintf(s->name, sizeof s->name, "a%d", a);
-        s->dtype = DM_DTYPE_FLOAT64;
-        s->ndim = 4;
-        s->shape[0] = s->shape[1] = 16;
-        s->shape[2] = 1;
-        s->shape[3] = extra[a];
-        s->chunk[0] = s->chunk[1] = 16;
-        s->chunk[2] = 1;
-        s->chunk[3] = extra[a];
-    }
-    double *tile = calloc(16 * 16 * 64, sizeof(double));
-    const int64_t c0[4] = {0, 0, 0, 0};
-    for (int r = 0; r < reps; r++)
+    if (!mkdtemp(dir))
+        return;
+    tile_store(&st, dir, k);
+    memset(pc, 0, sizeof *pc);
+    pc->n = n;
+    static const double xyz[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    for (int r = 0; r < reps; r++) {
+        dm_modal_forget(an->modal); /* a tile starts cold */
         for (int j = 0; j < NPOSE; j++) {
             double P[3], u6[6], C[36];
             dm_pose pose;
             const dm_modes *modes;
-            dm_move_result res;
+            dm_move_result res[3];
+            dm_modal_stats ms;
             pose_at(&rb, j, P);
             double t0 = now_s();
             dm_kin_inverse(&rb, P, &pose, NULL);
@@ -93,42 +150,98 @@ static void per_pose(const char *preset, int mesh, int k)
             double t3 = now_s();
             dm_modal_solve(an->modal, an->model, an->statics, kc, &modes, NULL);
             double t4 = now_s();
-            for (int d = 0; d < 3; d++) {
-                double dirv[3] = {d == 0, d == 1, d == 2};
-                dm_standard_move(mw, an->model, modes, k, an->statics, dirv, &mo, &res, NULL);
-            }
+            dm_standard_moves(mw, an->model, modes, k, an->statics, xyz, 3, &mo, res, NULL);
             double t5 = now_s();
             if (j)
-                dm_modal_mac_match(prev, k, modes, kc, an->model, assign, mac, work);
-            memcpy(prev, modes->phi, sizeof(double) * n * k);
+                dm_modal_track(prev, k, modes, kc, an->model, assign, mac, prev, work);
+            else
+                memcpy(prev, modes->phi, sizeof(double) * n * k);
             double t6 = now_s();
-            if (j % 16 == 0) { /* one tile per 256 points: charge 1/256 each */
-                double ti = now_s();
-                if (!dm_store_write_metadata(&st, NULL))
-                    for (int a = 0; a < 11; a++)
-                        dm_store_write_chunk(&st, a, c0, tile, NULL);
-                t[6] += 16.0 * (now_s() - ti) / 256.0;
+            if (j % 16 == 0) /* every 16th pose writes 1/256 of a tile's time, x 16 below */
+                tile_io(&st, tile, &pc->t[T_IO]);
+            pc->t[T_KIN] += t1 - t0, pc->t[T_ASM] += t2 - t1, pc->t[T_STATIC] += t3 - t2;
+            pc->t[T_EIGEN] += t4 - t3, pc->t[T_MOVES] += t5 - t4, pc->t[T_MAC] += t6 - t5;
+            dm_modal_last_stats(an->modal, &ms);
+            if (j) {
+                pc->applications += ms.iterations;
+                pc->rounds += ms.rounds;
+                pc->fallbacks += ms.fallback;
             }
-            dm_model_dense(an->model, A, B);
-            double t7 = now_s();
-            LAPACKE_dsygvd(LAPACK_COL_MAJOR, 1, 'V', 'U', n, A, n, B, n, w);
-            double t8 = now_s();
-            t[0] += t1 - t0, t[1] += t2 - t1, t[2] += t4 - t3, t[3] += t3 - t2;
-            t[4] += t5 - t4, t[5] += t6 - t5, t[7] += t8 - t7;
+            bare_lapack(an->model, A, B, w, Z, ifail, &pc->dsygvx, &pc->dsygvd);
         }
-    double np = reps * NPOSE, us = 1e6 / np, total = 0;
-    for (int i = 0; i < 7; i++)
-        total += t[i];
-    printf("%-9s mesh %d,%d n=%3d k=%d | per pose %7.0f us: kin %4.0f asm %5.0f eigen %6.0f "
-           "static %5.0f moves %5.0f mac %4.0f io %4.0f | bare dsygvd %6.0f us | "
-           "eigen/bare %.2f  total/bare %.2f\n",
-           preset, mesh, mesh, n, k, total * us, t[0] * us, t[1] * us, t[2] * us, t[3] * us,
-           t[4] * us, t[5] * us, t[6] * us, t[7] * us, t[2] / t[7], total / t[7]);
+    }
+    double np = (double)reps * NPOSE;
+    pc->t[T_IO] *= 16;
+    for (int i = 0; i < NPART; i++)
+        pc->t[i] /= np;
+    pc->dsygvx /= np;
+    pc->dsygvd /= np;
+    pc->applications /= reps * (NPOSE - 1);
+    pc->rounds /= reps * (NPOSE - 1);
     char cmd[64];
     snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
     if (system(cmd)) {}
-    free(A), free(B), free(w), free(work), free(prev), free(tile);
+    free(A), free(B), free(w), free(Z), free(work), free(prev), free(tile), free(ifail);
     dm_move_free(mw);
+    dm_analysis_free(an);
+}
+
+static void print_pose_costs(const char *preset, int mesh, const pose_costs *pc)
+{
+    double total = 0, us = 1e6;
+    for (int i = 0; i < NPART; i++)
+        total += pc->t[i];
+    printf("%-9s %d,%d n=%3d | total %6.0f us = %5.3f x dsygvx(10), %5.3f x dsygvd |", preset,
+           mesh, mesh, pc->n, total * us, total / pc->dsygvx, total / pc->dsygvd);
+    for (int i = 0; i < NPART; i++)
+        printf(" %s %.0f", PART[i], pc->t[i] * us);
+    printf(" | eigen/dsygvx %5.3f | bare dsygvx %5.0f dsygvd %6.0f us | %.1f A-products, %.1f "
+           "projections per pose\n",
+           pc->t[T_EIGEN] / pc->dsygvx, pc->dsygvx * us, pc->dsygvd * us, pc->applications,
+           pc->rounds);
+}
+
+/* Largest relative eigenvalue error of the 14 lowest, against the long
+ * double reference, of the subspace solver, dsygvd and dsygvx. */
+static void accuracy(const char *preset, int mesh)
+{
+    dm_robot rb;
+    dm_robot_load(preset, &rb, NULL);
+    const int k = 14;
+    dm_analysis *an = dm_analysis_alloc(&rb, mesh, mesh, k, DM_EIGEN_SUBSPACE, NULL);
+    int n = an->model->n;
+    double *K = malloc(sizeof(double) * n * n), *M = malloc(sizeof(double) * n * n);
+    double *A = malloc(sizeof(double) * n * n), *B = malloc(sizeof(double) * n * n);
+    double *w = malloc(sizeof(double) * n), *Z = malloc(sizeof(double) * n * k);
+    lapack_int *ifail = malloc(sizeof(lapack_int) * n), m;
+    double err[3] = {0, 0, 0};
+    for (int j = 0; j < NPOSE; j += 16) {
+        double P[3];
+        dm_pose_result r;
+        ldbl lam[14];
+        pose_at(&rb, j, P);
+        dm_modal_forget(an->modal);
+        if (dm_analysis_run(an, P, k, &r, NULL))
+            continue;
+        dm_model_dense(an->model, K, M);
+        dm_reference_eigen(K, M, n, k, lam, NULL);
+        memcpy(A, K, sizeof(double) * n * n), memcpy(B, M, sizeof(double) * n * n);
+        LAPACKE_dsygvd(LAPACK_COL_MAJOR, 1, 'N', 'U', n, A, n, B, n, w);
+        for (int i = 0; i < k; i++) {
+            double om = r.modes->omega_rad_s[i];
+            err[0] = fmax(err[0], fabs((double)((om * om - lam[i]) / lam[i])));
+            err[1] = fmax(err[1], fabs((double)((w[i] - lam[i]) / lam[i])));
+        }
+        memcpy(A, K, sizeof(double) * n * n), memcpy(B, M, sizeof(double) * n * n);
+        LAPACKE_dsygvx(LAPACK_COL_MAJOR, 1, 'N', 'I', 'U', n, A, n, B, n, 0, 0, 1, k, 0.0, &m, w,
+                       Z, n, ifail);
+        for (int i = 0; i < k; i++)
+            err[2] = fmax(err[2], fabs((double)((w[i] - lam[i]) / lam[i])));
+    }
+    printf("%-9s %d,%d n=%3d | largest relative eigenvalue error (14 modes, 3 poses): subspace "
+           "%.1e  dsygvd %.1e  dsygvx %.1e\n",
+           preset, mesh, mesh, n, err[0], err[1], err[2]);
+    free(K), free(M), free(A), free(B), free(w), free(Z), free(ifail);
     dm_analysis_free(an);
 }
 
@@ -147,7 +260,8 @@ static double sweep_rate(const char *grid_spec, int mesh, int threads, long *poi
     dm_sweep_opts_default(&o);
     o.na = o.nb = mesh;
     o.threads = threads;
-    mkdtemp(dir);
+    if (!mkdtemp(dir))
+        return 0;
     double t0 = now_s();
     if (dm_sweep_run(&rb, &g, &o, dir, &never, &st, &err))
         fprintf(stderr, "bench: %s\n", err.msg);
@@ -158,17 +272,77 @@ static double sweep_rate(const char *grid_spec, int mesh, int threads, long *poi
     return st.points_total / dt;
 }
 
+static int discard(void *user, const dm_integ_sample *s)
+{
+    (void)user, (void)s;
+    return 0;
+}
+
+static void trajectory_time(const char *preset)
+{
+    dm_robot rb;
+    dm_trajectory tr;
+    dm_integ_opts o;
+    dm_integ_summary sum;
+    dm_robot_load(preset, &rb, NULL);
+    dm_traj_make(preset, &rb, &tr, NULL);
+    dm_integ_opts_default(&o);
+    o.reference = 0;
+    double t0 = now_s();
+    int rc = dm_integrate_trajectory(&rb, &tr, &o, discard, NULL, &sum, NULL);
+    double dt = now_s() - t0;
+    printf("   %-9s paper trajectory, %ld steps of 1 ms, 10 modes, CVODE: %6.2f s (%4.0f us per "
+           "step)%s\n",
+           preset, sum.steps, dt, 1e6 * dt / (rc ? 1 : sum.steps), rc ? " FAILED" : "");
+    dm_traj_free(&tr);
+}
+
+/* The diagnosis docs' tracker case (a 0.05 s bang-bang move and 0.05 s of
+ * ring-down, beta off) at the default mesh; and a 1 s record sampled at
+ * 250 Hz (every 4th sample of a 1 kHz run). */
+static void diagnosis_time(int decimate, const char *path)
+{
+    dm_robot rb, truth;
+    dm_dataset d;
+    dm_diagnosis dg;
+    dm_synth_opts so = {.kind = DM_DATA_TRACKER, .noise = 2e-6, .seed = 9, .path = path};
+    dm_diagnose_opts o = {.pairs = 1, .threads = 2};
+    const double beta = 1.2e-3;
+    dm_robot_load("zheng2017", &rb, NULL);
+    truth = rb;
+    dm_effect_apply(&truth, "damping_beta", &beta, NULL);
+    if (dm_synthesize(&truth, &so, &d, NULL))
+        return;
+    int m = 0;
+    for (int i = 0; i < d.n; i++) /* keep every decimate-th time (3 samples each) */
+        if ((d.s[i].pose_id % decimate) == 0) {
+            d.s[m] = d.s[i];
+            d.s[m].pose_id = d.s[i].pose_id / decimate;
+            m++;
+        }
+    d.n = m;
+    d.npose = m / 3;
+    double t0 = now_s();
+    int rc = dm_diagnose(&rb, &d, &o, &dg, NULL);
+    double dt = now_s() - t0;
+    printf("   tracker diagnosis, %4d times (%s, %g kHz), default mesh, 2 threads: %6.1f s%s\n",
+           d.npose, path, 1.0 / decimate, dt,
+           rc ? " FAILED" : dg.found ? "" : " (no cause found)");
+    dm_dataset_free(&d);
+}
+
 /* Max RSS (MB) of the deltamap command running one sweep (fork + exec:
  * forking this OpenMP process and carrying on in the child is not safe). */
 static double sweep_rss_mb(const char *grid_spec)
 {
     const char *dm = getenv("DELTAMAP") ? getenv("DELTAMAP") : "build/deltamap";
     char dir[] = "/tmp/dm_bench_XXXXXX", cmd[64];
-    mkdtemp(dir);
+    if (!mkdtemp(dir))
+        return 0;
     pid_t pid = fork();
     if (pid == 0) {
-        execl(dm, dm, "sweep", "--robot", "chen2018", "--grid", grid_spec, "--mesh", "2,2",
-              "--threads", "2", "--progress", "none", "--out", dir, (char *)NULL);
+        execl(dm, dm, "sweep", "--robot", "chen2018", "--grid", grid_spec, "--threads", "2",
+              "--progress", "none", "--out", dir, (char *)NULL);
         _exit(127);
     }
     int status = 0;
@@ -185,24 +359,41 @@ static double sweep_rss_mb(const char *grid_spec)
 int main(void)
 {
     setvbuf(stdout, NULL, _IOLBF, 0);
+    openblas_set_num_threads(1); /* as the serial commands do */
     printf("deltamap bench on %d cores (one BLAS thread per worker)\n\n", omp_get_num_procs());
-    printf("1. per pose, one thread (the sweep's pipeline: k modes + 4 for tracking, 3 moves)\n");
-    per_pose("chen2018", 1, 10);
-    per_pose("chen2018", 2, 10);
-    per_pose("chen2018", 4, 10);
-    per_pose("zheng2017", 4, 10);
-    per_pose("han2011", 4, 10);
-    per_pose("chen2018", 8, 10);
-    printf("\n2. sweep throughput (chen2018, whole pipeline incl. store)\n");
+    printf("1. per pose, one thread: the sweep's pipeline along a tile's path (10 modes + 4 "
+           "for tracking, 3 moves), parts in us\n");
+    const char *presets[] = {"chen2018", "zheng2017", "han2011"};
+    const int meshes[] = {1, 4, 8};
+    for (int m = 0; m < 3; m++)
+        for (int p = 0; p < 3; p++) {
+            pose_costs pc;
+            per_pose(presets[p], meshes[m], 10, &pc);
+            print_pose_costs(presets[p], meshes[m], &pc);
+        }
+    printf("\n2. accuracy against an extended-precision reference (tests/dm_reference.h)\n");
+    for (int m = 1; m < 3; m++)
+        for (int p = 0; p < 3; p++)
+            accuracy(presets[p], meshes[m]);
+    printf("\n3. throughput (the serial commands first: a sweep leaves OpenMP at its threads)\n");
+    for (int p = 0; p < 3; p++)
+        trajectory_time(presets[p]);
+    diagnosis_time(1, "p2p:from=-0.03,-0.02,-0.41;to=0.03,0.02,-0.39;duration=0.05;"
+                      "law=bangbang;dwell=0.05");
+    diagnosis_time(4, "circle:centre=0,0,-0.4;radius=0.04;rate=12.566;duration=1");
     long pts;
-    for (int th = 1; th <= omp_get_num_procs() && th <= 2; th++) {
-        double r4 = sweep_rate("x=-0.3:0.3:24,y=-0.3:0.3:24,z=-0.5", 4, th, &pts);
-        printf("   mesh 4,4 (default): %ld points, %d thread%s: %7.1f poses/s\n", pts, th,
-               th > 1 ? "s" : " ", r4);
+    double r1 = 0;
+    for (int th = 1; th <= 2; th++) {
+        double r = sweep_rate("x=-0.3:0.3:48,y=-0.3:0.3:48,z=-0.5", 4, th, &pts);
+        if (th == 1)
+            r1 = r;
+        printf("   sweep chen2018 mesh 4,4: %ld points, %d thread%s: %7.1f poses/s (1e6 poses: "
+               "%.1f min)\n",
+               pts, th, th > 1 ? "s" : " ", r, 1e6 / r / 60);
+        if (th == 2)
+            printf("   2 threads / 1 thread: %.2f\n", r / r1);
     }
-    double r8 = sweep_rate("x=-0.3:0.3:12,y=-0.3:0.3:12,z=-0.5", 8, 0, &pts);
-    printf("   mesh 8,8 (finer):   %ld points, all threads: %7.1f poses/s\n", pts, r8);
-    printf("\n3. peak memory of a sweep (mesh 2,2, 2 threads)\n");
+    printf("\n4. peak memory of a sweep (default mesh, 2 threads)\n");
     double m1 = sweep_rss_mb("x=-0.3:0.3:16,y=-0.3:0.3:16,z=-0.5");
     double m2 = sweep_rss_mb("x=-0.3:0.3:51,y=-0.3:0.3:51,z=-0.5");
     printf("   %5d points: %6.1f MB max RSS\n", 16 * 16, m1);

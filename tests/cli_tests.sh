@@ -99,6 +99,9 @@ contains err "first unreachable at t = 0 s"
 if [ -e "$TMP/none.csv" ] || ls "$TMP"/none.csv.tmp.* >/dev/null 2>&1; then bad "half-written output"; else ok; fi
 expect 2 "bad path spec" "$DM" trajectory --robot zheng2017 --path "circle:centre=0,0;radius=1;rate=1;duration=1"
 contains err "centre needs 3 numbers"
+# a path that would take years is refused at once, before the reachability scan
+expect 2 "endless path refused" timeout 10 "$DM" trajectory --robot chen2018 --path "circle:centre=0,0,-0.5;radius=0.1;rate=1;duration=21474836480.02"
+contains err "hours of work"
 expect 2 "bad law" "$DM" trajectory --robot zheng2017 --path "p2p:from=0,0,-0.4;to=0.1,0,-0.4;duration=1;law=smooth"
 printf 't,x,y,z\n0,0,0,-0.4\n0.01,0,0,oops\n' >"$TMP/bad.csv"
 expect 2 "bad csv" "$DM" trajectory --robot zheng2017 --path "$TMP/bad.csv"
@@ -120,6 +123,13 @@ ds = xr.open_zarr('$TMP/run.zarr', consolidated=False)
 c = np.genfromtxt('$TMP/run.csv', delimiter=',', names=True)
 ok = ds.sizes['time'] == 51 and np.allclose(ds.time.values, c['t_s']) and np.allclose(ds.error_norm.values, c['error_m'], rtol=1e-8)
 sys.exit(0 if ok and ds.error.attrs['units'] == 'm, rad' else 1)"; then ok; else bad "trajectory zarr content"; fi
+
+# a run's store replaces an earlier run's store, nothing else
+expect 0 "trajectory zarr again" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --out "$TMP/run.zarr"
+mkdir -p "$TMP/foreign.zarr" && touch "$TMP/foreign.zarr/notes.txt"
+expect 2 "trajectory zarr over a foreign directory" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --out "$TMP/foreign.zarr"
+contains err "not a trajectory store"
+if [ -f "$TMP/foreign.zarr/notes.txt" ] && ! ls -d "$TMP"/*.tmp.* >/dev/null 2>&1; then ok; else bad "foreign directory touched or temporaries left"; fi
 
 # ---- study ----
 expect 0 "study json" "$DM" study --robot chen2018 --path "p2p:from=0,0,-0.5;to=0.05,0,-0.5;duration=0.02" --mesh 1,1 --vary arm.side=0.02:0.03:2 --vary rod.side=0.006:0.01:2 --json --out "$TMP/study.csv"
@@ -145,6 +155,10 @@ json_true "len(d['ranking']) >= 6 and all('gain_percent' in r for r in d['rankin
 cp "$TMP/out" "$TMP/modal.json"
 expect 0 "extended robot fits" "$DM" compare --measured "$TMP/modal.csv" --robot "$TMP/fixed.ini" --mesh 1,1 --json
 json_true "d['exceeds_noise'] is False"
+# noise 0: no sigma column (equal weights), and what synth writes compare reads
+expect 0 "synth without noise" "$DM" synth --robot zheng2017 --kind modal --noise 0 --poses 3 --modes 2 --seed 1 --mesh 1,1 --out "$TMP/exact.csv"
+if grep -q "^x,y,z,mode,freq_hz$" "$TMP/exact.csv"; then ok; else bad "synth --noise 0 header"; fi
+expect 0 "compare reads synth --noise 0" "$DM" compare --measured "$TMP/exact.csv" --mesh 1,1
 expect 0 "synth noise only" "$DM" synth --robot zheng2017 --kind static --noise 1e-7 --poses 9 --seed 2 --mesh 1,1 --out "$TMP/null.csv"
 expect 0 "diagnose null" "$DM" diagnose --measured "$TMP/null.csv" --mesh 1,1 --json
 json_true "d['cause'] is None and d['causes'] == [] and d['partial'] is None"

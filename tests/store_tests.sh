@@ -18,6 +18,32 @@ SW="$DM sweep --robot chen2018 --grid $GRID --mesh 2,2 --modes 6 --tile 4,4,1 --
 $SW --out "$TMP/ref" --threads 1 >/dev/null || bad "reference sweep"
 $SW --out "$TMP/two" --threads 2 >/dev/null || bad "two-thread sweep"
 if diff -r "$TMP/ref" "$TMP/two" >/dev/null; then ok; else bad "1 and 2 threads differ"; fi
+# the thread count from the environment instead of --threads, BLAS threads too
+for env in "OMP_NUM_THREADS=1" "OMP_NUM_THREADS=2" "OMP_NUM_THREADS=2 OPENBLAS_NUM_THREADS=2"; do
+    rm -rf "$TMP/env"
+    env $env $SW --out "$TMP/env" >/dev/null || bad "sweep with $env"
+    if diff -r "$TMP/ref" "$TMP/env" >/dev/null; then ok; else bad "$env differs from --threads 1"; fi
+done
+
+# a grid across zheng2017's cluster of rod modes (169.6-170.1 Hz): tracked
+# frequencies identical for any thread count, BLAS threading, environment
+# and tile shape (each point starts from an anchor's seed and is tracked
+# against that anchor, clusters as subspaces)
+CG="x=-0.06:0.06:5,y=-0.06:0.06:5,z=-0.45:-0.35:3"
+CSW="$DM sweep --robot zheng2017 --grid $CG --progress none"
+$CSW --out "$TMP/c16" --tile 16,16,1 --threads 2 >/dev/null || bad "cluster sweep"
+for run in "--tile 8,8,1 --threads 1" "--tile 2,3,1 --threads 2" "OMP_NUM_THREADS=1" "OMP_NUM_THREADS=2" "OPENBLAS_NUM_THREADS=2"; do
+    rm -rf "$TMP/cx"
+    case "$run" in
+        --*) $CSW --out "$TMP/cx" $run >/dev/null ;;
+        *) env $run $CSW --out "$TMP/cx" --tile 16,16,1 >/dev/null ;;
+    esac || bad "cluster sweep $run"
+    if $PY -c "
+import sys, zarr, numpy as np
+a, b = zarr.open('$TMP/c16', mode='r'), zarr.open('$TMP/cx', mode='r')
+sys.exit(0 if all(np.array_equal(np.array(a[k]), np.array(b[k]), equal_nan=True)
+                  for k in ('frequencies_tracked_hz', 'frequencies_hz', 'move_peak_m')) else 1)"; then ok; else bad "tracked arrays differ with $run"; fi
+done
 
 # real clients and values == deltamap modes
 if $PY tests/check_store.py "$TMP/ref" "$DM" chen2018 2,2; then ok; else bad "zarr/xarray checks"; fi
@@ -64,6 +90,12 @@ if [ $? -eq 2 ] && grep -q "another robot" "$TMP/err"; then ok; else bad "robot 
 $DM sweep --robot chen2018 --grid "x=0,y=0,z=-0.5" --mesh 2,2 --modes 6 --tile 4,4,1 --out "$TMP/ref" --progress none >/dev/null 2>"$TMP/err"
 if [ $? -eq 2 ] && grep -q "another grid" "$TMP/err"; then ok; else bad "grid mismatch accepted"; fi
 $DM sweep --robot chen2018 --grid "x=0,y=0,z=-0.5" --out "$TMP/ref" --force --progress none >/dev/null && ok || bad "--force"
+
+# a sweep that implies days of work, or millions of files, is refused at once
+$DM sweep --robot chen2018 --grid "x=-0.3:0.3:10000,y=-0.3:0.3:10000,z=-0.5" --tile 64,64,1 --threads 2 --out "$TMP/huge" 2>"$TMP/err"
+if [ $? -eq 2 ] && grep -q "hours of work" "$TMP/err" && [ ! -e "$TMP/huge" ]; then ok; else bad "days of work accepted"; cat "$TMP/err"; fi
+$DM sweep --robot chen2018 --grid "x=-0.3:0.3:2000,y=-0.3:0.3:2000,z=-0.5" --tile 1,1,1 --no-dynamic --out "$TMP/huge" 2>"$TMP/err"
+if [ $? -eq 2 ] && grep -q "chunk files" "$TMP/err" && [ ! -e "$TMP/huge" ]; then ok; else bad "millions of files accepted"; cat "$TMP/err"; fi
 
 # bad grids are clear errors, nothing written
 $DM sweep --robot chen2018 --grid "x=-0.3:0.3:0,y=0,z=-0.5" --out "$TMP/none" 2>"$TMP/err"

@@ -3,7 +3,11 @@
 #include "dm_test.h"
 
 #include <dirent.h>
+#include <fcntl.h>
 #include <stdlib.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "dm_store.h"
@@ -96,11 +100,102 @@ static void chunks_round_trip_and_detect_damage(void **state)
     assert_int_equal(system(cmd), 0);
 }
 
+static void touch(const char *dir, const char *name, long age_s)
+{
+    char path[600];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fclose(f);
+    struct timespec t[2] = {{time(NULL) - age_s, 0}, {time(NULL) - age_s, 0}};
+    assert_int_equal(utimensat(AT_FDCWD, path, t, 0), 0);
+}
+
+static int exists(const char *dir, const char *name)
+{
+    char path[600];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    return access(path, F_OK) == 0;
+}
+
+/* Temporaries are PATH.tmp.HOST.PID; only those of writers that are gone
+ * are removed: on this host a PID that does not exist, of another host a
+ * file older than DM_TEMP_STALE_S. Live writers' files stay. */
+static void only_dead_writers_temporaries_are_removed(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/dm_store_XXXXXX", host[64], name[200], mine[700];
+    assert_non_null(mkdtemp(dir));
+    assert_int_equal(gethostname(host, sizeof host), 0);
+    pid_t dead = fork(); /* a PID that surely existed and is gone */
+    if (!dead)
+        _exit(0);
+    assert_int_equal(waitpid(dead, NULL, 0), dead);
+    snprintf(name, sizeof name, "0.tmp.%s.%ld", host, (long)dead);
+    touch(dir, name, 0);                                   /* dead, here: removed */
+    snprintf(name, sizeof name, "1.tmp.%s.%ld", host, (long)getppid());
+    touch(dir, name, 0);                                   /* alive, here: kept */
+    snprintf(name, sizeof name, "2.tmp.%s.%ld", host, (long)getpid());
+    touch(dir, name, 0);                                   /* ourselves: kept */
+    touch(dir, "3.tmp.elsewhere.example.org.4242", 60);    /* another host, fresh: kept */
+    touch(dir, "4.tmp.elsewhere.example.org.4242", DM_TEMP_STALE_S + 60); /* old: removed */
+    touch(dir, "5.tmp.notapid", 0);                         /* not ours: kept */
+    touch(dir, "6", 0);                                     /* data: kept */
+    snprintf(name, sizeof name, "zarr.json.tmp.%s.%ld", host, (long)dead);
+    touch(dir, name, 0);
+    assert_int_equal(dm_remove_stale_temporaries(dir, "6"), 0); /* another base */
+    assert_int_equal(dm_remove_stale_temporaries(dir, "zarr.json"), 1);
+    assert_int_equal(dm_remove_stale_temporaries(dir, NULL), 2);
+    snprintf(name, sizeof name, "0.tmp.%s.%ld", host, (long)dead);
+    assert_false(exists(dir, name));
+    assert_false(exists(dir, "4.tmp.elsewhere.example.org.4242"));
+    snprintf(name, sizeof name, "1.tmp.%s.%ld", host, (long)getppid());
+    assert_true(exists(dir, name));
+    snprintf(name, sizeof name, "2.tmp.%s.%ld", host, (long)getpid());
+    assert_true(exists(dir, name));
+    assert_true(exists(dir, "3.tmp.elsewhere.example.org.4242"));
+    assert_true(exists(dir, "5.tmp.notapid"));
+    assert_true(exists(dir, "6"));
+    /* our own temporary name carries host and PID */
+    dm_temp_name("a/b", mine, sizeof mine);
+    snprintf(name, sizeof name, "a/b.tmp.%s.%ld", host, (long)getpid());
+    assert_string_equal(mine, name);
+    char cmd[600];
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    assert_int_equal(system(cmd), 0);
+}
+
+/* A chunk write into a store whose array directory is gone fails and does
+ * not recreate it: a writer whose store was removed or replaced leaves no
+ * stray tree. */
+static void chunk_write_does_not_recreate_a_removed_store(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/dm_store_XXXXXX", cmd[600], path[600];
+    assert_non_null(mkdtemp(dir));
+    dm_store st;
+    dm_error err;
+    make_store(&st, dir);
+    assert_int_equal(dm_store_write_metadata(&st, &err), 0);
+    double data[6] = {1, 2, 3, 4, 5, 6};
+    const int64_t c[2] = {2, 0};
+    snprintf(cmd, sizeof cmd, "rm -rf %s/values", dir);
+    assert_int_equal(system(cmd), 0);
+    assert_int_equal(dm_store_write_chunk(&st, 0, c, data, &err), DM_EIO);
+    snprintf(path, sizeof path, "%s/values", dir);
+    assert_int_not_equal(access(path, F_OK), 0);
+    dm_store_release(&st);
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    assert_int_equal(system(cmd), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(crc32c_known_vectors),
         cmocka_unit_test(chunks_round_trip_and_detect_damage),
+        cmocka_unit_test(only_dead_writers_temporaries_are_removed),
+        cmocka_unit_test(chunk_write_does_not_recreate_a_removed_store),
     };
     return cmocka_run_group_tests_name("store", tests, NULL, NULL);
 }

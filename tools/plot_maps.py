@@ -6,12 +6,15 @@
 Writes into DIR (default maps/NAME-plots): f1 over the X-Y slice, the
 static gravity error, the smallest stiffness, the standard-move peak error,
 the status mask, and (for grids with several heights) the first
-frequencies against height at the point nearest the Z axis. Unreachable and
-failed points are blank.
+frequencies against height at the point nearest the Z axis. Every map but
+the status map shows only the points whose status is ok (the title says how
+many were masked), on colour limits from the 1st and 99th percentiles (the
+colour bar's arrows mark values beyond), in the unit that suits the values.
 """
 import argparse
 import os
 import sys
+import textwrap
 
 import matplotlib
 
@@ -50,14 +53,58 @@ def mesh(ax, X, Y, V, **kw):
     return ax.scatter(X[good], Y[good], c=V[good], s=40, **kw)
 
 
-def draw(X, Y, V, title, label, path, cmap="viridis"):
-    fig, ax = plt.subplots(figsize=(6.2, 5))
-    im = mesh(ax, X, Y, V, cmap=cmap)
-    fig.colorbar(im, ax=ax, label=label)
+# (factor, name) per physical unit, largest first: the map is drawn in the
+# one that puts the typical value between 1 and 1000
+UNITS = {
+    "m": [(1.0, "m"), (1e3, "mm"), (1e6, "µm"), (1e9, "nm")],
+    "N/m": [(1e-9, "N/nm"), (1e-6, "N/µm"), (1e-3, "N/mm"), (1.0, "N/m")],
+    "Hz": [(1e-3, "kHz"), (1.0, "Hz")],
+    "s": [(1.0, "s"), (1e3, "ms")],
+}
+
+
+def scaled(V, unit):
+    """V (in SI `unit`) in the unit that suits its magnitude: (values, name)."""
+    finite = np.abs(V[np.isfinite(V)])
+    typical = np.median(finite) if finite.size else 1.0
+    choices = UNITS[unit]
+    for f, name in choices:
+        if typical * f >= 1.0:
+            return V * f, name
+    f, name = choices[-1]
+    return V * f, name
+
+
+def robust_limits(V):
+    """Colour limits from the 1st and 99th percentiles of the shown values,
+    so that a few extreme points (near a singularity) do not turn the rest
+    of the map into one colour; whether values lie beyond them."""
+    v = V[np.isfinite(V)]
+    if v.size == 0:
+        return None, None, "neither"
+    lo, hi = np.percentile(v, [1, 99])
+    if hi <= lo:
+        lo, hi = v.min(), v.max()
+    extend = {(False, False): "neither", (True, False): "min", (False, True): "max",
+              (True, True): "both"}[(bool(v.min() < lo), bool(v.max() > hi))]
+    return lo, hi, extend
+
+
+def draw(X, Y, V, ok, title, quantity, unit, path, cmap="viridis"):
+    """One map: only the points whose status is ok, on robust colour limits,
+    in the unit that suits the values; the title says what was masked."""
+    V = np.where(ok, V, np.nan)
+    V, uname = scaled(V, unit)
+    lo, hi, extend = robust_limits(V)
+    masked = int(np.count_nonzero(~ok))
+    fig, ax = plt.subplots(figsize=(6.4, 5.4))
+    im = mesh(ax, X, Y, V, cmap=cmap, vmin=lo, vmax=hi)
+    fig.colorbar(im, ax=ax, label=f"{quantity} ({uname})", extend=extend)
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
     ax.set_aspect("equal")
-    ax.set_title(title)
+    note = f"{masked} of {ok.size} points masked (status not ok)" if masked else "all points ok"
+    ax.set_title("\n".join(textwrap.wrap(title, 52)) + "\n" + note, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -78,20 +125,21 @@ def main():
     robot = st.group_attrs["deltamap"]["robot"]
     where = f"{robot}, z = {1e3 * z[iz]:.0f} mm"
     X, Y = plane_coords(st)
-    draw(X, Y, slice_xy(st, "frequencies_hz", iz, 0), f"first natural frequency ({where})",
-         "f1 (Hz)", os.path.join(out, "f1.png"))
-    draw(X, Y, slice_xy(st, "frequencies_tracked_hz", iz, 0),
-         f"frequency of mode family 1, tracked by MAC ({where})", "Hz",
+    ok = slice_xy(st, "status", iz) == 0
+    draw(X, Y, slice_xy(st, "frequencies_hz", iz, 0), ok, f"first natural frequency ({where})",
+         "f1", "Hz", os.path.join(out, "f1.png"))
+    draw(X, Y, slice_xy(st, "frequencies_tracked_hz", iz, 0), ok,
+         f"frequency of mode family 1, tracked by MAC ({where})", "family 1", "Hz",
          os.path.join(out, "f1_tracked.png"))
     e = slice_xy(st, "static_error", iz)
-    draw(X, Y, 1e6 * np.linalg.norm(e[..., :3], axis=-1), f"static gravity error |Δ| ({where})",
-         "|Δ| (µm)", os.path.join(out, "static_error.png"), cmap="magma")
-    draw(X, Y, 1e-6 * slice_xy(st, "stiffness_min", iz), f"smallest platform stiffness ({where})",
-         "k_min (N/µm)", os.path.join(out, "stiffness.png"), cmap="cividis")
+    draw(X, Y, np.linalg.norm(e[..., :3], axis=-1), ok, f"static gravity error |Δ| ({where})",
+         "|Δ|", "m", os.path.join(out, "static_error.png"), cmap="magma")
+    draw(X, Y, slice_xy(st, "stiffness_min", iz), ok, f"smallest platform stiffness ({where})",
+         "k_min", "N/m", os.path.join(out, "stiffness.png"), cmap="cividis")
     peak = slice_xy(st, "move_peak_m", iz)
     if np.isfinite(peak).any():
-        draw(X, Y, 1e6 * np.nanmax(peak, axis=-1),
-             f"standard move: worst peak error of X, Y, Z moves ({where})", "peak (µm)",
+        draw(X, Y, np.nanmax(peak, axis=-1), ok,
+             f"standard move: worst peak error of the X, Y, Z moves ({where})", "peak", "m",
              os.path.join(out, "move_peak.png"), cmap="magma")
     s = slice_xy(st, "status", iz).astype(float)
     s[s == 255] = np.nan

@@ -1,0 +1,191 @@
+/* Block-arrow matrices against their dense expansion: products, the
+ * Cholesky solve and its Schur complement, ln det, and Sturm counts, on
+ * random symmetric matrices whose rows start at irregular columns (a
+ * profile that is not monotone, as joint springs make it). */
+#include "dm_test.h"
+
+#include <lapacke.h>
+#include <stdlib.h>
+
+#include "dm_arrow.h"
+
+static double uniform(unsigned *s)
+{
+    *s = *s * 1664525u + 1013904223u;
+    return (*s >> 8) / 16777216.0 - 0.5;
+}
+
+/* A random block-arrow matrix, diagonally dominant (SPD) when spd, through
+ * dm_arrow_add calls for every (i, j) of the full matrix, recording the
+ * pattern. Row i of block c reaches back to a random first column. */
+static void random_arrow(dm_arrow *a, dm_arrow *b, unsigned seed, int spd)
+{
+    const dm_arrow_layout *lay = &a->lay;
+    unsigned s = seed;
+    assert_int_equal(dm_arrow_record(a, NULL), 0);
+    assert_int_equal(dm_arrow_record(b, NULL), 0);
+    for (int c = 0; c < DM_ARROW_BLOCKS; c++) {
+        int off = lay->off[c], nb = lay->nb[c], kd = lay->kd[c];
+        for (int i = 0; i < nb; i++) {
+            int back = (int)((uniform(&s) + 0.5) * (kd + 1));
+            for (int j = i - back > 0 ? i - back : 0; j < i; j++) {
+                double v = uniform(&s), w = uniform(&s);
+                dm_arrow_add(a, off + i, off + j, v);
+                dm_arrow_add(a, off + j, off + i, v);
+                dm_arrow_add(b, off + i, off + j, 0.1 * w);
+                dm_arrow_add(b, off + j, off + i, 0.1 * w);
+            }
+            dm_arrow_add(a, off + i, off + i, spd ? 2.0 * kd + 2 : uniform(&s) * 4);
+            dm_arrow_add(b, off + i, off + i, 1.0 + 2 * kd * 0.1);
+            if (i >= nb - 4) /* the last rows of a block reach the border */
+                for (int m = 0; m < DM_ARROW_BORDER; m++) {
+                    double v = uniform(&s);
+                    dm_arrow_add(a, off + i, lay->border + m, v);
+                    dm_arrow_add(a, lay->border + m, off + i, v);
+                }
+        }
+    }
+    for (int m = 0; m < DM_ARROW_BORDER; m++) {
+        dm_arrow_add(a, lay->border + m, lay->border + m, 40.0);
+        dm_arrow_add(b, lay->border + m, lay->border + m, 1.0);
+    }
+}
+
+typedef struct {
+    dm_arrow_layout lay;
+    dm_arrow a, b;
+    dm_arrow_pattern pat;
+    double *A, *B;
+    int n;
+} fixture;
+
+static void setup_fixture(fixture *f, unsigned seed, int spd)
+{
+    const int nb[3] = {23, 17, 30}, kd[3] = {7, 5, 9};
+    dm_arrow_layout_make(&f->lay, nb, kd);
+    f->n = f->lay.n;
+    assert_int_equal(dm_arrow_init(&f->a, &f->lay, NULL), 0);
+    assert_int_equal(dm_arrow_init(&f->b, &f->lay, NULL), 0);
+    random_arrow(&f->a, &f->b, seed, spd);
+    assert_int_equal(dm_arrow_pattern_make(&f->pat, &f->a, &f->b, NULL), 0);
+    f->a.pattern = f->b.pattern = &f->pat;
+    f->A = malloc(sizeof(double) * f->n * f->n);
+    f->B = malloc(sizeof(double) * f->n * f->n);
+    dm_arrow_to_dense(&f->a, f->A);
+    dm_arrow_to_dense(&f->b, f->B);
+}
+
+static void teardown_fixture(fixture *f)
+{
+    dm_arrow_release(&f->a);
+    dm_arrow_release(&f->b);
+    dm_arrow_pattern_release(&f->pat);
+    free(f->A);
+    free(f->B);
+}
+
+static void products_match_dense(void **state)
+{
+    (void)state;
+    fixture f;
+    setup_fixture(&f, 7, 1);
+    int n = f.n, q = 5;
+    double *X = malloc(sizeof(double) * n * q), *Y = malloc(sizeof(double) * n * q);
+    unsigned s = 99;
+    for (int i = 0; i < n * q; i++)
+        X[i] = uniform(&s);
+    dm_arrow_mult(&f.a, X, q, Y); /* interleaved: X[i q + r] */
+    for (int r = 0; r < q; r++)
+        for (int i = 0; i < n; i++) {
+            double e = 0;
+            for (int j = 0; j < n; j++)
+                e += f.A[(size_t)j * n + i] * X[(size_t)j * q + r];
+            assert_abs(Y[(size_t)i * q + r], e, 1e-13 * (1 + fabs(e)), "(A X)[%d, %d]", i, r);
+        }
+    free(X);
+    free(Y);
+    teardown_fixture(&f);
+}
+
+static void cholesky_solves_and_schur_complement(void **state)
+{
+    (void)state;
+    fixture f;
+    setup_fixture(&f, 11, 1);
+    int n = f.n, q = 3;
+    dm_arrow_chol L;
+    assert_int_equal(dm_arrow_chol_init(&L, &f.lay, NULL), 0);
+    assert_int_equal(dm_arrow_chol_factor(&L, &f.a, NULL), 0);
+    double *X = malloc(sizeof(double) * n * q), *D = malloc(sizeof(double) * n * q);
+    unsigned s = 5;
+    for (int i = 0; i < n * q; i++)
+        X[i] = uniform(&s);
+    for (int r = 0; r < q; r++) /* column-major copy for LAPACK */
+        for (int i = 0; i < n; i++)
+            D[(size_t)r * n + i] = X[(size_t)i * q + r];
+    double *Af = malloc(sizeof(double) * n * n);
+    memcpy(Af, f.A, sizeof(double) * n * n);
+    assert_int_equal(LAPACKE_dposv(LAPACK_COL_MAJOR, 'L', n, q, Af, n, D, n), 0);
+    dm_arrow_chol_solve(&L, X, q);
+    for (int r = 0; r < q; r++)
+        for (int i = 0; i < n; i++)
+            assert_abs(X[(size_t)i * q + r], D[(size_t)r * n + i], 1e-12, "A^-1 b [%d, %d]", i, r);
+    /* the border block of A^-1 is S^-1 */
+    double Sinv[36];
+    assert_int_equal(dm_arrow_chol_border_inverse(&L, Sinv), 0);
+    memcpy(Af, f.A, sizeof(double) * n * n);
+    assert_int_equal(LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', n, Af, n), 0);
+    double logdet = 0;
+    for (int i = 0; i < n; i++)
+        logdet += 2 * log(Af[(size_t)i * n + i]);
+    assert_rel(dm_arrow_chol_logdet(&L), logdet, 1e-12, "ln det A");
+    assert_int_equal(LAPACKE_dpotri(LAPACK_COL_MAJOR, 'L', n, Af, n), 0);
+    for (int m = 0; m < 6; m++)
+        for (int l = m; l < 6; l++) {
+            double e = Af[(size_t)(f.lay.border + m) * n + f.lay.border + l];
+            assert_abs(Sinv[m * 6 + l], e, 1e-12 * fabs(Sinv[m * 6 + m]), "S^-1 (%d, %d)", l, m);
+        }
+    dm_arrow_chol_release(&L);
+    free(X), free(D), free(Af);
+    teardown_fixture(&f);
+}
+
+static void sturm_counts_match_eigenvalues(void **state)
+{
+    (void)state;
+    fixture f;
+    setup_fixture(&f, 23, 0); /* indefinite A, B positive definite */
+    int n = f.n;
+    double *A = malloc(sizeof(double) * n * n), *B = malloc(sizeof(double) * n * n);
+    double *w = malloc(sizeof(double) * n);
+    memcpy(A, f.A, sizeof(double) * n * n);
+    memcpy(B, f.B, sizeof(double) * n * n);
+    assert_int_equal(LAPACKE_dsygvd(LAPACK_COL_MAJOR, 1, 'N', 'L', n, A, n, B, n, w), 0);
+    dm_arrow_ldl ldl;
+    assert_int_equal(dm_arrow_ldl_init(&ldl, &f.lay, NULL), 0);
+    int checked = 0;
+    for (int j = 0; j + 1 < n; j += 3) { /* shifts midway between eigenvalues */
+        if (w[j + 1] - w[j] < 1e-6 * (fabs(w[j]) + 1))
+            continue;
+        double sigma = 0.5 * (w[j] + w[j + 1]);
+        int count;
+        if (dm_arrow_count_below(&ldl, &f.a, &f.b, sigma, &count) != DM_OK)
+            continue; /* a pivot too small to trust: the caller moves sigma */
+        assert_int_equal(count, j + 1);
+        checked++;
+    }
+    assert_true(checked > n / 6);
+    dm_arrow_ldl_release(&ldl);
+    free(A), free(B), free(w);
+    teardown_fixture(&f);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(products_match_dense),
+        cmocka_unit_test(cholesky_solves_and_schur_complement),
+        cmocka_unit_test(sturm_counts_match_eigenvalues),
+    };
+    return cmocka_run_group_tests_name("arrow", tests, NULL, NULL);
+}
