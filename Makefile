@@ -49,8 +49,10 @@ help:
 deps:
 	@tools/install-deps.sh
 
-$(BUILD)/obj/%.o: src/%.c $(wildcard include/*.h) | $(BUILD)/obj
-	$(CC) $(CFLAGS) $(PKG_CFLAGS) -c $< -o $@
+# -MMD -MP: each object depends on the headers it includes (public and
+# the private ones beside the sources), recorded in its .d file.
+$(BUILD)/obj/%.o: src/%.c | $(BUILD)/obj
+	$(CC) $(CFLAGS) $(PKG_CFLAGS) -MMD -MP -c $< -o $@
 
 # The presets are the shipped robots/*.ini, compiled in as strings.
 $(BUILD)/presets.c: $(wildcard robots/*.ini) tools/embed-presets.sh | $(BUILD)/obj
@@ -65,12 +67,14 @@ $(BUILD)/libdeltamap.a: $(LIB_OBJ)
 $(BIN): $(BUILD)/obj/main.o $(BUILD)/libdeltamap.a
 	$(CC) $(CFLAGS) $^ -o $@ $(PKG_LIBS) $(SUNDIALS_LIBS) $(LDLIBS)
 
-$(BUILD)/tests/%: tests/%.c tests/dm_test.h $(BUILD)/libdeltamap.a | $(BUILD)/tests
-	$(CC) $(CFLAGS) $(PKG_CFLAGS) -Itests $< -o $@ $(BUILD)/libdeltamap.a \
+$(BUILD)/tests/%: tests/%.c $(BUILD)/libdeltamap.a | $(BUILD)/tests
+	$(CC) $(CFLAGS) $(PKG_CFLAGS) -MMD -MP -Itests $< -o $@ $(BUILD)/libdeltamap.a \
 	    $(PKG_LIBS) $(SUNDIALS_LIBS) -lcmocka $(LDLIBS)
 
 $(BUILD)/obj $(BUILD)/tests:
 	mkdir -p $@
+
+-include $(wildcard $(BUILD)/obj/*.d $(BUILD)/tests/*.d)
 
 # Tests run single-threaded BLAS inside, OpenMP as the test chooses.
 unit-tests: $(TEST_BIN)
@@ -93,6 +97,7 @@ slurm-tests: $(BIN)
 	if [ $$rc -eq 77 ]; then touch $(BUILD)/slurm-skipped; else exit $$rc; fi
 
 test: deps
+	@tests/layers.sh
 	@$(MAKE) --no-print-directory unit-tests cli-tests store-tests shard-tests slurm-tests \
 	    fuzz-replay fault-tests
 	@if [ -e $(BUILD)/slurm-skipped ]; then \
@@ -172,7 +177,7 @@ fuzz-deps:
 fuzz: fuzz-deps
 	@$(MAKE) --no-print-directory $(FUZZ_BIN)
 
-$(FUZZ_DIR)/obj/%.o: src/%.c $(wildcard include/*.h) | $(FUZZ_DIR)/obj
+$(FUZZ_DIR)/obj/%.o: src/%.c $(wildcard include/*.h src/*.h) | $(FUZZ_DIR)/obj
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer-no-link $(PKG_CFLAGS) -c $< -o $@
 
 $(FUZZ_DIR)/obj/presets.o: $(BUILD)/presets.c | $(FUZZ_DIR)/obj

@@ -97,11 +97,14 @@ double dm_predict_cost_s(const dm_robot *robot, dm_data_kind kind, double count,
 double dm_predict_estimate_s(const dm_robot *robot, const dm_dataset *data, int na, int nb,
                              double *bytes);
 
-/* DM_EINVAL "WHAT: about H hours of work [and G GB of memory] (the limits
- * are ...): HINT, or force it (--force-long)" when est_s or bytes exceed
- * the limits and !force; DM_OK otherwise. */
+/* DM_EINVAL "WHAT: about H hours of work [and G GB of memory] (the limit
+ * is ...): HINT, or force it" when est_s or bytes exceed the limits and
+ * !force; DM_OK otherwise. */
 int dm_check_size(const char *what, double est_s, double bytes, const char *hint, int force,
                   dm_error *err);
+
+/* Is err such a refusal? (The CLI then names its option that forces.) */
+int dm_size_refused(const dm_error *err);
 
 /* splitmix64-based generator: uniform in [0,1) and standard normal. */
 typedef struct dm_rng {

@@ -57,6 +57,14 @@ size_t dm_dtype_size(dm_dtype t);
 /* Write the group and array metadata (replacing what is there). */
 int dm_store_write_metadata(const dm_store *store, dm_error *err);
 
+/* Append an array to a store's layout (before dm_store_write_metadata):
+ * ndim dimensions named dims[] of extent shape[] in chunks of chunk[];
+ * attributes (units, long_name, ...) are owned by the store from now on.
+ * The one way arrays are defined, by sweeps and trajectory runs alike. */
+void dm_store_add_array(dm_store *store, const char *name, dm_dtype type, int ndim,
+                        const int64_t *shape, const int *chunk, const char *const *dims,
+                        json_t *attributes);
+
 /* Read a store's metadata (for info/resume). Every field is checked:
  * known data_type, 1..DM_STORE_MAXDIM dimensions, whole extents, chunks of
  * at least one element per dimension and at most DM_STORE_MAX_CHUNK_BYTES,
@@ -87,26 +95,5 @@ int dm_store_read_chunk(const dm_store *store, int a, const int64_t *c, void *da
 
 /* Remove what dead writers left beside one chunk file (its temporaries). */
 void dm_store_clean_chunk(const dm_store *store, int a, const int64_t *c);
-
-/* Write any small file atomically (tmp + rename). */
-int dm_write_file_atomic(const char *path, const void *data, size_t n, dm_error *err);
-
-/* The temporary name of path for this process: PATH.tmp.HOST.PID. */
-void dm_temp_name(const char *path, char *out, size_t len);
-
-/* A temporary of another host counts as abandoned after this long. */
-#define DM_TEMP_STALE_S 3600
-
-/* In directory dir, remove the temporaries BASE.tmp.HOST.PID (any BASE when
- * base is NULL; files or whole directories) whose writer is gone: on this
- * host, no process PID exists; of another host, older than
- * DM_TEMP_STALE_S. Returns how many were removed. */
-int dm_remove_stale_temporaries(const char *dir, const char *base);
-
-/* rm -r (0, or -1 with errno; an absent path is not an error) */
-int dm_remove_tree(const char *path);
-
-/* mkdir -p */
-int dm_mkdirs(const char *path, dm_error *err);
 
 #endif

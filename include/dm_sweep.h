@@ -1,9 +1,7 @@
 /* dm_sweep — workspace maps: the frozen-configuration analysis (and the
  * standard move) on a grid of poses, in parallel, into a dm_store.
  *
- * Grids: Cartesian "x=A:B:N,y=A:B:N,z=A:B:N" or cylindrical
- * "r=A:B:N,phi=A:B:N,z=A:B:N" (phi in degrees); an axis given as one value
- * "z=-0.5" is fixed. Units m. Tiles are chunks of the spatial grid; each
+ * The grid is a dm_grid (dm_grid.h). Tiles are chunks of the spatial grid; each
  * tile is computed by one thread with its own workspaces, so results do
  * not depend on the number of threads. An interrupted sweep keeps every
  * finished tile and resumes where it stopped.
@@ -20,30 +18,9 @@
 #include <signal.h>
 
 #include "dm_analysis.h"
+#include "dm_grid.h"
 #include "dm_integrate.h"
 #include "dm_robot.h"
-
-typedef enum { DM_GRID_CARTESIAN = 0, DM_GRID_CYLINDRICAL = 1 } dm_grid_kind;
-
-typedef struct dm_grid_axis {
-    char name[8];
-    double from, to;
-    int count;
-} dm_grid_axis;
-
-typedef struct dm_grid {
-    dm_grid_kind kind;
-    dm_grid_axis axis[3]; /* x, y, z or r, phi, z */
-} dm_grid;
-
-#define DM_GRID_MAX_POINTS 100000000L
-
-int dm_grid_parse(const char *spec, dm_grid *grid, dm_error *err);
-double dm_grid_value(const dm_grid_axis *axis, int i);
-void dm_grid_position(const dm_grid *grid, const int idx[3], double P[3]);
-long dm_grid_points(const dm_grid *grid);
-/* Canonical text of a grid (round-trips through dm_grid_parse). */
-void dm_grid_format(const dm_grid *grid, char *out, size_t len);
 
 enum dm_point_status {
     DM_POINT_OK = 0,
@@ -99,6 +76,7 @@ typedef struct dm_sweep_stats {
     long points_total, points_ok, points_unreachable, points_near_singular, points_failed;
     double seconds;
     int interrupted;
+    int store_refused;  /* out holds another sweep's store (opts.force replaces it) */
 } dm_sweep_stats;
 
 /* Run (or resume) a sweep into the store at `out`. `stop` is polled

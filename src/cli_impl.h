@@ -17,6 +17,9 @@ int dm_cli_usage(const char *cmd, const char *msg, const char *arg);
 int dm_cli_parse_list(const char *s, double *out, int n);
 
 int dm_cli_parse_int(const char *s, int lo, int hi, int *out);
+/* dm_cli_report, and for a refusal of work of hours or gigabytes
+ * (dm_size_refused) the option that forces it. */
+int dm_cli_report_size(const dm_error *err);
 /* A whole number lo..hi, written as such or in exponent form (1e6). */
 int dm_cli_parse_count(const char *s, int lo, int hi, int *out);
 
@@ -32,16 +35,8 @@ int dm_cli_add_set(const char *cmd, const char **sets, int *nset, const char *ar
 int dm_cli_load_robot(const char *spec, const char *const *sets, int nset, dm_robot *robot,
                       dm_error *err);
 
-/* Output files appear whole or not at all: write to PATH.tmp.PID, then
- * rename over PATH on success, remove on failure. */
-#include <stdio.h>
-typedef struct dm_cli_out {
-    FILE *f;
-    char path[1024], tmp[1100];
-} dm_cli_out;
-int dm_cli_out_open(dm_cli_out *out, const char *path, dm_error *err);
-int dm_cli_out_commit(dm_cli_out *out, dm_error *err);
-void dm_cli_out_abort(dm_cli_out *out);
+/* Output files appear whole or not at all: dm_file_out (dm_file.h). */
+#include "dm_file.h"
 
 /* Serial commands: one BLAS thread. Our matrices are small (48-900 DOF),
  * where threaded BLAS only adds overhead. (In OpenBLAS's OpenMP build this

@@ -277,8 +277,8 @@ int dm_cli_compare(int argc, char **argv)
                                              : "the residuals are within the noise");
     }
     if (a.out) {
-        dm_cli_out out;
-        if ((rc = dm_cli_out_open(&out, a.out, &err)) == DM_OK) {
+        dm_file_out out;
+        if ((rc = dm_file_out_open(&out, a.out, &err)) == DM_OK) {
             /* modal: the mode rank; deflections and tracker errors: the axis
              * (0, 1, 2 = x, y, z); tracker data also the time */
             int modal = d.kind == DM_DATA_MODAL, tracker = d.kind == DM_DATA_TRACKER;
@@ -294,7 +294,7 @@ int dm_cli_compare(int argc, char **argv)
                         s->P[2], modal ? s->mode : s->comp, s->value, pred[i], r,
                         s->sigma > 0 ? r / s->sigma : r);
             }
-            rc = dm_cli_out_commit(&out, &err);
+            rc = dm_file_out_commit(&out, &err);
         }
         if (rc)
             dm_cli_report(&err);
@@ -706,7 +706,7 @@ static void print_diagnosis_json(const dm_dataset *d, const dm_robot *rb, const 
 
 static int write_robot(const measure_args *a, const dm_robot *rb, const dm_diagnosis *dg)
 {
-    dm_cli_out out;
+    dm_file_out out;
     dm_robot fixed;
     dm_error err;
     if (!dg->found)
@@ -719,13 +719,13 @@ static int write_robot(const measure_args *a, const dm_robot *rb, const dm_diagn
         fprintf(stderr, "deltamap diagnose: %s has the effect found, which explains the data "
                         "only in part\n", a->write_robot);
     int rc = dg->found ? dm_fit_apply(rb, &dg->best, &fixed, &err) : (fixed = *rb, DM_OK);
-    if (!rc && !(rc = dm_cli_out_open(&out, a->write_robot, &err))) {
+    if (!rc && !(rc = dm_file_out_open(&out, a->write_robot, &err))) {
         fprintf(out.f, "# %s extended by deltamap diagnose on %s%s\n", rb->name, a->measured,
                 !dg->found || dg->explained ? ""
                 : dg->sigma_known ? " (explains the data only in part)"
                                   : " (no sigma: whether it explains the data cannot be judged)");
         dm_robot_write(&fixed, out.f);
-        rc = dm_cli_out_commit(&out, &err);
+        rc = dm_file_out_commit(&out, &err);
     }
     return rc ? dm_cli_report(&err) : 0;
 }
@@ -747,7 +747,7 @@ int dm_cli_diagnose(int argc, char **argv)
         return dm_cli_report(&err);
     if ((rc = dm_diagnose(&rb, &d, &o, &dg, &err))) {
         dm_dataset_free(&d);
-        return dm_cli_report(&err);
+        return dm_cli_report_size(&err);
     }
     if (a.json)
         print_diagnosis_json(&d, &rb, &dg);
@@ -862,11 +862,11 @@ int dm_cli_synth(int argc, char **argv)
         rc = dm_synthesize(&rb, &o, &d, &err);
     }
     if (rc)
-        return dm_cli_report(&err);
+        return dm_cli_report_size(&err);
     snprintf(d.robot, sizeof d.robot, "%s", robot);
-    dm_cli_out out;
+    dm_file_out out;
     FILE *f = stdout;
-    if (out_path && (rc = dm_cli_out_open(&out, out_path, &err)))
+    if (out_path && (rc = dm_file_out_open(&out, out_path, &err)))
         return dm_cli_report(&err);
     if (out_path)
         f = out.f;
@@ -876,7 +876,7 @@ int dm_cli_synth(int argc, char **argv)
         fprintf(f, ", %s", effects[i]);
     fprintf(f, "\n");
     dm_dataset_write(&d, f);
-    if (out_path && (rc = dm_cli_out_commit(&out, &err)))
+    if (out_path && (rc = dm_file_out_commit(&out, &err)))
         dm_cli_report(&err);
     dm_dataset_free(&d);
     return rc;

@@ -268,16 +268,16 @@ int dm_cli_plan(int argc, char **argv)
     if ((rc = dm_plan_parse_effects(a.effects, a.o.kind, eff, &neff, &err)) ||
         (rc = dm_cli_load_robot(a.robot, a.sets, a.nset, &rb, &err)) ||
         (rc = dm_plan(&rb, eff, neff, &a.o, &r, &err)))
-        return dm_cli_report(&err);
+        return dm_cli_report_size(&err);
     if (a.json)
         print_plan_json(&rb, &r);
     else
         print_plan(&rb, &r);
     if (a.out) {
-        dm_cli_out out;
-        if (!(rc = dm_cli_out_open(&out, a.out, &err))) {
+        dm_file_out out;
+        if (!(rc = dm_file_out_open(&out, a.out, &err))) {
             dm_plan_write_template(&r, a.robot, out.f);
-            rc = dm_cli_out_commit(&out, &err);
+            rc = dm_file_out_commit(&out, &err);
         }
         if (rc)
             dm_cli_report(&err);

@@ -3,13 +3,13 @@
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
-#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cli_impl.h"
 #include "dm_integrate.h"
+#include "dm_threads.h"
 
 static const char HELP[] =
     "usage: deltamap study --robot R --path P --vary SECTION.KEY=FROM:TO:N [--vary ...]\n"
@@ -205,9 +205,9 @@ static int write_outputs(const study_opts *t, const cell *cells, int n1, int n2)
     }
     if (!t->out)
         return 0;
-    dm_cli_out out;
+    dm_file_out out;
     dm_error err;
-    if (dm_cli_out_open(&out, t->out, &err))
+    if (dm_file_out_open(&out, t->out, &err))
         return dm_cli_report(&err);
     fprintf(out.f, "%s,%s,mean_error_m,peak_error_m,status\n", t->ax[0].key,
             t->naxis > 1 ? t->ax[1].key : "-");
@@ -218,7 +218,7 @@ static int write_outputs(const study_opts *t, const cell *cells, int n1, int n2)
                     t->naxis > 1 ? axis_value(&t->ax[1], j) : 0.0, c->mean, c->peak,
                     dm_status_name(c->status));
         }
-    if (dm_cli_out_commit(&out, &err))
+    if (dm_file_out_commit(&out, &err))
         return dm_cli_report(&err);
     return 0;
 }
@@ -244,9 +244,7 @@ int dm_cli_study(int argc, char **argv)
     cell *cells = calloc((size_t)n1 * n2, sizeof *cells);
     if (!cells)
         return DM_ENOMEM;
-    if (t.threads)
-        omp_set_num_threads(t.threads);
-#pragma omp parallel for schedule(dynamic)
+#pragma omp parallel for schedule(dynamic) num_threads(dm_threads_count(t.threads))
     for (int c = 0; c < n1 * n2; c++)
         run_cell(&t, &rb, c / n2, c % n2, &cells[c]);
     rc = write_outputs(&t, cells, n1, n2);

@@ -288,8 +288,12 @@ int dm_cli_sweep(int argc, char **argv)
         a.o.progress_user = &view;
     }
     rc = dm_sweep_run(&rb, &grid, &a.o, a.out, &stop_requested, &st, &err);
-    if (rc && rc != DM_EINTERRUPT)
-        return dm_cli_report(&err);
+    if (rc && rc != DM_EINTERRUPT) {
+        dm_cli_report(&err);
+        if (st.store_refused)
+            fprintf(stderr, "deltamap: --force replaces it; --out names another store\n");
+        return rc;
+    }
     printf("sweep   %s on %s: %ld points in %ld tiles", rb.name, a.grid, st.points_total,
            st.tiles_total);
     if (a.o.shards > 1)

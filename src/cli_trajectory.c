@@ -1,7 +1,5 @@
 /* deltamap trajectory: 6-D elastic error of the platform along a path. */
-#define _XOPEN_SOURCE 700 /* nftw */
 #include <errno.h>
-#include <ftw.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
@@ -196,19 +194,11 @@ static int keep_sample(void *user, const dm_integ_sample *s)
 static void time_array(dm_store *st, const char *name, const char *dim2, int m, const char *units,
                        const char *long_name, long n)
 {
-    dm_array_spec *a = &st->arr[st->narr++];
-    memset(a, 0, sizeof *a);
-    snprintf(a->name, sizeof a->name, "%s", name);
-    a->dtype = DM_DTYPE_FLOAT64;
-    a->ndim = dim2 ? 2 : 1;
-    a->shape[0] = n;
-    a->chunk[0] = n < TIME_CHUNK ? (int)n : TIME_CHUNK;
-    snprintf(a->dims[0], sizeof a->dims[0], "time");
-    if (dim2) {
-        a->shape[1] = a->chunk[1] = m;
-        snprintf(a->dims[1], sizeof a->dims[1], "%s", dim2);
-    }
-    a->attributes = json_pack("{s:s, s:s}", "units", units, "long_name", long_name);
+    const int64_t shape[2] = {n, m};
+    const int chunk[2] = {n < TIME_CHUNK ? (int)n : TIME_CHUNK, m};
+    const char *dims[2] = {"time", dim2};
+    dm_store_add_array(st, name, DM_DTYPE_FLOAT64, dim2 ? 2 : 1, shape, chunk, dims,
+                       json_pack("{s:s, s:s}", "units", units, "long_name", long_name));
 }
 
 static double sample_value(const dm_integ_sample *s, int array, int j)
@@ -221,12 +211,6 @@ static double sample_value(const dm_integ_sample *s, int array, int j)
     case 4: return s->tool_error_m[j];
     default: return j < s->nfreq ? s->freq_hz[j] : NAN;
     }
-}
-
-static int remove_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw)
-{
-    (void)sb, (void)flag, (void)ftw;
-    return remove(path);
 }
 
 /* A run's store appears whole or not at all: it is written as PATH.tmp.PID
@@ -249,7 +233,7 @@ static int replace_store(const char *tmp, const char *path, dm_error *err)
         if (!ours)
             return dm_fail(err, DM_EINVAL, "%s exists and is not a trajectory store written by "
                            "deltamap; choose another --out", path);
-        if (!nftw(path, remove_entry, 16, FTW_DEPTH | FTW_PHYS) && !rename(tmp, path))
+        if (!dm_file_remove_tree(path) && !rename(tmp, path))
             return DM_OK;
     }
     return dm_fail(err, DM_EIO, "%s: cannot replace: %s", path, strerror(errno));
@@ -294,7 +278,7 @@ static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory 
     if (!rc)
         rc = replace_store(st.path, path, err);
     if (rc)
-        nftw(st.path, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+        dm_file_remove_tree(st.path);
     return rc;
 }
 
@@ -361,10 +345,10 @@ int dm_cli_trajectory(int argc, char **argv)
         return dm_cli_report(&err);
     if (dm_traj_make(t.path, &rb, &tr, &err))
         return dm_cli_report(&err);
-    dm_cli_out out = {0};
+    dm_file_out out = {0};
     int zarr = t.out && ends_with(t.out, ".zarr");
     sample_list kept = {0};
-    if (t.out && !zarr && (rc = dm_cli_out_open(&out, t.out, &err))) {
+    if (t.out && !zarr && (rc = dm_file_out_open(&out, t.out, &err))) {
         dm_traj_free(&tr);
         return dm_cli_report(&err);
     }
@@ -375,13 +359,13 @@ int dm_cli_trajectory(int argc, char **argv)
     rc = dm_integrate_trajectory(&rb, &tr, &t.o, zarr ? keep_sample : out.f ? csv_sample : NULL,
                                  zarr ? (void *)&kept : (void *)out.f, &sum, &err);
     if (!rc && out.f)
-        rc = dm_cli_out_commit(&out, &err);
+        rc = dm_file_out_commit(&out, &err);
     if (!rc && zarr)
         rc = write_zarr(t.out, &rb, &tr, &kept, kept.n ? kept.s[0].nfreq : 0, &err);
     free(kept.s);
     if (rc) {
         if (out.f)
-            dm_cli_out_abort(&out);
+            dm_file_out_abort(&out);
         if (rc == DM_EINTERRUPT)
             dm_fail(&err, DM_EIO, "%s: write failed", t.out);
         dm_traj_free(&tr);

@@ -1,5 +1,6 @@
 /* Helpers shared by the deltamap commands. */
 #include "cli_impl.h"
+#include "dm_measure.h"
 
 #include <cblas.h>
 
@@ -13,6 +14,14 @@
 int dm_cli_report(const dm_error *err)
 {
     fprintf(stderr, "deltamap: %s\n", err->msg);
+    return err->code;
+}
+
+int dm_cli_report_size(const dm_error *err)
+{
+    dm_cli_report(err);
+    if (dm_size_refused(err))
+        fprintf(stderr, "deltamap: --force-long runs it anyway\n");
     return err->code;
 }
 
@@ -62,37 +71,6 @@ int dm_cli_parse_count(const char *s, int lo, int hi, int *out)
     return 0;
 }
 
-
-int dm_cli_out_open(dm_cli_out *out, const char *path, dm_error *err)
-{
-    snprintf(out->path, sizeof out->path, "%s", path);
-    snprintf(out->tmp, sizeof out->tmp, "%s.tmp.%ld", path, (long)getpid());
-    out->f = fopen(out->tmp, "w");
-    if (!out->f)
-        return dm_fail(err, DM_EIO, "%s: cannot write: %s", out->tmp, strerror(errno));
-    return DM_OK;
-}
-
-int dm_cli_out_commit(dm_cli_out *out, dm_error *err)
-{
-    int bad = ferror(out->f) | fflush(out->f) | fsync(fileno(out->f));
-    bad |= fclose(out->f);
-    out->f = NULL;
-    if (bad || rename(out->tmp, out->path)) {
-        int e = errno;
-        remove(out->tmp);
-        return dm_fail(err, DM_EIO, "%s: write failed: %s", out->path, strerror(e));
-    }
-    return DM_OK;
-}
-
-void dm_cli_out_abort(dm_cli_out *out)
-{
-    if (out->f)
-        fclose(out->f);
-    out->f = NULL;
-    remove(out->tmp);
-}
 
 void dm_cli_serial_blas(void)
 {

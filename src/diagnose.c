@@ -1106,8 +1106,8 @@ static int check_work(const dm_robot *rb, const dm_dataset *d, const dm_diagnose
              "predictions of %.3g s each on %d thread%s", d->source, d->n, nc, fits, one,
              threads, threads > 1 ? "s" : "");
     return dm_check_size(what, fits * one / threads, bytes * threads,
-                         d->kind == DM_DATA_TRACKER ? "a shorter stretch of the record, --mesh 2,2"
-                                                    : "fewer poses, a coarser --mesh",
+                         d->kind == DM_DATA_TRACKER ? "a shorter stretch of the record or mesh 2,2"
+                                                    : "fewer poses or a coarser mesh",
                          o->force_long, err);
 }
 

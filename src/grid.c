@@ -1,10 +1,10 @@
-/* Grid specifications of workspace sweeps (see dm_sweep.h). */
+/* Grid specifications of workspace sweeps (see dm_grid.h). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "dm_sweep.h"
+#include "dm_grid.h"
 
 static int parse_axis(const char *text, dm_grid_axis *ax, const char *spec, dm_error *err)
 {

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "dm_analysis.h"
+#include "dm_csv.h"
 #include "dm_integrate.h"
 #include "dm_trajectory.h"
 
@@ -73,43 +74,11 @@ void dm_dataset_free(dm_dataset *d)
 
 /* ---- reading ----------------------------------------------------------------- */
 
-#define MAXCOL 32
-
 typedef struct {
-    const char *path;
-    int line;
-    int ncol;
-    char names[MAXCOL][32];
+    dm_csv in;
     int template;          /* a measurement template: measured values may be empty */
     dm_error *err;
 } csv_ctx;
-
-static int split(char *line, char *cells[MAXCOL])
-{
-    int n = 0;
-    char *p = line;
-    while (n < MAXCOL) {
-        size_t len = strcspn(p, ",\r\n");
-        char end = p[len];
-        p[len] = '\0';
-        char *c = p + strspn(p, " \t");
-        for (char *e = c + strlen(c); e > c && (e[-1] == ' ' || e[-1] == '\t');)
-            *--e = '\0';
-        cells[n++] = c;
-        if (end != ',')
-            break;
-        p += len + 1;
-    }
-    return n;
-}
-
-static int col_of(const csv_ctx *c, const char *name)
-{
-    for (int i = 0; i < c->ncol; i++)
-        if (!strcmp(c->names[i], name))
-            return i;
-    return -1;
-}
 
 /* The columns a measurement template leaves empty. */
 static int measured_column(const char *name)
@@ -121,49 +90,37 @@ static int measured_column(const char *name)
     return 0;
 }
 
-static int cell(const csv_ctx *c, char *cells[], int ncells, const char *name, int required,
-                double *out)
+/* Column `name` of the current row into *out; 1 when an optional column
+ * is absent. A template's empty measured value reads as 0. */
+static int cell(const csv_ctx *c, const char *name, int required, double *out)
 {
-    int i = col_of(c, name);
+    int i = dm_csv_column(&c->in, name);
     if (i < 0)
-        return required ? dm_fail(c->err, DM_EINVAL, "%s: no column '%s'", c->path, name) : 1;
-    if ((i >= ncells || !*cells[i]) && c->template && measured_column(name)) {
+        return required ? dm_fail(c->err, DM_EINVAL, "%s: no column '%s'", c->in.path, name) : 1;
+    if ((i >= c->in.ncells || !*c->in.cells[i]) && c->template && measured_column(name)) {
         *out = 0;
         return DM_OK;
     }
-    if (i >= ncells || !*cells[i])
-        return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): empty", c->path, c->line, i + 1,
-                       name);
-    char *end;
-    errno = 0;
-    *out = strtod(cells[i], &end);
-    /* subnormals refused however written (0x1p-1074 reads without ERANGE,
-     * 4.94e-324 with), so that what dm_dataset_write makes reads back */
-    if (end == cells[i] || *end || !isfinite(*out) || errno == ERANGE ||
-        (*out != 0 && fabs(*out) < DBL_MIN))
-        return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): '%s' is not a number in range",
-                       c->path, c->line, i + 1, name, cells[i]);
-    return DM_OK;
+    return dm_csv_number(&c->in, i, out, c->err);
 }
 
 static int bad(const csv_ctx *c, const char *name, const char *what)
 {
-    return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): %s", c->path, c->line,
-                   col_of(c, name) + 1, name, what);
+    return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): %s", c->in.path, c->in.line,
+                   dm_csv_column(&c->in, name) + 1, name, what);
 }
 
-static int read_row(csv_ctx *c, dm_dataset *d, char *cells[], int nc, double *last_t,
-                    double last_P[3])
+static int read_row(csv_ctx *c, dm_dataset *d, double *last_t, double last_P[3])
 {
     dm_sample s = {0};
     double v[8];
     int rc;
-    s.line = c->line;
+    s.line = c->in.line;
     if (d->kind == DM_DATA_MODAL) {
         for (int k = 0; k < 5; k++)
-            if ((rc = cell(c, cells, nc, COLUMNS[0][k], 1, &v[k])))
+            if ((rc = cell(c, COLUMNS[0][k], 1, &v[k])))
                 return rc;
-        rc = cell(c, cells, nc, "sigma_hz", 0, &s.sigma);
+        rc = cell(c, "sigma_hz", 0, &s.sigma);
         if (rc == DM_EINVAL)
             return rc;
         if (v[3] != floor(v[3]) || v[3] < 1 || v[3] > 64)
@@ -185,9 +142,9 @@ static int read_row(csv_ctx *c, dm_dataset *d, char *cells[], int nc, double *la
         static const char *const names[9] = {"x", "y", "z", "fx", "fy", "fz", "dx", "dy", "dz"};
         double all[9];
         for (int k = 0; k < 9; k++)
-            if ((rc = cell(c, cells, nc, names[k], 1, &all[k])))
+            if ((rc = cell(c, names[k], 1, &all[k])))
                 return rc;
-        rc = cell(c, cells, nc, "sigma_m", 0, &s.sigma);
+        rc = cell(c, "sigma_m", 0, &s.sigma);
         if (rc == DM_EINVAL)
             return rc;
         if (rc == DM_OK && !(s.sigma > 0))
@@ -204,7 +161,7 @@ static int read_row(csv_ctx *c, dm_dataset *d, char *cells[], int nc, double *la
         return DM_OK;
     }
     for (int k = 0; k < 7; k++)
-        if ((rc = cell(c, cells, nc, COLUMNS[2][k], 1, &v[k])))
+        if ((rc = cell(c, COLUMNS[2][k], 1, &v[k])))
             return rc;
     if (d->n && !(v[0] > *last_t))
         return bad(c, "t", "times must increase strictly");
@@ -226,7 +183,7 @@ static int detect_kind(csv_ctx *c, dm_dataset *d)
     for (int k = 0; k < 3; k++) {
         int ok = 1;
         for (int j = 0; COLUMNS[k][j] && ok; j++)
-            ok = col_of(c, COLUMNS[k][j]) >= 0;
+            ok = dm_csv_column(&c->in, COLUMNS[k][j]) >= 0;
         if (ok) {
             d->kind = (dm_data_kind)k;
             return DM_OK;
@@ -236,45 +193,30 @@ static int detect_kind(csv_ctx *c, dm_dataset *d)
                    "%s:%d: header is none of: modal (x,y,z,mode,freq_hz[,sigma_hz]), static "
                    "(x,y,z,fx,fy,fz,dx,dy,dz[,sigma_m]), tracker "
                    "(t,x_cmd,y_cmd,z_cmd,x_meas,y_meas,z_meas)",
-                   c->path, c->line);
+                   c->in.path, c->in.line);
 }
 
 static int read_file(const char *path, int template, dm_dataset *d, dm_error *err)
 {
     memset(d, 0, sizeof *d);
     snprintf(d->source, sizeof d->source, "%s", path);
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return dm_fail(err, DM_EIO, "%s: cannot open: %s", path, strerror(errno));
-    csv_ctx c = {.path = path, .template = template, .err = err};
-    char buf[4096], *cells[MAXCOL];
-    int rc = DM_OK, header = 0;
+    csv_ctx c = {.template = template, .err = err};
+    int rc = dm_csv_open(&c.in, path, err);
+    if (rc)
+        return rc;
     double last_t = 0, last_P[3] = {0};
-    while (!rc && fgets(buf, sizeof buf, f)) {
-        c.line++;
-        char *p = buf + strspn(buf, " \t");
-        if (*p == '#') {
-            if (!strncmp(p, "# robot:", 8) && !d->robot[0]) {
-                char *name = p + 8 + strspn(p + 8, " \t");
-                name[strcspn(name, "\r\n")] = '\0';
-                snprintf(d->robot, sizeof d->robot, "%s", name);
-            }
-            continue;
-        }
-        if (*p == '\n' || *p == '\r' || !*p)
-            continue;
-        int nc = split(p, cells);
-        if (!header) {
-            c.ncol = nc;
-            for (int i = 0; i < nc; i++)
-                snprintf(c.names[i], sizeof c.names[i], "%s", cells[i]);
-            header = 1;
+    dm_csv_line kind;
+    while (!rc && !(rc = dm_csv_next(&c.in, &kind, err)) && kind != DM_CSV_END) {
+        const char *robot = c.in.comment;
+        if (kind == DM_CSV_COMMENT && !strncmp(robot, " robot:", 7) && !d->robot[0]) {
+            robot += 7 + strspn(robot + 7, " \t");
+            snprintf(d->robot, sizeof d->robot, "%.*s", (int)strcspn(robot, "\r\n"), robot);
+        } else if (kind == DM_CSV_HEADER)
             rc = detect_kind(&c, d);
-            continue;
-        }
-        rc = read_row(&c, d, cells, nc, &last_t, last_P);
+        else if (kind == DM_CSV_ROW)
+            rc = read_row(&c, d, &last_t, last_P);
     }
-    fclose(f);
+    dm_csv_close(&c.in);
     if (!rc && !d->n)
         rc = dm_fail(err, DM_EINVAL, "%s: no data rows", path);
     if (!rc && d->kind == DM_DATA_TRACKER && fabs(d->s[0].t) > 1e-12)
@@ -498,7 +440,13 @@ int dm_check_size(const char *what, double est_s, double bytes, const char *hint
     if (big)
         snprintf(m, sizeof m, "%s%.3g GB of memory (the limit is %g)", slow ? " and " : "about ",
                  bytes / 1e9, DM_MAX_BYTES / 1e9);
-    return dm_fail(err, DM_EINVAL, "%s: %s%s: %s, or force it (--force-long)", what, t, m, hint);
+    return dm_fail(err, DM_EINVAL, "%s: %s%s: %s, or force it", what, t, m, hint);
+}
+
+int dm_size_refused(const dm_error *err)
+{
+    return err->code == DM_EINVAL && (strstr(err->msg, " hours of work (the limit is ") ||
+                                      strstr(err->msg, " GB of memory (the limit is "));
 }
 
 int dm_predict(const dm_robot *rb, const dm_dataset *d, int na, int nb, double *pred, dm_error *err)

@@ -33,30 +33,30 @@ int dm_plan_parse_effects(const char *spec, dm_data_kind kind, dm_plan_effect *e
             char *end;
             double v = strtod(tok, &end);
             if (!n || *end || nv >= eff[n - 1].cand->nparam || !isfinite(v))
-                return dm_fail(err, DM_EINVAL, "--effects '%s': '%s' is not a value of an effect",
+                return dm_fail(err, DM_EINVAL, "effects '%s': '%s' is not a value of an effect",
                                spec, tok);
             eff[n - 1].value[nv++] = v;
             continue;
         }
         if (n && nv > 1 && nv < eff[n - 1].cand->nparam)
-            return dm_fail(err, DM_EINVAL, "--effects '%s': %s takes 1 or %d values", spec,
+            return dm_fail(err, DM_EINVAL, "effects '%s': %s takes 1 or %d values", spec,
                            eff[n - 1].cand->name, eff[n - 1].cand->nparam);
         if (n == DM_PLAN_MAXEFF)
-            return dm_fail(err, DM_EINVAL, "--effects '%s': at most %d effects", spec,
+            return dm_fail(err, DM_EINVAL, "effects '%s': at most %d effects", spec,
                            DM_PLAN_MAXEFF);
         char *eq = strchr(tok, '=');
         if (eq)
             *eq = '\0';
         const dm_candidate *c = dm_candidate_find(tok);
         if (!c)
-            return dm_fail(err, DM_EINVAL, "--effects '%s': '%s' is not a candidate effect "
+            return dm_fail(err, DM_EINVAL, "effects '%s': '%s' is not a candidate effect "
                            "(see deltamap diagnose --help)", spec, tok);
         if (!(c->kinds & (1u << kind)))
-            return dm_fail(err, DM_EINVAL, "--effects '%s': %s data cannot see %s", spec,
+            return dm_fail(err, DM_EINVAL, "effects '%s': %s data cannot see %s", spec,
                            dm_data_kind_name(kind), c->name);
         for (int k = 0; k < n; k++)
             if (eff[k].cand == c)
-                return dm_fail(err, DM_EINVAL, "--effects '%s': %s named twice", spec, c->name);
+                return dm_fail(err, DM_EINVAL, "effects '%s': %s named twice", spec, c->name);
         eff[n].cand = c;
         for (int k = 0; k < DM_DIAG_MAXV; k++)
             eff[n].value[k] = c->typical;
@@ -66,7 +66,7 @@ int dm_plan_parse_effects(const char *spec, dm_data_kind kind, dm_plan_effect *e
             eff[n].value[0] = strtod(eq + 1, &end);
             if (end == eq + 1 || *end || !isfinite(eff[n].value[0]) ||
                 (!c->linear && !(eff[n].value[0] > 0)))
-                return dm_fail(err, DM_EINVAL, "--effects '%s': %s takes a magnitude%s, not '%s'",
+                return dm_fail(err, DM_EINVAL, "effects '%s': %s takes a magnitude%s, not '%s'",
                                spec, c->name, c->linear ? "" : " > 0", eq + 1);
             nv = 1;
         }
@@ -76,10 +76,10 @@ int dm_plan_parse_effects(const char *spec, dm_data_kind kind, dm_plan_effect *e
                 eff[n - 1].value[k] = eff[n - 1].value[0];
     }
     if (n && nv > 1 && nv < eff[n - 1].cand->nparam)
-        return dm_fail(err, DM_EINVAL, "--effects '%s': %s takes 1 or %d values", spec,
+        return dm_fail(err, DM_EINVAL, "effects '%s': %s takes 1 or %d values", spec,
                        eff[n - 1].cand->name, eff[n - 1].cand->nparam);
     if (!n)
-        return dm_fail(err, DM_EINVAL, "--effects: name at least one effect");
+        return dm_fail(err, DM_EINVAL, "effects: name at least one effect");
     *count = n;
     return DM_OK;
 }
@@ -344,7 +344,7 @@ static int candidate_poses(const dm_robot *rb, const dm_plan_opts *o, double **o
     if (rc)
         return rc;
     if (o->region && (total = dm_grid_points(&g)) > 100000)
-        return dm_fail(err, DM_EINVAL, "--region '%s': %ld points, at most 100000", o->region,
+        return dm_fail(err, DM_EINVAL, "region '%s': %ld points, at most 100000", o->region,
                        total);
     double *P = malloc(sizeof(double) * 3 * total);
     if (!P)
@@ -366,7 +366,7 @@ static int candidate_poses(const dm_robot *rb, const dm_plan_opts *o, double **o
     if (!n) {
         free(P);
         return o->region ? dm_fail(err, DM_EINVAL,
-                                   "--region '%s': no reachable pose with cond(J) <= %g in it",
+                                   "region '%s': no reachable pose with cond(J) <= %g in it",
                                    o->region, rb->singular_cond)
                          : dm_fail(err, DM_EUNREACHABLE, "no reachable pose found near home");
     }
@@ -401,7 +401,7 @@ static int check_survey(const model *m, const dm_dataset *cand, int nunit, dm_er
     char what[160];
     snprintf(what, sizeof what, "plan: %d of %d candidate%s for %d parameter%s", n, nunit,
              nunit == 1 ? "" : "s", p, p == 1 ? "" : "s");
-    return dm_check_size(what, est, bytes, "fewer poses or a smaller --region", o->force_long,
+    return dm_check_size(what, est, bytes, "fewer poses or a smaller region", o->force_long,
                          err);
 }
 
@@ -608,7 +608,7 @@ static int plan_survey(const model *m, double noise, dm_plan_result *r, dm_error
     int *first = NULL, nunit = 0, p = m->p, n = m->o->npose;
     int rc = survey_units(m, noise, &cand, &first, &nunit, err);
     if (!rc && nunit < n)
-        rc = dm_fail(err, DM_EINVAL, "--poses %d: the region has only %d candidate%s", n, nunit,
+        rc = dm_fail(err, DM_EINVAL, "%d poses: the region has only %d candidate%s", n, nunit,
                      nunit == 1 ? "" : "s");
     if (!rc && (rc = check_survey(m, &cand, nunit, err)))
         dm_dataset_free(&cand), nunit = 0;
@@ -853,13 +853,13 @@ int dm_plan(const dm_robot *rb, const dm_plan_effect *eff, int neff, const dm_pl
     model m;
     model_init(&m, rb, eff, neff, o);
     if (m.p > DM_DIAG_MAXP)
-        return dm_fail(err, DM_EINVAL, "--effects: %d parameters, at most %d", m.p, DM_DIAG_MAXP);
+        return dm_fail(err, DM_EINVAL, "effects: %d parameters, at most %d", m.p, DM_DIAG_MAXP);
     if (m.p == 0)
-        return dm_fail(err, DM_EINVAL, "--effects: %s has no parameter to plan for",
+        return dm_fail(err, DM_EINVAL, "effects: %s has no parameter to plan for",
                        eff[0].cand->name);
     if (o->npose < m.p)
         return dm_fail(err, DM_EINVAL,
-                       "--poses %d: fewer than the %d parameters of these effects", o->npose, m.p);
+                       "%d poses: fewer than the %d parameters of these effects", o->npose, m.p);
     r->neffect = neff;
     memcpy(r->effect, eff, sizeof(dm_plan_effect) * neff);
     r->nparam = m.p;
@@ -904,7 +904,7 @@ int dm_plan_random(const dm_robot *rb, const dm_plan_opts *o, uint64_t seed, dm_
         return rc;
     if (o->region && np < o->npose) {
         free(P);
-        return dm_fail(err, DM_EINVAL, "--poses %d: the region has only %d candidates", o->npose,
+        return dm_fail(err, DM_EINVAL, "%d poses: the region has only %d candidates", o->npose,
                        np);
     }
     d->kind = o->kind;

@@ -2,6 +2,9 @@
 #define _XOPEN_SOURCE 700 /* nftw */
 #include "dm_store.h"
 
+#include "dm_file.h"
+
+#include <assert.h>
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -48,139 +51,6 @@ static const char *dtype_name(dm_dtype t)
     return t == DM_DTYPE_FLOAT64 ? "float64" : t == DM_DTYPE_INT32 ? "int32" : "uint8";
 }
 
-/* ---- files ------------------------------------------------------------------ */
-
-/* mkdir -p of path, creating no component within its first `keep`
- * characters. Deepest first: on a network filesystem every mkdir is a
- * round trip to the metadata server, and as a rule the parent exists. */
-static int mkdirs_from(const char *path, size_t keep, dm_error *err)
-{
-    if (!mkdir(path, 0777) || errno == EEXIST)
-        return DM_OK;
-    char parent[1024];
-    const char *slash = strrchr(path, '/');
-    int e = errno;
-    if (e != ENOENT || !slash || slash == path || (size_t)(slash - path) <= keep ||
-        (size_t)(slash - path) >= sizeof parent)
-        return dm_fail(err, DM_EIO, "%s: cannot create directory: %s", path, strerror(e));
-    snprintf(parent, sizeof parent, "%.*s", (int)(slash - path), path);
-    int rc = mkdirs_from(parent, keep, err);
-    if (rc)
-        return rc;
-    if (mkdir(path, 0777) && errno != EEXIST)
-        return dm_fail(err, DM_EIO, "%s: cannot create directory: %s", path, strerror(errno));
-    return DM_OK;
-}
-
-int dm_mkdirs(const char *path, dm_error *err) { return mkdirs_from(path, 0, err); }
-
-/* ---- temporaries -------------------------------------------------------------
- * PATH.tmp.HOST.PID: the host and process that write it, so that another
- * process can tell a live writer's file from a dead one's. */
-
-static void host_name(char *out, size_t len)
-{
-    if (gethostname(out, len) || !out[0])
-        snprintf(out, len, "localhost");
-    out[len - 1] = '\0';
-    for (char *p = out; *p; p++)
-        if (*p == '/')
-            *p = '_';
-}
-
-void dm_temp_name(const char *path, char *out, size_t len)
-{
-    char host[64];
-    host_name(host, sizeof host);
-    snprintf(out, len, "%s.tmp.%s.%ld", path, host, (long)getpid());
-}
-
-/* "HOST.PID" (or "PID", as earlier versions wrote them) after ".tmp.": is its
- * writer gone? On this host: its process no longer exists. On another:
- * the file is older than DM_TEMP_STALE_S (a writer holds one for
- * milliseconds), as no process here can ask that host. */
-static int temp_is_stale(const char *writer, time_t mtime)
-{
-    const char *dot = strrchr(writer, '.');
-    char *end;
-    long pid = strtol(dot ? dot + 1 : writer, &end, 10);
-    if (*end || pid <= 0)
-        return 0; /* not our naming: leave it */
-    char host[64], theirs[64] = "";
-    host_name(host, sizeof host);
-    if (dot)
-        snprintf(theirs, sizeof theirs, "%.*s", (int)(dot - writer), writer);
-    if (dot && strcmp(theirs, host))
-        return time(NULL) - mtime > DM_TEMP_STALE_S;
-    return pid != (long)getpid() && kill((pid_t)pid, 0) && errno == ESRCH;
-}
-
-static int remove_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw)
-{
-    (void)sb, (void)flag, (void)ftw;
-    return remove(path) && errno != ENOENT;
-}
-
-int dm_remove_tree(const char *path)
-{
-    struct stat sb;
-    if (lstat(path, &sb))
-        return errno == ENOENT ? 0 : -1;
-    return nftw(path, remove_entry, 16, FTW_DEPTH | FTW_PHYS) ? -1 : 0;
-}
-
-int dm_remove_stale_temporaries(const char *dir, const char *base)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return 0;
-    size_t blen = base ? strlen(base) : 0;
-    int removed = 0;
-    struct dirent *e;
-    while ((e = readdir(d))) {
-        const char *tag = base ? e->d_name + blen : strstr(e->d_name, ".tmp.");
-        if ((base && strncmp(e->d_name, base, blen)) || !tag || strncmp(tag, ".tmp.", 5))
-            continue;
-        char path[2048];
-        struct stat sb;
-        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-        if (!lstat(path, &sb) && temp_is_stale(tag + 5, sb.st_mtime) && !dm_remove_tree(path))
-            removed++;
-    }
-    closedir(d);
-    return removed;
-}
-
-int dm_write_file_atomic(const char *path, const void *data, size_t n, dm_error *err)
-{
-    char tmp[1200];
-    dm_temp_name(path, tmp, sizeof tmp);
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC, 0666);
-    if (fd < 0)
-        return dm_fail(err, DM_EIO, "%s: cannot write: %s", tmp, strerror(errno));
-    const char *p = data;
-    size_t left = n;
-    while (left) {
-        ssize_t w = write(fd, p, left);
-        if (w < 0) {
-            if (errno == EINTR)
-                continue;
-            int e = errno;
-            close(fd);
-            unlink(tmp);
-            return dm_fail(err, DM_EIO, "%s: write failed: %s", path, strerror(e));
-        }
-        p += w;
-        left -= (size_t)w;
-    }
-    if (close(fd) || rename(tmp, path)) {
-        int e = errno;
-        unlink(tmp);
-        return dm_fail(err, DM_EIO, "%s: write failed: %s", path, strerror(e));
-    }
-    return DM_OK;
-}
-
 static int write_json(const char *path, json_t *o, dm_error *err)
 {
     char *text = json_dumps(o, JSON_INDENT(2) | JSON_REAL_PRECISION(17));
@@ -188,7 +58,7 @@ static int write_json(const char *path, json_t *o, dm_error *err)
         return dm_fail(err, DM_ENOMEM, "out of memory");
     size_t n = strlen(text);
     text[n] = '\n'; /* replaces the terminator; length n + 1 below */
-    int rc = dm_write_file_atomic(path, text, n + 1, err);
+    int rc = dm_file_write_atomic(path, text, n + 1, err);
     free(text);
     return rc;
 }
@@ -216,15 +86,35 @@ static json_t *array_json(const dm_array_spec *a)
                      "attributes", attrs, "dimension_names", dims);
 }
 
+void dm_store_add_array(dm_store *st, const char *name, dm_dtype type, int ndim,
+                        const int64_t *shape, const int *chunk, const char *const *dims,
+                        json_t *attributes)
+{
+    assert(st->narr < DM_STORE_MAXARR && ndim >= 1 && ndim <= DM_STORE_MAXDIM);
+    assert(strlen(name) < sizeof st->arr[0].name);
+    dm_array_spec *a = &st->arr[st->narr++];
+    memset(a, 0, sizeof *a);
+    snprintf(a->name, sizeof a->name, "%s", name);
+    a->dtype = type;
+    a->ndim = ndim;
+    for (int d = 0; d < ndim; d++) {
+        assert(shape[d] >= 0 && chunk[d] >= 1);
+        a->shape[d] = shape[d];
+        a->chunk[d] = chunk[d];
+        snprintf(a->dims[d], sizeof a->dims[d], "%s", dims[d]);
+    }
+    a->attributes = attributes;
+}
+
 int dm_store_write_metadata(const dm_store *st, dm_error *err)
 {
     char path[1200];
-    int rc = dm_mkdirs(st->path, err);
+    int rc = dm_file_mkdirs(st->path, 0, err);
     if (rc)
         return rc;
     for (int a = 0; a < st->narr && !rc; a++) {
         snprintf(path, sizeof path, "%s/%s", st->path, st->arr[a].name);
-        rc = dm_mkdirs(path, err);
+        rc = dm_file_mkdirs(path, 0, err);
         if (rc)
             break;
         snprintf(path, sizeof path, "%s/%s/zarr.json", st->path, st->arr[a].name);
@@ -411,10 +301,10 @@ int dm_store_write_chunk(const dm_store *st, int a, const int64_t *c, const void
      * instead of leaving a stray tree */
     char *slash = strrchr(path, '/');
     *slash = '\0';
-    int rc = mkdirs_from(path, strlen(st->path) + strlen(st->arr[a].name) + 1, err);
+    int rc = dm_file_mkdirs(path, strlen(st->path) + strlen(st->arr[a].name) + 1, err);
     *slash = '/';
     if (!rc)
-        rc = dm_write_file_atomic(path, buf, nbytes + 4, err);
+        rc = dm_file_write_atomic(path, buf, nbytes + 4, err);
     free(buf);
     return rc;
 }
@@ -425,7 +315,7 @@ void dm_store_clean_chunk(const dm_store *st, int a, const int64_t *c)
     dm_store_chunk_path(st, a, c, path, sizeof path);
     char *slash = strrchr(path, '/');
     *slash = '\0';
-    dm_remove_stale_temporaries(path, slash + 1);
+    dm_file_remove_stale_temps(path, slash + 1);
 }
 
 int dm_store_read_chunk(const dm_store *st, int a, const int64_t *c, void *data, int *missing,

@@ -1,6 +1,8 @@
 /* Nominal trajectories (see dm_trajectory.h). */
 #include "dm_trajectory.h"
 
+#include "dm_csv.h"
+
 #include <errno.h>
 #include <float.h>
 #include <lapacke.h>
@@ -427,104 +429,76 @@ static int spline(dm_trajectory *tr, dm_error *err)
     return DM_OK;
 }
 
-static int csv_columns(char *header, int col[4], const char *path, int line, dm_error *err)
+/* The header's t, x, y, z columns. */
+static int sample_columns(const dm_csv *in, int col[4], dm_error *err)
 {
     static const char *const want[4] = {"t", "x", "y", "z"};
-    col[0] = col[1] = col[2] = col[3] = -1;
-    int c = 0;
-    for (char *save = NULL, *tok = strtok_r(header, ",\r\n", &save); tok;
-         tok = strtok_r(NULL, ",\r\n", &save), c++) {
-        tok += strspn(tok, " \t");
-        tok[strcspn(tok, " \t")] = '\0';
-        for (int k = 0; k < 4; k++)
-            if (!strcmp(tok, want[k]))
-                col[k] = c;
-    }
     for (int k = 0; k < 4; k++)
-        if (col[k] < 0)
+        if ((col[k] = dm_csv_column(in, want[k])) < 0)
             return dm_fail(err, DM_EINVAL, "%s:%d: header lacks column '%s' (need t,x,y,z)",
-                           path, line, want[k]);
+                           in->path, in->line, want[k]);
     return DM_OK;
 }
 
-static int csv_row(char *text, const int col[4], double out[4], const char *path, int line,
-                   dm_error *err)
+static int sample_row(const dm_csv *in, const int col[4], double row[4], dm_error *err)
 {
-    static const char *const names[4] = {"t", "x", "y", "z"};
-    int got = 0, c = 0;
-    char *p = text;
-    for (;; c++) {
-        size_t len = strcspn(p, ",\r\n");
-        char cell[64];
-        snprintf(cell, sizeof cell, "%.*s", (int)(len < 63 ? len : 63), p);
-        for (int k = 0; k < 4; k++) {
-            if (col[k] != c)
-                continue;
-            char *end;
-            out[k] = strtod(cell, &end);
-            end += strspn(end, " \t");
-            if (end == cell || *end || !isfinite(out[k]))
-                return dm_fail(err, DM_EINVAL, "%s:%d: column %d (%s): '%s' is not a number",
-                               path, line, c + 1, names[k], cell);
-            got++;
-        }
-        if (p[len] != ',')
-            break;
-        p += len + 1;
+    for (int k = 0; k < 4; k++) {
+        if (col[k] >= in->ncells)
+            return dm_fail(err, DM_EINVAL, "%s:%d: row has %d columns, too few for t,x,y,z",
+                           in->path, in->line, in->ncells);
+        int rc = dm_csv_number(in, col[k], &row[k], err);
+        if (rc)
+            return rc;
     }
-    if (got < 4)
-        return dm_fail(err, DM_EINVAL, "%s:%d: row has %d columns, too few for t,x,y,z", path,
-                       line, c + 1);
+    return DM_OK;
+}
+
+/* Room for one more sample. */
+static int grow_samples(dm_trajectory *tr, int *cap)
+{
+    if (tr->nsamp < *cap)
+        return DM_OK;
+    int n = *cap ? 2 * *cap : 256;
+    double *t = realloc(tr->t_s, sizeof(double) * n);
+    if (t)
+        tr->t_s = t;
+    double *x = realloc(tr->xyz_m, 3 * sizeof(double) * n);
+    if (x)
+        tr->xyz_m = x;
+    if (!t || !x)
+        return DM_ENOMEM;
+    *cap = n;
     return DM_OK;
 }
 
 static int make_samples(const char *path, dm_trajectory *tr, dm_error *err)
 {
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return dm_fail(err, DM_EIO, "%s: cannot open trajectory file: %s", path, strerror(errno));
     memset(tr, 0, sizeof *tr);
     snprintf(tr->name, sizeof tr->name, "%s", path);
     tr->kind = DM_PATH_SAMPLES;
-    char buf[1024];
-    int col[4], have_header = 0, line = 0, cap = 0, rc = DM_OK;
-    while (!rc && fgets(buf, sizeof buf, f)) {
-        line++;
-        char *s = buf + strspn(buf, " \t");
-        if (*s == '#' || *s == '\n' || *s == '\r' || !*s)
-            continue;
-        if (!have_header) {
-            rc = csv_columns(s, col, path, line, err);
-            have_header = 1;
-            continue;
-        }
+    dm_csv in;
+    int col[4], cap = 0, rc = dm_csv_open(&in, path, err);
+    if (rc)
+        return rc;
+    dm_csv_line kind;
+    while (!rc && !(rc = dm_csv_next(&in, &kind, err)) && kind != DM_CSV_END) {
         double row[4];
-        rc = csv_row(s, col, row, path, line, err);
-        if (rc)
-            break;
-        if (tr->nsamp && !(row[0] > tr->t_s[tr->nsamp - 1])) {
+        if (kind == DM_CSV_HEADER)
+            rc = sample_columns(&in, col, err);
+        if (kind != DM_CSV_ROW || rc || (rc = sample_row(&in, col, row, err)))
+            continue;
+        if (tr->nsamp && !(row[0] > tr->t_s[tr->nsamp - 1]))
             rc = dm_fail(err, DM_EINVAL, "%s:%d: column %d (t): times must increase strictly",
-                         path, line, col[0] + 1);
-            break;
+                         path, in.line, col[0] + 1);
+        else if (grow_samples(tr, &cap))
+            rc = dm_fail(err, DM_ENOMEM, "%s: out of memory", path);
+        else {
+            tr->t_s[tr->nsamp] = row[0];
+            memcpy(tr->xyz_m + 3 * tr->nsamp, row + 1, 3 * sizeof(double));
+            tr->nsamp++;
         }
-        if (tr->nsamp == cap) {
-            cap = cap ? 2 * cap : 256;
-            double *t = realloc(tr->t_s, sizeof(double) * cap);
-            if (t)
-                tr->t_s = t;
-            double *x = realloc(tr->xyz_m, 3 * sizeof(double) * cap);
-            if (x)
-                tr->xyz_m = x;
-            if (!t || !x) {
-                rc = dm_fail(err, DM_ENOMEM, "%s: out of memory", path);
-                break;
-            }
-        }
-        tr->t_s[tr->nsamp] = row[0];
-        memcpy(tr->xyz_m + 3 * tr->nsamp, row + 1, 3 * sizeof(double));
-        tr->nsamp++;
     }
-    fclose(f);
+    dm_csv_close(&in);
     if (!rc && tr->nsamp < 3)
         rc = dm_fail(err, DM_EINVAL, "%s: needs a header t,x,y,z and at least 3 samples", path);
     if (!rc && fabs(tr->t_s[0]) > 1e-12)

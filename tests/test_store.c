@@ -10,6 +10,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "dm_file.h"
 #include "dm_store.h"
 
 static void crc32c_known_vectors(void **state)
@@ -143,9 +144,9 @@ static void only_dead_writers_temporaries_are_removed(void **state)
     touch(dir, "6", 0);                                     /* data: kept */
     snprintf(name, sizeof name, "zarr.json.tmp.%s.%ld", host, (long)dead);
     touch(dir, name, 0);
-    assert_int_equal(dm_remove_stale_temporaries(dir, "6"), 0); /* another base */
-    assert_int_equal(dm_remove_stale_temporaries(dir, "zarr.json"), 1);
-    assert_int_equal(dm_remove_stale_temporaries(dir, NULL), 2);
+    assert_int_equal(dm_file_remove_stale_temps(dir, "6"), 0); /* another base */
+    assert_int_equal(dm_file_remove_stale_temps(dir, "zarr.json"), 1);
+    assert_int_equal(dm_file_remove_stale_temps(dir, NULL), 2);
     snprintf(name, sizeof name, "0.tmp.%s.%ld", host, (long)dead);
     assert_false(exists(dir, name));
     assert_false(exists(dir, "4.tmp.elsewhere.example.org.4242"));
@@ -157,7 +158,7 @@ static void only_dead_writers_temporaries_are_removed(void **state)
     assert_true(exists(dir, "5.tmp.notapid"));
     assert_true(exists(dir, "6"));
     /* our own temporary name carries host and PID */
-    dm_temp_name("a/b", mine, sizeof mine);
+    dm_file_temp_name("a/b", mine, sizeof mine);
     snprintf(name, sizeof name, "a/b.tmp.%s.%ld", host, (long)getpid());
     assert_string_equal(mine, name);
     char cmd[600];

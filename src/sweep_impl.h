@@ -1,0 +1,94 @@
+/* sweep_impl.h — the sweep's internals, shared by its files; not part of
+ * the public API (dm_sweep.h). Sections by the file that defines them:
+ *   sweep.c          the run: workers, points, tiles, scheduling
+ *   sweep_schema.c   the stored arrays, the fingerprint, the coordinates
+ *   sweep_store.c    opening, creating or joining the store
+ *   sweep_anchors.c  mode tracking's reference poses */
+#ifndef DM_SWEEP_IMPL_H
+#define DM_SWEEP_IMPL_H
+
+#include "dm_store.h"
+#include "dm_sweep.h"
+#include "dm_version.h"
+
+#define DM_SWEEP_VERSION "deltamap " DM_VERSION
+#define EXTRA_MODES 4   /* candidates beyond k for mode tracking */
+
+/* ---- sweep_schema.c: the arrays of a map store ----------------------------- */
+
+enum {
+    A_STATUS, A_FREQ, A_TRACKED, A_STATIC, A_CMAX, A_CDIR, A_KMIN, A_COND, A_PEAK, A_RESID,
+    A_SETTLE, N_DATA, A_C0 = N_DATA, A_C1, A_C2, A_MODE, A_COMPONENT, A_AXIS, A_MOVE, N_ARRAYS
+};
+
+typedef struct {
+    const char *name;
+    dm_dtype dtype;
+    int extra;          /* 0: none, else index into the extra-dimension table */
+    const char *units, *long_name;
+} dm_sweep_array;
+
+enum { X_NONE, X_MODE, X_COMPONENT, X_AXIS, X_MOVE };
+
+/* The data arrays (x, y, z[, extra]), in the order of the enum. */
+extern const dm_sweep_array dm_sweep_arrays[N_DATA];
+
+/* ---- sweep.c: the run's context and its workers ----------------------------- */
+
+typedef struct sweep_ctx {
+    const dm_robot *rb;
+    const dm_grid *grid;
+    dm_sweep_opts o;
+    int na, nb, n, k, kc;
+    int tile[3], ntiles[3];
+    int nthreads;       /* over tiles */
+    dm_store store;
+    /* anchors (read-only once built): each point starts its eigen solve
+     * from its nearest anchor's seed and is tracked against that anchor's
+     * families, so a point depends on nothing computed before it */
+    int nanchor;
+    double (*anchor_P)[3];
+    int *anchor_ok;
+    double *anchor_phi;  /* nanchor x (n x k): the families' shapes */
+    unsigned char *anchor_seed; /* nanchor x seed_len: the solver's start */
+    size_t seed_len;
+    double t0;           /* when the sweep started */
+    int store_refused;   /* the store at out is of another sweep */
+} sweep_ctx;
+
+typedef struct sweep_worker {
+    dm_analysis *an;
+    dm_move_ws *move;
+    double *mac_work, *mac;
+    int *assign;
+    double *shapes;     /* families' shapes at the point (n x k) */
+    void *buf[N_DATA];
+} sweep_worker;
+
+/* ---- sweep_schema.c --------------------------------------------------------- */
+
+/* The store's layout (arrays, attributes, fingerprint) at path. */
+void dm_sweep_schema_define(sweep_ctx *c, const char *path);
+/* The coordinate and label arrays' chunks. */
+int dm_sweep_schema_write_coordinates(const sweep_ctx *c, dm_error *err);
+
+/* ---- sweep_store.c ---------------------------------------------------------- */
+
+/* Join the sweep's store at c->store.path, or create it (atomically);
+ * refuse a store of another sweep unless c->o.force. */
+int dm_sweep_store_prepare(sweep_ctx *c, const char *path, dm_error *err);
+
+/* ---- sweep_anchors.c -------------------------------------------------------- */
+
+/* Build the lattice of anchors (serially, with worker w). */
+int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, dm_error *err);
+/* The nearest anchor whose families are known, or -1. */
+int dm_sweep_anchors_nearest(const sweep_ctx *c, const double P[3]);
+/* Anchor a's solver seed (c->seed_len bytes). */
+unsigned char *dm_sweep_anchors_seed(const sweep_ctx *c, int a);
+/* Match the k families with shapes ref to the modes by MAC, clusters as
+ * subspaces (w->assign), their next shapes into dst (may be ref). */
+void dm_sweep_anchors_track(const sweep_ctx *c, sweep_worker *w, const double *ref,
+                            const dm_modes *modes, double *dst);
+
+#endif

@@ -1,0 +1,137 @@
+/* The map store's schema: one definition of each stored array, its
+ * attributes, the sweep's fingerprint, the coordinate arrays (see
+ * sweep_impl.h, docs/store.md). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "sweep_impl.h"
+
+static const char *const EXTRA_DIM[] = {"", "mode", "component", "axis", "move"};
+
+const dm_sweep_array dm_sweep_arrays[N_DATA] = {
+    {"status", DM_DTYPE_UINT8, X_NONE, "1", "0 ok, 1 unreachable, 2 near-singular, 3 solver failure, 255 not computed"},
+    {"frequencies_hz", DM_DTYPE_FLOAT64, X_MODE, "Hz", "natural frequencies, ascending"},
+    {"frequencies_tracked_hz", DM_DTYPE_FLOAT64, X_MODE, "Hz", "frequencies of mode families followed by MAC"},
+    {"static_error", DM_DTYPE_FLOAT64, X_COMPONENT, "m, rad", "platform error under gravity: dx, dy, dz (m), ex, ey, ez (rad)"},
+    {"compliance_max", DM_DTYPE_FLOAT64, X_NONE, "m/N", "largest translational compliance at P"},
+    {"compliance_direction", DM_DTYPE_FLOAT64, X_AXIS, "1", "direction of the largest compliance"},
+    {"stiffness_min", DM_DTYPE_FLOAT64, X_NONE, "N/m", "smallest translational stiffness at P (1/compliance_max)"},
+    {"singularity", DM_DTYPE_FLOAT64, X_NONE, "1", "condition number of the kinematic Jacobian"},
+    {"move_peak_m", DM_DTYPE_FLOAT64, X_MOVE, "m", "standard move: peak |Delta - Delta_static| during the move"},
+    {"move_residual_m", DM_DTYPE_FLOAT64, X_MOVE, "m", "standard move: residual vibration amplitude after it"},
+    {"move_settling_s", DM_DTYPE_FLOAT64, X_MOVE, "s", "standard move: settling time after it (inf: never)"},
+};
+
+static int extra_len(int x, int k)
+{
+    return x == X_MODE ? k : x == X_COMPONENT ? 6 : x == X_AXIS ? 3 : x == X_MOVE ? 3 : 1;
+}
+
+
+static json_t *attrs(const char *units, const char *long_name)
+{
+    return json_pack("{s:s, s:s}", "units", units, "long_name", long_name);
+}
+
+static json_t *fingerprint(const sweep_ctx *c)
+{
+    char *ini = NULL, grid[512];
+    size_t len = 0;
+    FILE *mem = open_memstream(&ini, &len);
+    dm_robot_write(c->rb, mem);
+    fclose(mem);
+    dm_grid_format(c->grid, grid, sizeof grid);
+    const dm_move_opts *m = &c->o.move;
+    json_t *f = json_pack("{s:s, s:s, s:s, s:i, s:[ii], s:[iii], s:b, s:{s:f, s:f, s:f, s:f, s:b}}",
+                          "version", DM_SWEEP_VERSION, "robot_ini", ini, "grid", grid, "modes",
+                          c->k, "mesh", c->na, c->nb, "tile", c->tile[0], c->tile[1], c->tile[2],
+                          "dynamic", c->o.dynamic, "move", "amax_ms2", m->amax_ms2, "tau_s",
+                          m->tau_s, "tol_m", m->tol_m, "window_s", m->window_s, "quasi_static",
+                          m->quasi_static);
+    free(ini);
+    return f;
+}
+
+void dm_sweep_schema_define(sweep_ctx *c, const char *path)
+{
+    dm_store *st = &c->store;
+    const dm_grid *g = c->grid;
+    memset(st, 0, sizeof *st);
+    snprintf(st->path, sizeof st->path, "%s", path);
+    const char *dims[4] = {g->axis[0].name, g->axis[1].name, g->axis[2].name, ""};
+    for (int a = 0; a < N_DATA; a++) {
+        const dm_sweep_array *d = &dm_sweep_arrays[a];
+        int64_t shape[4];
+        int chunk[4], nd = 3 + (d->extra != X_NONE);
+        for (int i = 0; i < 3; i++) {
+            shape[i] = g->axis[i].count;
+            chunk[i] = c->tile[i];
+        }
+        shape[3] = chunk[3] = extra_len(d->extra, c->k);
+        dims[3] = EXTRA_DIM[d->extra];
+        json_t *at = attrs(d->units, d->long_name);
+        if (a == A_STATUS)
+            json_object_set_new(at, "flag_meanings",
+                                json_string("ok unreachable near_singular solver_failure"));
+        dm_store_add_array(st, d->name, d->dtype, nd, shape, chunk, dims, at);
+    }
+    static const char *const unit_of[2][3] = {{"m", "m", "m"}, {"m", "degree", "m"}};
+    for (int i = 0; i < 3; i++) {
+        int64_t shape[1] = {g->axis[i].count};
+        int chunk[1] = {g->axis[i].count};
+        const char *dn[1] = {g->axis[i].name};
+        dm_store_add_array(st, g->axis[i].name, DM_DTYPE_FLOAT64, 1, shape, chunk, dn,
+                  attrs(unit_of[g->kind][i], "grid coordinate"));
+    }
+    static const char *const xnames[4] = {"mode", "component", "axis", "move"};
+    const int xlen[4] = {c->k, 6, 3, 3};
+    static const char *const labels[4] = {"mode rank, 1 = lowest", "dx dy dz ex ey ez",
+                                          "x y z", "X Y Z"};
+    for (int i = 0; i < 4; i++) {
+        int64_t shape[1] = {xlen[i]};
+        int chunk[1] = {xlen[i]};
+        const char *dn[1] = {xnames[i]};
+        json_t *at = attrs("1", labels[i]);
+        dm_store_add_array(st, xnames[i], DM_DTYPE_INT32, 1, shape, chunk, dn, at);
+    }
+    json_t *names = json_array();
+    for (int a = 0; a < st->narr; a++)
+        json_array_append_new(names, json_string(st->arr[a].name));
+    char grid[512];
+    dm_grid_format(g, grid, sizeof grid);
+    json_t *dm = json_pack("{s:s, s:s, s:s, s:s, s:o, s:o}", "tool", DM_SWEEP_VERSION, "robot",
+                           c->rb->name, "grid", grid, "grid_kind",
+                           g->kind ? "cylindrical" : "cartesian", "arrays", names, "fingerprint",
+                           fingerprint(c));
+    st->group_attributes = json_pack("{s:s, s:o}", "title", "deltamap workspace maps", "deltamap", dm);
+}
+
+int dm_sweep_schema_write_coordinates(const sweep_ctx *c, dm_error *err)
+{
+    const int64_t zero[1] = {0};
+    int rc = DM_OK;
+    for (int i = 0; i < 3 && !rc; i++) {
+        const dm_grid_axis *ax = &c->grid->axis[i];
+        double *v = malloc(sizeof(double) * ax->count);
+        if (!v)
+            return dm_fail(err, DM_ENOMEM, "out of memory");
+        for (int j = 0; j < ax->count; j++)
+            v[j] = dm_grid_value(ax, j);
+        rc = dm_store_write_chunk(&c->store, A_C0 + i, zero, v, err);
+        free(v);
+    }
+    int32_t idx[64];
+    for (int j = 0; j < 64; j++)
+        idx[j] = j;
+    for (int a = A_MODE; a <= A_MOVE && !rc; a++) {
+        if (a == A_MODE)
+            for (int j = 0; j < 64; j++)
+                idx[j] = j + 1;
+        rc = dm_store_write_chunk(&c->store, a, zero, idx, err);
+        for (int j = 0; j < 64; j++)
+            idx[j] = j;
+    }
+    return rc;
+}
