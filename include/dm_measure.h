@@ -45,6 +45,11 @@ int dm_data_kind_parse(const char *name, dm_data_kind *kind);
 
 /* Read a file; the kind is recognised from its columns. */
 int dm_dataset_read(const char *path, dm_dataset *data, dm_error *err);
+
+/* The same for a measurement template (as `deltamap plan` writes): the
+ * measured values (freq_hz, dx..dz, x_meas..z_meas) may be empty and read
+ * as 0; poses, modes, forces, times and sigma are as in a data file. */
+int dm_dataset_read_template(const char *path, dm_dataset *data, dm_error *err);
 int dm_dataset_write(const dm_dataset *data, FILE *out);
 void dm_dataset_free(dm_dataset *data);
 
@@ -67,10 +72,39 @@ typedef struct dm_synth_opts {
     double force_n;     /* static: magnitude of the added force (default 50 N) */
     const char *path;   /* tracker: trajectory spec (default: a circle about home) */
     int na, nb;
+    int force_long;     /* run even beyond DM_MAX_WORK_S or DM_MAX_BYTES (dm_check_size) */
 } dm_synth_opts;
 
 int dm_synthesize(const dm_robot *robot, const dm_synth_opts *opts, dm_dataset *data,
                   dm_error *err);
+
+/* What a command implies, judged before any work: refused beyond
+ * DM_MAX_WORK_S of estimated wall time or DM_MAX_BYTES of memory unless
+ * forced (the CLI's --force-long). Estimates come from the costs measured
+ * on this project's development machine (2 cores, x86-64): a modal pose or
+ * a tracker step about 2.5 ms and a static pose (with and without the
+ * force) 5 ms at 210 DOF, 15 % of it fixed and the rest growing as n^2
+ * (0.4 ms per tracker step at 48 DOF). */
+#define DM_MAX_WORK_S (4 * 3600.0)
+#define DM_MAX_BYTES 2e9
+
+/* Seconds on one thread of predicting `count` poses (tracker: integration
+ * steps) of data of this kind with this mesh (0: the robot's). */
+double dm_predict_cost_s(const dm_robot *robot, dm_data_kind kind, double count, int na, int nb);
+
+/* The same for one dm_predict of `data` (tracker: its duration at the
+ * step dm_predict takes), and the bytes that prediction holds. */
+double dm_predict_estimate_s(const dm_robot *robot, const dm_dataset *data, int na, int nb,
+                             double *bytes);
+
+/* DM_EINVAL "WHAT: about H hours of work [and G GB of memory] (the limit
+ * is ...): HINT, or force it" when est_s or bytes exceed the limits and
+ * !force; DM_OK otherwise. */
+int dm_check_size(const char *what, double est_s, double bytes, const char *hint, int force,
+                  dm_error *err);
+
+/* Is err such a refusal? (The CLI then names its option that forces.) */
+int dm_size_refused(const dm_error *err);
 
 /* splitmix64-based generator: uniform in [0,1) and standard normal. */
 typedef struct dm_rng {

@@ -27,6 +27,7 @@ static const char MAIN_HELP[] =
     "  compare     residuals of the model against measured data\n"
     "  diagnose    name the physical effect behind the residuals, fit it\n"
     "  synth       synthetic measured data from an extended robot\n"
+    "  plan        the poses (or path) of an experiment that identifies named effects\n"
     "  robot       check a robot file or preset and print it in full\n"
     "  presets     list the built-in robots\n"
     "\n"
@@ -296,6 +297,8 @@ int dm_cli_main(int argc, char **argv)
         return dm_cli_diagnose(argc - 1, argv + 1);
     if (!strcmp(cmd, "synth"))
         return dm_cli_synth(argc - 1, argv + 1);
+    if (!strcmp(cmd, "plan"))
+        return dm_cli_plan(argc - 1, argv + 1);
     if (!strcmp(cmd, "study"))
         return dm_cli_study(argc - 1, argv + 1);
     if (!strcmp(cmd, "robot"))

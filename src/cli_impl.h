@@ -17,6 +17,11 @@ int dm_cli_usage(const char *cmd, const char *msg, const char *arg);
 int dm_cli_parse_list(const char *s, double *out, int n);
 
 int dm_cli_parse_int(const char *s, int lo, int hi, int *out);
+/* dm_cli_report, and for a refusal of work of hours or gigabytes
+ * (dm_size_refused) the option that forces it. */
+int dm_cli_report_size(const dm_error *err);
+/* A whole number lo..hi, written as such or in exponent form (1e6). */
+int dm_cli_parse_count(const char *s, int lo, int hi, int *out);
 
 /* "NA,NB": elements per arm and per rod, whole numbers 1..64. */
 int dm_cli_parse_mesh(const char *s, int *na, int *nb);
@@ -47,5 +52,6 @@ int dm_cli_info(int argc, char **argv);
 int dm_cli_compare(int argc, char **argv);
 int dm_cli_diagnose(int argc, char **argv);
 int dm_cli_synth(int argc, char **argv);
+int dm_cli_plan(int argc, char **argv);
 
 #endif

@@ -1,6 +1,7 @@
 /* deltamap compare / diagnose / synth: the model against measured data. */
 #include <getopt.h>
 #include <jansson.h>
+#include <limits.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -10,6 +11,7 @@
 #include "cli_impl.h"
 #include "dm_diagnose.h"
 #include "dm_measure.h"
+#include "dm_plan.h"
 
 static const char COMPARE_HELP[] =
     "usage: deltamap compare --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"
@@ -25,26 +27,36 @@ static const char COMPARE_HELP[] =
 static const char DIAGNOSE_HELP[] =
     "usage: deltamap diagnose --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"
     "                         [--sigma S] [--no-pairs] [--threads N]\n"
-    "                         [--write-robot FILE] [--json]\n"
+    "                         [--write-robot FILE] [--force-long] [--json]\n"
     "\n"
     "Fits every candidate effect of docs/model.md §6 (actuator, joint and base\n"
-    "springs, payload, elbow masses, geometric stiffness, clearance; for tracker\n"
-    "data also geometry errors per chain and Rayleigh damping alpha, beta) on two\n"
-    "thirds of the data, scores it on the held-out third, ranks the effects, tries\n"
-    "a second one, and says what is wrong, the cause, the fitted values, and the\n"
-    "held-out gain; or that nothing beats the noise; or which effects these data\n"
-    "cannot tell apart. Fits run on --threads N (default: all cores; the result\n"
-    "does not depend on it). --write-robot writes the extended robot file.\n";
+    "springs, payload, elbow masses, geometric stiffness, clearance; for tracker data also\n"
+    "geometry errors per chain, their union, and Rayleigh damping alpha, beta) on two\n"
+    "thirds of the data, scores it on the held-out third, ranks the effects, tries a\n"
+    "second one, and says what is wrong. It names a cause only when the extended\n"
+    "model's held-out residual is consistent with the noise (prediction chi-square\n"
+    "within its 99.9 % band, and so for every mode or axis); otherwise it says what\n"
+    "was found explains the data only in part and where the rest remains. It says\n"
+    "which effects or parameter combinations these data cannot tell apart (plan an\n"
+    "experiment that can: deltamap plan), or that nothing beats the noise. Without\n"
+    "sigma (in the file or --sigma) whether anything remains cannot be judged. Fits\n"
+    "run on --threads N (default: all cores; the result does not depend on it).\n"
+    "--write-robot writes the extended robot file. Data whose diagnosis is estimated\n"
+    "at more than 4 hours on its threads are refused before any fit unless\n"
+    "--force-long.\n";
 
 static const char SYNTH_HELP[] =
     "usage: deltamap synth --robot R --kind modal|static|tracker [--effect NAME=VALUE]...\n"
     "                      [--noise X] [--poses N] [--modes K] [--seed S] [--path P]\n"
-    "                      [--mesh NA,NB] [--out FILE]\n"
+    "                      [--at TEMPLATE] [--mesh NA,NB] [--force-long] [--out FILE]\n"
     "\n"
     "Synthetic measured data from the robot extended by the given effects, with\n"
     "Gaussian noise (Hz for modal, m otherwise), in the formats of\n"
-    "docs/measured-data.md: check whether an experiment can identify an effect\n"
-    "before running it.\n"
+    "docs/measured-data.md: check whether an experiment can identify an effect before running it. Poses\n"
+    "are drawn about home, or --at takes them (and modes, forces, times) from a\n"
+    "measurement template such as `deltamap plan --out` writes (the kind is then\n"
+    "the template's). Data that would take more than 4 hours or 2 GB to make are\n"
+    "refused before any work unless --force-long.\n"
     "Effects: actuator_stiffness, joint_stiffness, base_stiffness,\n"
     "base_stiffness_0/1/2 (N/m, isotropic), payload_mass, elbow_mass (kg),\n"
     "geometric_stiffness=on, damping_alpha (1/s), damping_beta (s), clearance,\n"
@@ -56,7 +68,7 @@ static const char SYNTH_HELP[] =
 typedef struct {
     const char *measured, *robot, *out, *write_robot;
     const char *sets[DM_CLI_MAXSET];
-    int nset, json, pairs, threads, na, nb;
+    int nset, json, pairs, threads, na, nb, force_long;
     double sigma;       /* --sigma: noise level for samples that give none */
 } measure_args;
 
@@ -66,7 +78,8 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
         {"measured", 1, 0, 'd'}, {"robot", 1, 0, 'r'}, {"out", 1, 0, 'o'},
         {"write-robot", 1, 0, 'w'}, {"set", 1, 0, 's'}, {"mesh", 1, 0, 'm'},
         {"no-pairs", 0, 0, 'P'}, {"threads", 1, 0, 'T'}, {"sigma", 1, 0, 'S'},
-        {"json", 0, 0, 'j'},     {"help", 0, 0, 'h'},    {0, 0, 0, 0}};
+        {"json", 0, 0, 'j'},     {"help", 0, 0, 'h'},    {"force-long", 0, 0, 'L'},
+        {0, 0, 0, 0}};
     int c;
     memset(a, 0, sizeof *a);
     a->pairs = 1;
@@ -80,6 +93,11 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
         case 'w': a->write_robot = optarg; break;
         case 'j': a->json = 1; break;
         case 'P': a->pairs = 0; break;
+        case 'L':
+            if (strcmp(cmd, "diagnose"))
+                return dm_cli_usage(cmd, "unknown or incomplete option", argv[optind - 1]);
+            a->force_long = 1;
+            break;
         case 'T':
             if (dm_cli_parse_int(optarg, 1, 1024, &a->threads))
                 return dm_cli_usage(cmd, "--threads takes a whole number >= 1", optarg);
@@ -294,30 +312,66 @@ static void fit_name(const dm_fit *f, char *buf, size_t n)
              f->ncand > 1 ? f->cand[1]->name : "");
 }
 
-/* One effect's fitted values: a number, or a list for several parameters. */
-static json_t *values_json(const dm_fit *f, int i, const double v[3])
+/* The geometry families inside geometry_errors, in its order. */
+static const dm_candidate *family_of(const dm_candidate *c, int f)
 {
-    if (f->cand[i]->nparam <= 1)
-        return json_real(v[0]);
+    int nc;
+    const dm_candidate *all = dm_candidates(&nc);
+    for (int i = 0, k = 0; i < nc; i++)
+        if (all[i].linear && all[i].nparam == 3 && k++ == f)
+            return &all[i];
+    return c;
+}
+
+static json_t *list_json(const double *v, int n)
+{
     json_t *a = json_array();
-    for (int k = 0; k < f->cand[i]->nparam; k++)
+    for (int k = 0; k < n; k++)
         json_array_append_new(a, json_real(isfinite(v[k]) ? v[k] : -1.0));
     return a;
 }
 
-static json_t *fit_json(const dm_fit *f)
+/* One effect's fitted values: a number, a list per chain, or (the union
+ * of the geometry families) a list per family. */
+static json_t *values_json(const dm_fit *f, int i, const double *v)
 {
-    char name[128];
+    const dm_candidate *c = f->cand[i];
+    if (c->nparam <= 1)
+        return json_real(v[0]);
+    if (c->nparam == 3)
+        return list_json(v, 3);
+    json_t *o = json_object();
+    for (int g = 0; g < c->nparam / 3; g++)
+        json_object_set_new(o, family_of(c, g)->name, list_json(v + 3 * g, 3));
+    return o;
+}
+
+static json_t *params_json(const dm_fit *f)
+{
     json_t *params = json_object();
-    fit_name(f, name, sizeof name);
     for (int i = 0; i < f->ncand; i++)
         json_object_set_new(params, f->cand[i]->name,
                             json_pack("{s:o, s:o, s:s}", "value", values_json(f, i, f->value[i]),
                                       "sigma", values_json(f, i, f->sigma[i]), "unit",
                                       f->cand[i]->unit));
-    return json_pack("{s:s, s:o, s:b, s:f, s:f, s:f, s:f}", "effect", name, "parameters", params,
-                     "ok", f->ok, "held_out_chi2", f->held_chi2, "held_out_rms", f->held_rms,
-                     "gain_percent", f->gain_percent, "score", f->score);
+    return params;
+}
+
+static json_t *fit_json(const dm_fit *f)
+{
+    char name[128];
+    fit_name(f, name, sizeof name);
+    return json_pack("{s:s, s:o, s:b, s:f, s:f, s:f, s:f, s:i}", "effect", name, "parameters",
+                     params_json(f), "ok", f->ok, "held_out_chi2", f->held_chi2, "held_out_rms",
+                     f->held_rms, "gain_percent", f->gain_percent, "score", f->score,
+                     "parameters_fitted", f->nfree);
+}
+
+static void print_triple(const double *v, const double *sg, const char *unit)
+{
+    for (int k = 0; k < 3; k++)
+        printf("%s%.4g +- %.2g", k ? ", " : "(", v[k], sg[k]);
+    printf(") %s", unit);
 }
 
 static void print_values(const dm_fit *f)
@@ -327,13 +381,18 @@ static void print_values(const dm_fit *f)
         printf("%s%s", i ? ", " : "", c->name);
         if (c->nparam == 0) {
             printf(" on");
-            continue;
+        } else if (c->nparam == 1) {
+            printf(" = %.4g +- %.2g %s", f->value[i][0], f->sigma[i][0], c->unit);
+        } else if (c->nparam == 3) {
+            printf(" = ");
+            print_triple(f->value[i], f->sigma[i], c->unit);
+        } else {
+            for (int g = 0; g < c->nparam / 3; g++) {
+                const dm_candidate *fam = family_of(c, g);
+                printf("%s%s = ", g ? ", " : ": ", fam->name);
+                print_triple(f->value[i] + 3 * g, f->sigma[i] + 3 * g, fam->unit);
+            }
         }
-        printf(" = ");
-        for (int k = 0; k < c->nparam; k++)
-            printf("%s%.4g +- %.2g", k ? ", " : c->nparam > 1 ? "(" : "", f->value[i][k],
-                   f->sigma[i][k]);
-        printf("%s %s", c->nparam > 1 ? ")" : "", c->unit);
     }
 }
 
@@ -348,6 +407,181 @@ static const dm_fit *runner_up(const dm_diagnosis *dg)
             return &dg->rank[r];
     }
     return NULL;
+}
+
+/* Name of parameter j of a fit (its effects' parameters in order). */
+static void param_name(const dm_fit *f, int j, char *buf, size_t n)
+{
+    for (int i = 0; i < f->ncand; j -= f->cand[i]->nparam, i++)
+        if (j < f->cand[i]->nparam) {
+            dm_candidate_param_name(f->cand[i], j, buf, n);
+            return;
+        }
+    snprintf(buf, n, "?");
+}
+
+/* Combination k of the identifiability analysis, by its large weights. */
+static void print_combination(const dm_fit *f, const dm_ident *id, int k)
+{
+    for (int j = 0, first = 1; j < id->n; j++)
+        if (fabs(id->weight[k][j]) >= 0.3) {
+            char pn[96];
+            param_name(f, j, pn, sizeof pn);
+            printf("%s%.2f %s", first ? "" : id->weight[k][j] < 0 ? " - " : " + ",
+                   first ? id->weight[k][j] : fabs(id->weight[k][j]), pn);
+            first = 0;
+        }
+}
+
+static void print_ident(const dm_dataset *d, const dm_robot *rb, const dm_diagnosis *dg)
+{
+    const dm_ident *id = &dg->ident;
+    if (id->n < 2)
+        return;
+    printf("          Of its %d parameters these data determine %d combination%s (1-sigma <= "
+           "%g)",
+           id->n, id->ndetermined, id->ndetermined == 1 ? "" : "s", DM_DIAG_DETERMINED);
+    if (id->ndetermined == id->n) {
+        printf(": all of them.\n");
+        return;
+    }
+    printf("; not determined:\n");
+    int mixed = 0;
+    for (int k = id->ndetermined, shown = 0; k < id->n && shown < 4; k++, shown++) {
+        int big = 0;
+        for (int j = 0; j < id->n; j++)
+            big += fabs(id->weight[k][j]) >= 0.3;
+        mixed |= big > 1;
+        printf("            ");
+        print_combination(&dg->best, id, k);
+        printf("  (1-sigma %.2g)\n", id->sigma[k]);
+    }
+    if (id->n - id->ndetermined > 4)
+        printf("            and %d more\n", id->n - id->ndetermined - 4);
+    printf("          (weights on the parameters in units of their scale: relative for springs,\n"
+           "          masses and damping, 0.1 mm and 0.05 deg for geometry errors).");
+    if (mixed) {
+        printf(" To tell them\n          apart, plan an experiment: deltamap plan --robot %s --kind %s "
+               "--effects ", rb->name, dm_data_kind_name(d->kind));
+        for (int i = 0; i < dg->best.ncand; i++)
+            printf("%s%s", i ? "," : "", dg->best.cand[i]->name);
+        printf(" --poses N");
+    }
+    printf("\n");
+}
+
+static void group_label(const dm_dataset *d, int g, char *buf, size_t n)
+{
+    if (d->kind == DM_DATA_MODAL)
+        snprintf(buf, n, "mode %d", g);
+    else
+        snprintf(buf, n, "%c", "xyz"[g]);
+}
+
+/* Where the misfit remains: the groups beyond their limit (or, if none
+ * is alone, the largest), and the poses or times carrying half of it. */
+static void print_remains(const dm_dataset *d, const dm_noise_test *t)
+{
+    int any = 0, worst = 0;
+    for (int k = 0; k < t->ngroup; k++) {
+        any |= t->group[k].chi2 > t->group[k].limit;
+        if (t->group[k].chi2 / t->group[k].n > t->group[worst].chi2 / t->group[worst].n)
+            worst = k;
+    }
+    printf("          It remains in");
+    for (int k = 0, shown = 0; k < t->ngroup; k++)
+        if (any ? t->group[k].chi2 > t->group[k].limit : k == worst) {
+            char lb[16];
+            group_label(d, t->group[k].group, lb, sizeof lb);
+            printf("%s%s %s (%s%.3g)", shown ? "," : "", shown && shown % 4 == 0 ? "\n         " : "",
+                   lb, shown ? "" : "chi2/n ", t->group[k].chi2 / t->group[k].n);
+            shown++;
+        }
+    if (t->nregion > 0 && d->kind == DM_DATA_TRACKER)
+        printf(",\n          most at t = %.4g..%.4g s (%d of %d held-out times carry half of it)",
+               t->t_lo, t->t_hi, t->nregion, t->nposes);
+    else if (t->nregion > 0)
+        printf(",\n          most at x %+.3f..%+.3f, y %+.3f..%+.3f, z %+.3f..%+.3f m\n"
+               "          (%d of %d held-out poses carry half of it)",
+               t->lo[0], t->hi[0], t->lo[1], t->hi[1], t->lo[2], t->hi[2], t->nregion, t->nposes);
+    printf(".\n");
+}
+
+static void print_ties(const dm_diagnosis *dg)
+{
+    if (dg->ntie) {
+        printf("          These data cannot tell %s from", dg->best.cand[0]->name);
+        for (int t = 0; t < dg->ntie; t++)
+            printf("%s %s", t ? (t + 1 < dg->ntie ? "," : " or") : "",
+                   dg->rank[dg->tie[t]].cand[0]->name);
+        printf("\n          (scores within %g): either explains them; other data must decide\n"
+               "          (deltamap plan --effects %s", DM_DIAG_TIE, dg->best.cand[0]->name);
+        for (int t = 0; t < dg->ntie; t++)
+            printf(",%s", dg->rank[dg->tie[t]].cand[0]->name);
+        printf(" says which can).\n");
+    }
+    if (dg->has_simpler_choice) {
+        char a[128], b[128];
+        fit_name(&dg->passed_over, a, sizeof a);
+        fit_name(&dg->best, b, sizeof b);
+        printf("          %s scores %.1f better, not clearly (%g) enough to prefer it to the\n"
+               "          simpler %s.\n",
+               a, dg->best.score - dg->passed_over.score, DM_DIAG_CLEAR, b);
+    }
+}
+
+static void print_verdict(const dm_dataset *d, const dm_robot *rb, const dm_diagnosis *dg)
+{
+    const char *unit = d->kind == DM_DATA_MODAL ? "Hz" : "m";
+    const dm_noise_test *t = &dg->noise;
+    char name[128];
+    fit_name(&dg->best, name, sizeof name);
+    printf("\nverdict   ");
+    if (!dg->significant) {
+        printf("no significant discrepancy: the baseline fits the held-out data within the "
+               "noise; nothing to fix.\n");
+    } else if (!dg->found && !dg->sigma_known) {
+        printf("no candidate effect explains the residuals (RMS %.4g %s) better than chance.\n"
+               "          The file gives no sigma, so whether they exceed the noise is unknown: "
+               "give --sigma.\n",
+               dg->base_held_rms, unit);
+    } else if (!dg->found) {
+        printf("the model misses something (held-out chi2/N %.3g), but no candidate effect "
+               "beats the noise; the cause is outside the candidates.\n",
+               dg->base_held_chi2 / dg->n_held);
+    } else if (!dg->sigma_known) {
+        printf("%s lowers the held-out RMS %.4g -> %.4g %s (gain %.1f %%): ", name,
+               dg->base_held_rms, dg->best.held_rms, unit, dg->best.gain_percent);
+        print_values(&dg->best);
+        printf(".\n          The file gives no sigma, so whether it explains the data or "
+               "something else remains\n          cannot be judged: give --sigma.\n");
+    } else if (dg->explained) {
+        printf("the model is wrong about the %s data (held-out RMS %.4g %s against noise); the "
+               "cause is %s: ",
+               dm_data_kind_name(d->kind), dg->base_held_rms, unit, name);
+        print_values(&dg->best);
+        printf(".\n          Held-out RMS %.4g -> %.4g %s, gain %.1f %%; chi2/N %.3g, within the "
+               "noise (<= %.3g).",
+               dg->base_held_rms, dg->best.held_rms, unit, dg->best.gain_percent,
+               t->chi2 / t->n, t->limit / t->n);
+        const dm_fit *ru = runner_up(dg);
+        if (ru)
+            printf(" Runner-up: %s (gain %.1f %%).", ru->cand[0]->name, ru->gain_percent);
+        printf("\n");
+    } else {
+        printf("partly explained by %s (", name);
+        print_values(&dg->best);
+        printf(");\n          the residual is still %.3g sigma (held-out chi2/N %.3g, noise "
+               "<= %.3g): something outside\n          the candidates remains. Held-out RMS "
+               "%.4g -> %.4g %s, gain %.1f %%.\n",
+               t->sigmas, t->chi2 / t->n, t->limit / t->n, dg->base_held_rms, dg->best.held_rms,
+               unit, dg->best.gain_percent);
+        print_remains(d, t);
+    }
+    if (dg->found) {
+        print_ties(dg);
+        print_ident(d, rb, dg);
+    }
 }
 
 static void print_diagnosis(const dm_dataset *d, const dm_robot *rb, const dm_diagnosis *dg)
@@ -368,44 +602,132 @@ static void print_diagnosis(const dm_dataset *d, const dm_robot *rb, const dm_di
         }
         printf(" %4d  %-24s %12.4g %6.1f %%   ", r + 1, f->cand[0]->name, f->held_rms,
                f->gain_percent);
-        print_values(f);
+        if (f->cand[0]->nparam > 3)
+            printf("%d of %d combinations fitted", f->nfree, f->cand[0]->nparam);
+        else
+            print_values(f);
         printf("\n");
     }
-    printf("\nverdict   ");
-    if (!dg->significant)
-        printf("no significant discrepancy: the baseline fits the held-out data within the "
-               "noise; nothing to fix.\n");
-    else if (!dg->found && !dg->sigma_known)
-        printf("no candidate effect explains the residuals (RMS %.4g %s) better than chance.\n"
-               "          The file gives no sigma, so whether they exceed the noise is unknown: "
-               "give --sigma.\n",
-               dg->base_held_rms, unit);
-    else if (!dg->found)
-        printf("the model misses something (held-out chi2/N %.3g), but no candidate effect "
-               "beats the noise; the cause is outside the candidates.\n",
-               dg->base_held_chi2 / dg->n_held);
-    else {
-        char name[128];
-        fit_name(&dg->best, name, sizeof name);
-        printf("the model is wrong about the %s data (held-out RMS %.4g %s against noise); the "
-               "cause is %s: ",
-               dm_data_kind_name(d->kind), dg->base_held_rms, unit, name);
-        print_values(&dg->best);
-        printf(".\n          Held-out RMS %.4g -> %.4g %s, gain %.1f %%.", dg->base_held_rms,
-               dg->best.held_rms, unit, dg->best.gain_percent);
-        const dm_fit *ru = runner_up(dg);
-        if (ru)
-            printf(" Runner-up: %s (gain %.1f %%).", ru->cand[0]->name, ru->gain_percent);
-        printf("\n");
-        if (dg->ntie) {
-            printf("          These data cannot tell %s from", dg->rank[0].cand[0]->name);
-            for (int t = 0; t < dg->ntie; t++)
-                printf("%s %s", t ? (t + 1 < dg->ntie ? "," : " or") : "",
-                       dg->rank[dg->tie[t]].cand[0]->name);
-            printf("\n          (scores within %g): either explains them; other data must decide.\n",
-                   DM_DIAG_TIE);
-        }
+    print_verdict(d, rb, dg);
+}
+
+static json_t *noise_json(const dm_dataset *d, const dm_noise_test *t)
+{
+    json_t *g = json_array();
+    for (int k = 0; k < t->ngroup; k++) {
+        char lb[16];
+        if (d->kind == DM_DATA_MODAL)
+            snprintf(lb, sizeof lb, "%d", t->group[k].group);
+        else
+            snprintf(lb, sizeof lb, "%c", "xyz"[t->group[k].group]);
+        json_array_append_new(g, json_pack("{s:s, s:i, s:f, s:f, s:b}", "group", lb, "samples",
+                                           t->group[k].n, "chi2", t->group[k].chi2, "limit",
+                                           t->group[k].limit,
+                                           "beyond", t->group[k].chi2 > t->group[k].limit));
     }
+    json_t *o = json_pack("{s:f, s:i, s:f, s:f, s:b, s:o}", "held_out_chi2", t->chi2, "samples",
+                          t->n, "limit", t->limit, "excess_sigmas", t->sigmas, "consistent",
+                          t->consistent, "groups", g);
+    if (t->nregion > 0) {
+        json_t *r = json_pack("{s:[f,f], s:[f,f], s:[f,f], s:i, s:i}", "x", t->lo[0], t->hi[0],
+                              "y", t->lo[1], t->hi[1], "z", t->lo[2], t->hi[2], "poses",
+                              t->nregion, "of", t->nposes);
+        if (d->kind == DM_DATA_TRACKER)
+            json_object_set_new(r, "t", json_pack("[f,f]", t->t_lo, t->t_hi));
+        json_object_set_new(o, "region", r);
+    }
+    return o;
+}
+
+static json_t *ident_json(const dm_diagnosis *dg)
+{
+    const dm_ident *id = &dg->ident;
+    json_t *names = json_array(), *comb = json_array();
+    for (int j = 0; j < id->n; j++) {
+        char pn[96];
+        param_name(&dg->best, j, pn, sizeof pn);
+        json_array_append_new(names, json_string(pn));
+    }
+    for (int k = 0; k < id->n; k++)
+        json_array_append_new(comb, json_pack("{s:f, s:b, s:o}", "sigma",
+                                              isfinite(id->sigma[k]) ? id->sigma[k] : -1.0,
+                                              "determined", id->sigma[k] <= DM_DIAG_DETERMINED,
+                                              "weights", list_json(id->weight[k], id->n)));
+    return json_pack("{s:o, s:i, s:o}", "parameters", names, "determined", id->ndetermined,
+                     "combinations", comb);
+}
+
+static void print_diagnosis_json(const dm_dataset *d, const dm_robot *rb, const dm_diagnosis *dg)
+{
+    json_t *rank = json_array(), *o = json_object(), *causes = json_array();
+    json_t *params = json_object(), *ties = json_array();
+    char name[128];
+    fit_name(&dg->best, name, sizeof name);
+    for (int r = 0; r < dg->nrank; r++)
+        json_array_append_new(rank, fit_json(&dg->rank[r]));
+    for (int i = 0; dg->explained && i < dg->best.ncand; i++) {
+        json_array_append_new(causes, json_string(dg->best.cand[i]->name));
+        json_object_set_new(params, dg->best.cand[i]->name,
+                            values_json(&dg->best, i, dg->best.value[i]));
+    }
+    for (int t = 0; dg->found && t < dg->ntie; t++)
+        json_array_append_new(ties, json_string(dg->rank[dg->tie[t]].cand[0]->name));
+    json_object_set_new(o, "robot", json_string(rb->name));
+    json_object_set_new(o, "kind", json_string(dm_data_kind_name(d->kind)));
+    json_object_set_new(o, "significant", json_boolean(dg->significant));
+    json_object_set_new(o, "judged", json_boolean(dg->sigma_known));
+    json_object_set_new(o, "found", json_boolean(dg->found));
+    json_object_set_new(o, "explained", json_boolean(dg->explained));
+    json_object_set_new(o, "cause", dg->explained ? json_string(name) : json_null());
+    json_object_set_new(o, "causes", causes);
+    json_object_set_new(o, "parameters", params);
+    json_object_set_new(o, "gain_percent", json_real(dg->explained ? dg->best.gain_percent : 0));
+    json_object_set_new(o, "partial", dg->found && !dg->explained ? fit_json(&dg->best)
+                                                                  : json_null());
+    json_object_set_new(o, "baseline_held_out_rms", json_real(dg->base_held_rms));
+    json_object_set_new(o, "baseline_held_out_chi2", json_real(dg->base_held_chi2));
+    json_object_set_new(o, "held_out_rms", json_real(dg->found ? dg->best.held_rms
+                                                               : dg->base_held_rms));
+    json_object_set_new(o, "held_out_samples", json_integer(dg->n_held));
+    json_object_set_new(o, "best", fit_json(&dg->best));
+    json_object_set_new(o, "noise_test", dg->found && dg->sigma_known
+                                             ? noise_json(d, &dg->noise) : json_null());
+    json_object_set_new(o, "identifiable", dg->found && dg->ident.n ? ident_json(dg)
+                                                                    : json_null());
+    json_object_set_new(o, "indistinguishable_from", ties);
+    json_object_set_new(o, "simpler_preferred_to",
+                        dg->found && dg->has_simpler_choice ? fit_json(&dg->passed_over)
+                                                            : json_null());
+    json_object_set_new(o, "ranking", rank);
+    json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
+    putchar('\n');
+    json_decref(o);
+}
+
+static int write_robot(const measure_args *a, const dm_robot *rb, const dm_diagnosis *dg)
+{
+    dm_file_out out;
+    dm_robot fixed;
+    dm_error err;
+    if (!dg->found)
+        fprintf(stderr, "deltamap diagnose: nothing found; %s is the robot unchanged\n",
+                a->write_robot);
+    else if (!dg->sigma_known)
+        fprintf(stderr, "deltamap diagnose: %s has the effect found; without sigma whether it "
+                        "explains the data cannot be judged\n", a->write_robot);
+    else if (!dg->explained)
+        fprintf(stderr, "deltamap diagnose: %s has the effect found, which explains the data "
+                        "only in part\n", a->write_robot);
+    int rc = dg->found ? dm_fit_apply(rb, &dg->best, &fixed, &err) : (fixed = *rb, DM_OK);
+    if (!rc && !(rc = dm_file_out_open(&out, a->write_robot, &err))) {
+        fprintf(out.f, "# %s extended by deltamap diagnose on %s%s\n", rb->name, a->measured,
+                !dg->found || dg->explained ? ""
+                : dg->sigma_known ? " (explains the data only in part)"
+                                  : " (no sigma: whether it explains the data cannot be judged)");
+        dm_robot_write(&fixed, out.f);
+        rc = dm_file_out_commit(&out, &err);
+    }
+    return rc ? dm_cli_report(&err) : 0;
 }
 
 int dm_cli_diagnose(int argc, char **argv)
@@ -417,65 +739,22 @@ int dm_cli_diagnose(int argc, char **argv)
     if (rc)
         return rc;
     dm_dataset d;
-    dm_robot rb, fixed;
+    dm_robot rb;
     dm_error err;
     dm_diagnosis dg;
-    dm_diagnose_opts o = {a.na, a.nb, a.pairs, a.threads ? a.threads : all_cores};
+    dm_diagnose_opts o = {a.na, a.nb, a.pairs, a.threads ? a.threads : all_cores, a.force_long};
     if ((rc = load(&a, &d, &rb, &err)))
         return dm_cli_report(&err);
     if ((rc = dm_diagnose(&rb, &d, &o, &dg, &err))) {
         dm_dataset_free(&d);
-        return dm_cli_report(&err);
+        return dm_cli_report_size(&err);
     }
-    if (a.json) {
-        json_t *rank = json_array(), *o2 = json_object();
-        for (int r = 0; r < dg.nrank; r++)
-            json_array_append_new(rank, fit_json(&dg.rank[r]));
-        char name[128];
-        fit_name(&dg.best, name, sizeof name);
-        json_t *causes = json_array();
-        for (int i = 0; dg.found && i < dg.best.ncand; i++)
-            json_array_append_new(causes, json_string(dg.best.cand[i]->name));
-        json_t *params = json_object();
-        for (int i = 0; dg.found && i < dg.best.ncand; i++)
-            json_object_set_new(params, dg.best.cand[i]->name,
-                                values_json(&dg.best, i, dg.best.value[i]));
-        json_object_set_new(o2, "robot", json_string(rb.name));
-        json_object_set_new(o2, "kind", json_string(dm_data_kind_name(d.kind)));
-        json_object_set_new(o2, "significant", json_boolean(dg.significant));
-        json_object_set_new(o2, "cause", dg.found ? json_string(name) : json_null());
-        json_object_set_new(o2, "causes", causes);
-        json_object_set_new(o2, "parameters", params);
-        json_object_set_new(o2, "gain_percent", dg.found ? json_real(dg.best.gain_percent) : json_real(0));
-        json_object_set_new(o2, "baseline_held_out_rms", json_real(dg.base_held_rms));
-        json_object_set_new(o2, "baseline_held_out_chi2", json_real(dg.base_held_chi2));
-        json_object_set_new(o2, "held_out_samples", json_integer(dg.n_held));
-        json_object_set_new(o2, "best", fit_json(&dg.best));
-        json_t *ties = json_array();
-        for (int t = 0; dg.found && t < dg.ntie; t++)
-            json_array_append_new(ties, json_string(dg.rank[dg.tie[t]].cand[0]->name));
-        json_object_set_new(o2, "indistinguishable_from", ties);
-        json_object_set_new(o2, "ranking", rank);
-        json_dumpf(o2, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
-        putchar('\n');
-        json_decref(o2);
-    } else {
+    if (a.json)
+        print_diagnosis_json(&d, &rb, &dg);
+    else
         print_diagnosis(&d, &rb, &dg);
-    }
-    if (a.write_robot) {
-        dm_file_out out;
-        if (!dg.found)
-            fprintf(stderr, "deltamap diagnose: nothing found; %s is the robot unchanged\n",
-                    a.write_robot);
-        rc = dg.found ? dm_fit_apply(&rb, &dg.best, &fixed, &err) : (fixed = rb, DM_OK);
-        if (!rc && !(rc = dm_file_out_open(&out, a.write_robot, &err))) {
-            fprintf(out.f, "# %s extended by deltamap diagnose on %s\n", rb.name, a.measured);
-            dm_robot_write(&fixed, out.f);
-            rc = dm_file_out_commit(&out, &err);
-        }
-        if (rc)
-            dm_cli_report(&err);
-    }
+    if (a.write_robot)
+        rc = write_robot(&a, &rb, &dg);
     dm_dataset_free(&d);
     return rc;
 }
@@ -488,9 +767,9 @@ int dm_cli_synth(int argc, char **argv)
     static const struct option lo[] = {
         {"robot", 1, 0, 'r'}, {"kind", 1, 0, 'k'}, {"effect", 1, 0, 'e'}, {"noise", 1, 0, 'n'},
         {"poses", 1, 0, 'p'}, {"modes", 1, 0, 'M'}, {"seed", 1, 0, 'S'}, {"path", 1, 0, 'P'},
-        {"mesh", 1, 0, 'm'}, {"out", 1, 0, 'o'}, {"set", 1, 0, 's'}, {"help", 0, 0, 'h'},
-        {0, 0, 0, 0}};
-    const char *robot = NULL, *out_path = NULL, *effects[8], *sets[DM_CLI_MAXSET];
+        {"mesh", 1, 0, 'm'}, {"out", 1, 0, 'o'}, {"set", 1, 0, 's'}, {"at", 1, 0, 'A'},
+        {"force-long", 0, 0, 'L'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    const char *robot = NULL, *out_path = NULL, *effects[8], *sets[DM_CLI_MAXSET], *at = NULL;
     int neff = 0, nset = 0, c, have_kind = 0, seed = 1;
     dm_synth_opts o = {0};
     optind = 1;
@@ -500,6 +779,7 @@ int dm_cli_synth(int argc, char **argv)
         case 'r': robot = optarg; break;
         case 'o': out_path = optarg; break;
         case 'P': o.path = optarg; break;
+        case 'A': at = optarg; break;
         case 'k':
             if (dm_data_kind_parse(optarg, &o.kind))
                 return dm_cli_usage("synth", "--kind is modal, static or tracker", optarg);
@@ -519,9 +799,10 @@ int dm_cli_synth(int argc, char **argv)
                 return dm_cli_usage("synth", "--noise takes a value >= 0", optarg);
             break;
         case 'p':
-            if (dm_cli_parse_int(optarg, 3, 100000, &o.npose))
-                return dm_cli_usage("synth", "--poses takes a whole number >= 3", optarg);
+            if (dm_cli_parse_count(optarg, 3, INT_MAX, &o.npose))
+                return dm_cli_usage("synth", "--poses takes a whole number 3..2147483647", optarg);
             break;
+        case 'L': o.force_long = 1; break;
         case 'M':
             if (dm_cli_parse_int(optarg, 1, 64, &o.modes))
                 return dm_cli_usage("synth", "--modes takes 1..64", optarg);
@@ -538,8 +819,8 @@ int dm_cli_synth(int argc, char **argv)
         default: return dm_cli_usage("synth", "unknown or incomplete option", argv[optind - 1]);
         }
     }
-    if (optind < argc || !robot || !have_kind)
-        return dm_cli_usage("synth", "--robot and --kind are required", NULL);
+    if (optind < argc || !robot || !(have_kind || at))
+        return dm_cli_usage("synth", "--robot and --kind (or --at) are required", NULL);
     o.seed = (uint64_t)seed;
     dm_robot rb;
     dm_error err;
@@ -547,7 +828,9 @@ int dm_cli_synth(int argc, char **argv)
     int rc = dm_cli_load_robot(robot, sets, nset, &rb, &err);
     for (int i = 0; i < neff && !rc; i++) {
         char name[64];
-        double v[3] = {1, 1, 1};
+        double v[DM_DIAG_MAXV];
+        for (int k = 0; k < DM_DIAG_MAXV; k++)
+            v[k] = 1;
         const char *eq = strchr(effects[i], '=');
         snprintf(name, sizeof name, "%.*s", eq ? (int)(eq - effects[i]) : (int)strlen(effects[i]),
                  effects[i]);
@@ -559,10 +842,27 @@ int dm_cli_synth(int argc, char **argv)
                                 effects[i]);
         rc = dm_effect_apply(&rb, name, v, &err);
     }
-    if (!rc)
+    if (!rc && at) { /* the template's poses */
+        dm_dataset tpl;
+        if (!(rc = dm_dataset_read_template(at, &tpl, &err))) {
+            if (have_kind && tpl.kind != o.kind)
+                rc = dm_fail(&err, DM_EINVAL, "%s holds %s data, not %s", at,
+                             dm_data_kind_name(tpl.kind), dm_data_kind_name(o.kind));
+            o.kind = tpl.kind;
+            double bytes, est = dm_predict_estimate_s(&rb, &tpl, o.na, o.nb, &bytes);
+            char what[300];
+            snprintf(what, sizeof what, "synth: %s: %d samples", at, tpl.n);
+            if (!rc)
+                rc = dm_check_size(what, est, bytes, "a smaller template", o.force_long, &err);
+            if (!rc)
+                rc = dm_plan_observe(&rb, &tpl, o.noise, o.seed, o.na, o.nb, &d, &err);
+            dm_dataset_free(&tpl);
+        }
+    } else if (!rc) {
         rc = dm_synthesize(&rb, &o, &d, &err);
+    }
     if (rc)
-        return dm_cli_report(&err);
+        return dm_cli_report_size(&err);
     snprintf(d.robot, sizeof d.robot, "%s", robot);
     dm_file_out out;
     FILE *f = stdout;

@@ -1,5 +1,6 @@
 /* Helpers shared by the deltamap commands. */
 #include "cli_impl.h"
+#include "dm_measure.h"
 
 #include <cblas.h>
 
@@ -13,6 +14,14 @@
 int dm_cli_report(const dm_error *err)
 {
     fprintf(stderr, "deltamap: %s\n", err->msg);
+    return err->code;
+}
+
+int dm_cli_report_size(const dm_error *err)
+{
+    dm_cli_report(err);
+    if (dm_size_refused(err))
+        fprintf(stderr, "deltamap: --force-long runs it anyway\n");
     return err->code;
 }
 
@@ -47,6 +56,16 @@ int dm_cli_parse_int(const char *s, int lo, int hi, int *out)
     char *end;
     long v = strtol(s, &end, 10);
     if (end == s || *end || v < lo || v > hi)
+        return -1;
+    *out = (int)v;
+    return 0;
+}
+
+int dm_cli_parse_count(const char *s, int lo, int hi, int *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (end == s || *end || !(v >= lo && v <= hi) || v != floor(v))
         return -1;
     *out = (int)v;
     return 0;

@@ -15,39 +15,47 @@
 
 /* Ranges: springs from very soft to far stiffer than the structure. Masses
  * seen by statics cannot be: a deflection survey is relative to the same
- * pose without the force. */
+ * pose without the force. Typical magnitudes are `plan`'s defaults; the
+ * scale of a geometry error is the size worth knowing (0.05 % of a 0.2 m
+ * arm; 0.05 deg turns a 0.2 m arm's end by about as much). */
 #define ALL (K_MODAL | K_STATIC | K_TRACK)
 static const dm_candidate CANDIDATES[] = {
-    {"actuator_stiffness", "N*m/rad", 2.0, 8.0, ALL, 1, 0},
-    {"joint_stiffness", "N/m", 4.0, 10.0, ALL, 1, 0},
-    {"base_stiffness", "N/m", 4.0, 10.0, ALL, 1, 0},
-    {"base_stiffness_0", "N/m", 4.0, 10.0, ALL, 1, 0},
-    {"base_stiffness_1", "N/m", 4.0, 10.0, ALL, 1, 0},
-    {"base_stiffness_2", "N/m", 4.0, 10.0, ALL, 1, 0},
-    {"payload_mass", "kg", -2.0, 1.5, K_MODAL | K_TRACK, 1, 0},
-    {"elbow_mass", "kg", -2.0, 1.0, K_MODAL | K_TRACK, 1, 0},
-    {"geometric_stiffness", "", 0, 0, ALL, 0, 0},
+    {"actuator_stiffness", "N*m/rad", 2.0, 8.0, ALL, 1, 0, 0, 2e4, NULL},
+    {"joint_stiffness", "N/m", 4.0, 10.0, ALL, 1, 0, 0, 2e6, NULL},
+    {"base_stiffness", "N/m", 4.0, 10.0, ALL, 1, 0, 0, 2e6, NULL},
+    {"base_stiffness_0", "N/m", 4.0, 10.0, ALL, 1, 0, 0, 2e6, "base_stiffness"},
+    {"base_stiffness_1", "N/m", 4.0, 10.0, ALL, 1, 0, 0, 2e6, "base_stiffness"},
+    {"base_stiffness_2", "N/m", 4.0, 10.0, ALL, 1, 0, 0, 2e6, "base_stiffness"},
+    {"payload_mass", "kg", -2.0, 1.5, K_MODAL | K_TRACK, 1, 0, 0, 0.5, NULL},
+    {"elbow_mass", "kg", -2.0, 1.0, K_MODAL | K_TRACK, 1, 0, 0, 1.0, NULL},
+    {"geometric_stiffness", "", 0, 0, ALL, 0, 0, 0, 1, NULL},
     /* joint clearance: jumps when a force flips a rod's load */
-    {"clearance", "m", -7.0, -3.0, K_STATIC | K_TRACK, 1, 0},
+    {"clearance", "m", -7.0, -3.0, K_STATIC | K_TRACK, 1, 0, 0, 2e-5, NULL},
     /* axial play of the actuator joints; their radial play shifts each arm
      * along the rods' pull, which to first order is rod-end clearance of
      * half its size: `clearance` stands for both */
-    {"actuator_clearance_axial", "m", -7.0, -3.0, K_STATIC | K_TRACK, 1, 0},
+    {"actuator_clearance_axial", "m", -7.0, -3.0, K_STATIC | K_TRACK, 1, 0, 0, 5e-5, NULL},
     /* geometry errors move the platform: only a tracker sees them */
-    {"error_arm_length", "m", 0, 1, K_TRACK, 3, 1},
-    {"error_rod_length", "m", 0, 1, K_TRACK, 3, 1},
-    {"error_base_radius", "m", 0, 1, K_TRACK, 3, 1},
-    {"error_platform_radius", "m", 0, 1, K_TRACK, 3, 1},
-    {"error_theta_deg", "deg", 0, 1, K_TRACK, 3, 1},
-    {"error_alpha0_deg", "deg", 0, 1, K_TRACK, 3, 1},
+    {"error_arm_length", "m", 0, 1, K_TRACK, 3, 1, 1e-4, 1e-4, NULL},
+    {"error_rod_length", "m", 0, 1, K_TRACK, 3, 1, 1e-4, 1e-4, NULL},
+    {"error_base_radius", "m", 0, 1, K_TRACK, 3, 1, 1e-4, 1e-4, NULL},
+    {"error_platform_radius", "m", 0, 1, K_TRACK, 3, 1, 1e-4, 1e-4, NULL},
+    {"error_theta_deg", "deg", 0, 1, K_TRACK, 3, 1, 0.05, 0.05, NULL},
+    {"error_alpha0_deg", "deg", 0, 1, K_TRACK, 3, 1, 0.05, 0.05, NULL},
     /* Rayleigh C = alpha M + beta K: the decay of the vibration a tracker
      * sees. Two candidates, so that each fit is one-dimensional and a pair
      * finds both; the ranges span modal damping ratios 1e-4 to 1 at the
      * presets' first modes (50-200 Hz). */
-    {"damping_alpha", "1/s", -1.0, 3.0, K_TRACK, 1, 0},
-    {"damping_beta", "s", -6.0, -2.0, K_TRACK, 1, 0},
+    {"damping_alpha", "1/s", -1.0, 3.0, K_TRACK, 1, 0, 0, 50, NULL},
+    {"damping_beta", "s", -6.0, -2.0, K_TRACK, 1, 0, 0, 1e-3, NULL},
+    /* the six geometry families at once (in table order, three chains
+     * each): on one path several of them look alike, and only their union,
+     * fitted in the combinations the data see, says what is determined */
+    {"geometry_errors", "m, deg", 0, 1, K_TRACK, 18, 1, 1e-4, 1e-4, NULL},
 };
 #define NCAND ((int)(sizeof CANDIDATES / sizeof CANDIDATES[0]))
+#define GEOM_FIRST 11 /* error_arm_length: the first of the six families */
+#define UNION (&CANDIDATES[NCAND - 1])
 _Static_assert(NCAND <= DM_DIAG_MAXCAND, "dm_diagnosis.rank holds every candidate");
 
 const dm_candidate *dm_candidates(int *count)
@@ -64,11 +72,38 @@ const dm_candidate *dm_candidate_find(const char *name)
     return NULL;
 }
 
+/* One geometry family (three per-chain parameters)? */
+static int is_family(const dm_candidate *c) { return c->linear && c->nparam == 3; }
+
+double dm_candidate_param_scale(const dm_candidate *c, int k)
+{
+    if (!c->linear)
+        return 1.0 / log(10.0); /* a unit of log10 is ln 10 relative */
+    return c == UNION ? CANDIDATES[GEOM_FIRST + k / 3].scale : c->scale;
+}
+
+void dm_candidate_param_name(const dm_candidate *c, int k, char *buf, size_t n)
+{
+    if (c == UNION)
+        snprintf(buf, n, "%s[%d]", CANDIDATES[GEOM_FIRST + k / 3].name, k % 3);
+    else if (c->nparam == 3)
+        snprintf(buf, n, "%s[%d]", c->name, k);
+    else
+        snprintf(buf, n, "%s", c->name);
+}
 
 int dm_effect_apply(dm_robot *rb, const char *name, const double *v, dm_error *err)
 {
     char set[256];
     const dm_candidate *c = dm_candidate_find(name);
+    if (c == UNION) {
+        for (int f = 0; f < 6; f++) {
+            int rc = dm_effect_apply(rb, CANDIDATES[GEOM_FIRST + f].name, v + 3 * f, err);
+            if (rc)
+                return rc;
+        }
+        return DM_OK;
+    }
     if (!strcmp(name, "geometric_stiffness"))
         snprintf(set, sizeof set, "effects.geometric_stiffness=on");
     else if (!strncmp(name, "damping_", 8))
@@ -102,6 +137,7 @@ typedef struct {
     const dm_diagnose_opts *o;
     const char *held;        /* per sample: 1 = held out */
     const double *w;         /* weights 1/sigma */
+    int sigma_known;         /* else w is 1/RMS of the baseline's residuals */
     double train_end_s;      /* tracker: time of the last training sample */
     int *nomem;              /* set when a fit ran out of memory (the result is void) */
 } shared;
@@ -122,7 +158,7 @@ typedef struct {
     double *pred;
     int ncand, nfixed;
     const dm_candidate *cand[2];
-    double fixed[2][3];
+    double fixed[2][DM_DIAG_MAXV];
 } problem;
 
 static void split_samples(const dm_dataset *d, char *held)
@@ -133,7 +169,7 @@ static void split_samples(const dm_dataset *d, char *held)
 }
 
 /* Predictions with the given effect values (physical units). */
-static int predict_with(problem *p, double value[2][3], dm_error *err)
+static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_error *err)
 {
     dm_robot rb = *p->s->rb;
     int rc = DM_OK;
@@ -164,16 +200,35 @@ static double from_log(const dm_candidate *c, double x)
 
 /* Free parameters x (log10, or as they are for linear candidates) to the
  * values of all effects. */
-static void to_values(const problem *p, const double *x, double value[2][3])
+static void to_values(const problem *p, const double *x, double value[2][DM_DIAG_MAXV])
 {
     for (int i = 0, j = 0; i < p->ncand; i++) {
         const dm_candidate *c = p->cand[i];
-        for (int k = 0; k < 3; k++)
+        for (int k = 0; k < DM_DIAG_MAXV; k++)
             value[i][k] = i < p->nfixed   ? p->fixed[i][k]
                           : k >= c->nparam ? 1.0
                           : c->linear      ? x[j++]
                                            : from_log(c, x[j++]);
     }
+}
+
+/* The values of effects first..ncand-1 as free parameters (inverse of
+ * to_values). Returns their count. */
+static int to_params(const problem *p, int first, double value[2][DM_DIAG_MAXV], double *x)
+{
+    int n = 0;
+    for (int i = first; i < p->ncand; i++)
+        for (int k = 0; k < p->cand[i]->nparam; k++)
+            x[n++] = p->cand[i]->linear ? value[i][k] : log10(value[i][k]);
+    return n;
+}
+
+/* Fitted units per scaled unit of the parameters of effects first.. */
+static void param_scales(const problem *p, int first, double *sc)
+{
+    for (int i = first, j = 0; i < p->ncand; i++)
+        for (int k = 0; k < p->cand[i]->nparam; k++)
+            sc[j++] = dm_candidate_param_scale(p->cand[i], k);
 }
 
 /* cminpack callback */
@@ -183,7 +238,7 @@ static int residuals(void *user, int m, int n, const double *x, double *fvec, in
     (void)n;
     problem *p = user;
     const shared *s = p->s;
-    double value[2][3];
+    double value[2][DM_DIAG_MAXV];
     to_values(p, x, value);
     int rc = predict_with(p, value, NULL);
     if (rc == DM_ENOMEM)
@@ -243,23 +298,23 @@ static void jacobian(problem *p, const double *x, int n, int m, const double *f0
     }
 }
 
-/* A = J'J (n x n) */
-static void normal_matrix(const double *J, int m, int n, double *A)
+/* Scale of the covariance: the reduced chi-square when above 1 (the model
+ * misfits beyond the noise), else 1; without sigma the reduced chi-square
+ * itself (the noise variance estimated from the residuals, in units of the
+ * weights' baseline mean square). */
+static double misfit_scale(const shared *s, double c2, int m, int n)
 {
-    for (int a = 0; a < n; a++)
-        for (int b = 0; b < n; b++) {
-            double v = 0;
-            for (int i = 0; i < m; i++)
-                v += J[(size_t)a * m + i] * J[(size_t)b * m + i];
-            A[b * n + a] = v;
-        }
+    double reduced = c2 / (m > n ? m - n : 1);
+    return s->sigma_known ? fmax(1.0, reduced) : reduced;
 }
 
-/* Scale of the covariance: the reduced chi-square when above 1 (the model
- * misfits beyond the noise), else 1. */
-static double misfit_scale(double c2, int m, int n)
+/* Singular values s (descending, min(m, n) of them), left vectors U (m x
+ * min(m, n)) and right vectors VT (n x n, row k = combination k) of the
+ * m x n column-major A, which is destroyed. */
+static int svd(double *A, int m, int n, double *s, double *U, double *VT)
 {
-    return fmax(1.0, c2 / (m > n ? m - n : 1));
+    double superb[DM_DIAG_MAXP];
+    return LAPACKE_dgesvd(LAPACK_COL_MAJOR, 'S', 'A', m, n, A, m, s, U, m, VT, n, superb);
 }
 
 /* Levenberg-Marquardt (cminpack lmdif) from x; uncertainties from the
@@ -281,7 +336,7 @@ static void lm_fit(problem *p, double *x, int n, int m, double *sig)
         int info = lmdif(residuals, p, m, n, x, fvec, 1e-6, 1e-6, 0.0, 25 * (n + 1), 0.0, diag,
                          1, 100.0, 0, &nfev, fjac, m, ipvt, qtf, wa1, wa2, wa3, wa4);
         if (info > 0) {
-            double scale = misfit_scale(sum_squares(fvec, m), m, n);
+            double scale = misfit_scale(p->s, sum_squares(fvec, m), m, n);
             covar(n, fjac, m, ipvt, 1e-12, wa1);
             for (int j = 0; j < n; j++) {
                 double c = fjac[(size_t)j * m + j];
@@ -294,57 +349,87 @@ static void lm_fit(problem *p, double *x, int n, int m, double *sig)
     free(wa4);
 }
 
+/* Combinations the data see: singular values of the scaled Jacobian of at
+ * least 1, i.e. a 1-sigma of at most one scaled unit (an error of the size
+ * worth knowing). The others are left at zero (the least-norm solution). */
+#define SEEN 1.0
+
 /* Geometry errors move the data almost linearly: one Jacobian, then
  * Gauss-Newton steps with it (chord method) until the step is below a
- * thousandth of the uncertainty: about 7 predictions where LM takes 30. */
-static void chord_fit(problem *p, double *x, int n, int m, double *sig)
+ * thousandth of the uncertainty: about 7 predictions where LM takes 30.
+ * Steps are taken in the combinations the data see (truncated SVD of the
+ * Jacobian in scaled units), so that look-alike parameters (base and
+ * platform radius; the union of the families) do not run off along what
+ * the data cannot tell. *nseen: the combinations fitted. */
+static void chord_fit(problem *p, double *x, int n, int m, const double *sc, double *sig,
+                      int *nseen)
 {
+    int r = m < n ? m : n;
     double *f = malloc(sizeof(double) * m), *f1 = malloc(sizeof(double) * m);
-    double *J = calloc((size_t)m * n, sizeof(double)), A[DM_DIAG_MAXP * DM_DIAG_MAXP];
+    double *J = calloc((size_t)m * n, sizeof(double)), *U = malloc(sizeof(double) * m * r);
+    double s[DM_DIAG_MAXP], VT[DM_DIAG_MAXP * DM_DIAG_MAXP];
     for (int j = 0; j < n; j++)
         sig[j] = INFINITY;
-    if (!f || !f1 || !J) {
-        free(f), free(f1), free(J);
-        out_of_memory(p->s);
+    *nseen = 0;
+    if (!f || !f1 || !J || !U || r < 1) {
+        free(f), free(f1), free(J), free(U);
+        if (r >= 1)
+            out_of_memory(p->s);
         return;
     }
     residuals(p, m, n, x, f, 1);
     jacobian(p, x, n, m, f, f1, J);
-    normal_matrix(J, m, n, A);
-    double inv_sigma[DM_DIAG_MAXP]; /* rough: sqrt of J'J's diagonal */
     for (int j = 0; j < n; j++)
-        inv_sigma[j] = sqrt(A[j * n + j]);
-    int ok = !LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', n, A, n);
+        for (int i = 0; i < m; i++)
+            J[(size_t)j * m + i] *= sc[j];
+    int ok = !svd(J, m, n, s, U, VT);
+    int q = 0;
+    while (ok && q < r && s[q] >= SEEN)
+        q++;
     double best = sum_squares(f, m);
     for (int it = 0; ok && it < 8; it++) {
-        double g[DM_DIAG_MAXP], xn[DM_DIAG_MAXP], big = 0;
-        for (int j = 0; j < n; j++) { /* g = -J'f, then (J'J) dx = g */
-            g[j] = 0;
+        double c[DM_DIAG_MAXP], xn[DM_DIAG_MAXP], big = 0;
+        for (int k = 0; k < q; k++) { /* step along combination k: -u_k'f / s_k */
+            double uf = 0;
             for (int i = 0; i < m; i++)
-                g[j] -= J[(size_t)j * m + i] * f[i];
+                uf += U[(size_t)k * m + i] * f[i];
+            c[k] = -uf / s[k];
+            big = fmax(big, fabs(uf)); /* the step in units of its 1-sigma 1/s_k */
         }
-        LAPACKE_dpotrs(LAPACK_COL_MAJOR, 'U', n, 1, A, n, g, n);
         for (int j = 0; j < n; j++) {
-            xn[j] = x[j] + g[j];
-            big = fmax(big, fabs(g[j]) * inv_sigma[j]); /* step / sigma */
+            double dz = 0;
+            for (int k = 0; k < q; k++)
+                dz += VT[k + j * n] * c[k];
+            xn[j] = x[j] + sc[j] * dz;
         }
         residuals(p, m, n, xn, f1, 1);
-        double q = sum_squares(f1, m);
-        if (!(q <= best)) /* no better: the chord has done what it can */
+        double qq = sum_squares(f1, m);
+        if (!(qq <= best)) /* no better: the chord has done what it can */
             break;
-        best = q;
+        best = qq;
         memcpy(x, xn, sizeof(double) * n);
         memcpy(f, f1, sizeof(double) * m);
         if (big < 1e-3)
             break;
     }
-    /* 1-sigma uncertainties: cov = scale (J'J)^-1, from the factor in A */
-    if (ok && !LAPACKE_dpotri(LAPACK_COL_MAJOR, 'U', n, A, n))
-        for (int j = 0; j < n; j++)
-            sig[j] = A[j * n + j] > 0 ? sqrt(misfit_scale(best, m, n) * A[j * n + j]) : INFINITY;
+    /* 1-sigma of each parameter over every combination: one the data do
+     * not see (tiny s_k) makes it as uncertain as that combination */
+    for (int j = 0; ok && j < n; j++) {
+        double v = 0, null = 0;
+        for (int k = 0; k < n; k++) {
+            double w2 = VT[k + j * n] * VT[k + j * n];
+            if (k < r && s[k] > 0)
+                v += w2 / (s[k] * s[k]);
+            else
+                null += w2;
+        }
+        sig[j] = null > 1e-12 ? INFINITY : sc[j] * sqrt(misfit_scale(p->s, best, m, n) * v);
+    }
+    *nseen = ok ? q : 0;
     free(f);
     free(f1);
     free(J);
+    free(U);
 }
 
 /* Held-out misfit on the scale of a log-likelihood: the chi-square when
@@ -356,11 +441,24 @@ static double held_score(const dm_diagnosis *dg, double held_chi2)
     return dg->sigma_known ? held_chi2 : n * log(fmax(held_chi2, 1e-300) / n);
 }
 
-static void score_fit(const problem *p, const dm_diagnosis *dg, dm_fit *f, int nparam)
+/* Gain in amplitude: the share of the held-out misfit beyond the noise
+ * (without sigma: of the held-out RMS) that a fit removes. */
+static double gain_percent(const dm_diagnosis *dg, double held_chi2)
+{
+    double n = dg->n_held;
+    if (!dg->sigma_known)
+        return dg->base_held_chi2 > 0 ? 100.0 * (1.0 - sqrt(held_chi2 / dg->base_held_chi2)) : 0;
+    double before = fmax(dg->base_held_chi2 / n - 1.0, 0), after = fmax(held_chi2 / n - 1.0, 0);
+    return before > 0 ? 100.0 * (1.0 - sqrt(after / before)) : 0.0;
+}
+
+static void score_fit(const problem *p, const dm_diagnosis *dg, dm_fit *f)
 {
     const shared *s = p->s;
-    f->held_chi2 = chi2(s, p->pred, 1);
     f->train_chi2 = chi2(s, p->pred, 0);
+    if (dg->n_held == 0) /* dm_fit_effects: everything is training */
+        return;
+    f->held_chi2 = chi2(s, p->pred, 1);
     double ms = 0;
     for (int i = 0; i < s->d->n; i++)
         if (s->held[i]) {
@@ -368,10 +466,8 @@ static void score_fit(const problem *p, const dm_diagnosis *dg, dm_fit *f, int n
             ms += r * r;
         }
     f->held_rms = sqrt(ms / dg->n_held);
-    double excess = dg->sigma_known ? dg->base_held_chi2 - dg->n_held : dg->base_held_chi2;
-    double drop = dg->base_held_chi2 - f->held_chi2;
-    f->gain_percent = excess > 0 ? 100.0 * drop / excess : 0.0;
-    f->score = held_score(dg, f->held_chi2) + nparam * log((double)dg->n_held);
+    f->gain_percent = gain_percent(dg, f->held_chi2);
+    f->score = held_score(dg, f->held_chi2) + f->nfree * log((double)dg->n_held);
 }
 
 static int count_train(const problem *p)
@@ -410,10 +506,11 @@ static const double WINDOWS[] = {0.25, 0.5, 1.0};
  * growing windows), or the chord method for geometry errors. start:
  * values of the free effects to start from (NULL: scan / defaults). Every
  * fit owns its buffers, so fits run in parallel. */
-static void fit(problem *p, const dm_diagnosis *dg, double start[2][3], dm_fit *f)
+static void fit(problem *p, const dm_diagnosis *dg, double start[2][DM_DIAG_MAXV], dm_fit *f)
 {
-    int n = 0, ntotal = 0, linear = 1;
-    double x[DM_DIAG_MAXP], value[2][3] = {{0}}, sig[DM_DIAG_MAXP] = {0};
+    int n = 0, ntotal = 0, linear = 1, nseen = 0;
+    double x[DM_DIAG_MAXP], sc[DM_DIAG_MAXP], value[2][DM_DIAG_MAXV] = {{0}};
+    double sig[DM_DIAG_MAXP] = {0};
     for (int i = 0; i < p->ncand; i++) {
         const dm_candidate *c = p->cand[i];
         ntotal += c->nparam;
@@ -423,6 +520,7 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][3], dm_fit *
                      : c->linear ? 0.0
                                  : 0.5 * (c->lo + c->hi);
     }
+    param_scales(p, p->nfixed, sc);
     memset(f, 0, sizeof *f);
     f->ncand = p->ncand;
     memcpy(f->cand, p->cand, sizeof f->cand);
@@ -443,7 +541,7 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][3], dm_fit *
         if (lone && w == (staged ? 0 : NWINDOWS - 1)) /* a short window affords a finer scan */
             scan_start(p, x, lone, m, fvec, staged ? 24 : 12);
         if (linear)
-            chord_fit(p, x, n, m, sig);
+            chord_fit(p, x, n, m, sc, sig, &nseen);
         else
             lm_fit(p, x, n, m, sig);
     }
@@ -453,12 +551,13 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][3], dm_fit *
         for (int k = 0; k < p->cand[i]->nparam; k++, j++)
             f->sigma[i][k] = p->cand[i]->linear ? sig[j] : value[i][k] * log(10.0) * sig[j];
     memcpy(f->value, value, sizeof value);
+    f->nfree = linear && n > 0 ? ntotal - n + nseen : ntotal;
     int rc = predict_with(p, value, NULL);
     if (rc == DM_ENOMEM)
         out_of_memory(p->s);
     f->ok = rc == DM_OK;
     if (f->ok)
-        score_fit(p, dg, f, ntotal);
+        score_fit(p, dg, f);
     else
         f->held_chi2 = f->score = INFINITY;
     free(fvec);
@@ -487,61 +586,544 @@ static int thread_count(const dm_diagnose_opts *o)
     return o->threads > 0 ? o->threads : omp_get_max_threads();
 }
 
-/* Single effects: every candidate the data can see, fitted on its own. */
-static void rank_singles(const shared *s, dm_diagnosis *dg)
+static double chi2_upper(double n, double p);
+
+/* Is the union of the geometry families worth fitting? When two or more
+ * families each explain part of the data and the best of them leaves more
+ * than noise (or the noise is unknown): several may be present at once. */
+static int union_wanted(const dm_diagnosis *dg, const dm_fit *fits, int n, double need)
+{
+    int significant = 0, best = -1;
+    for (int j = 0; j < n; j++)
+        if (fits[j].ok && is_family(fits[j].cand[0]) && dg->base_score - fits[j].score > need) {
+            significant++;
+            if (best < 0 || fits[j].score < fits[best].score)
+                best = j;
+        }
+    return significant >= 2 &&
+           (!dg->sigma_known ||
+            fits[best].held_chi2 > chi2_upper(dg->n_held, 0.5 * DM_DIAG_BAND));
+}
+
+/* Single effects: every candidate the data can see, fitted on its own;
+ * the union of the geometry families only when wanted (it costs as much
+ * as the six families together). */
+static void rank_singles(const shared *s, dm_diagnosis *dg, double need)
 {
     int idx[NCAND], nc = 0;
     for (int c = 0; c < NCAND; c++)
-        if (CANDIDATES[c].kinds & (1u << s->d->kind))
+        if (CANDIDATES[c].kinds & (1u << s->d->kind) && &CANDIDATES[c] != UNION)
             idx[nc++] = c;
 #pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(s->o))
     for (int j = 0; j < nc; j++) {
         problem p = {.s = s, .ncand = 1, .cand = {&CANDIDATES[idx[j]], NULL}};
         fit(&p, dg, NULL, &dg->rank[j]);
     }
+    if ((UNION->kinds & (1u << s->d->kind)) && union_wanted(dg, dg->rank, nc, need)) {
+        problem p = {.s = s, .ncand = 1, .cand = {UNION, NULL}};
+        fit(&p, dg, NULL, &dg->rank[nc++]);
+    }
     dg->nrank = nc;
     qsort(dg->rank, nc, sizeof dg->rank[0], by_score);
 }
 
-/* Forward selection of a second effect: every other candidate is fitted on
- * top of the best one held fixed (a screen as cheap as a single fit); the
- * two best screened are refitted jointly, and a pair replaces the single
- * effect when it lowers the score by more than `need`. */
+/* ---- parsimony -------------------------------------------------------------- */
+
+/* Does a contain b, or b a (a geometry family and the union of all)? */
+static int nested(const dm_candidate *a, const dm_candidate *b)
+{
+    return (a == UNION && is_family(b)) || (b == UNION && is_family(a));
+}
+
+/* The rank of the best single fit of a candidate accepted by `want`, or -1. */
+static int rank_where(const dm_diagnosis *dg, int (*want)(const dm_candidate *, const void *),
+                      const void *arg)
+{
+    for (int r = 0; r < dg->nrank; r++)
+        if (dg->rank[r].ok && want(dg->rank[r].cand[0], arg))
+            return r;
+    return -1;
+}
+
+static int named(const dm_candidate *c, const void *name) { return !strcmp(c->name, name); }
+static int family(const dm_candidate *c, const void *arg) { return (void)arg, is_family(c); }
+
+/* The single effect of the verdict: the best scoring, unless a simpler one
+ * is close enough. A per-chain variant must beat its global effect by
+ * DM_DIAG_CLEAR (one symmetric effect is the simpler hypothesis: the
+ * variant also picks one chain of three); the union of the geometry
+ * families must beat the best single family by `need`, as a second effect
+ * must. */
+static void choose_single(dm_diagnosis *dg, double need)
+{
+    const dm_fit *top = &dg->rank[0];
+    int r = -1;
+    double margin = 0;
+    dg->best = *top;
+    if (top->cand[0]->global) {
+        r = rank_where(dg, named, top->cand[0]->global);
+        margin = DM_DIAG_CLEAR;
+    } else if (top->cand[0] == UNION) {
+        r = rank_where(dg, family, NULL);
+        margin = need;
+    }
+    if (r > 0 && dg->rank[r].score < top->score + margin) {
+        dg->passed_over = *top;
+        dg->has_simpler_choice = 1;
+        dg->best = dg->rank[r];
+    }
+}
+
+/* Candidates whose single-effect score is within DM_DIAG_TIE of the
+ * verdict's: the data cannot tell them apart. (A family and the union
+ * that contains it are not alternatives.) */
+static void find_ties(dm_diagnosis *dg)
+{
+    const dm_candidate *b = dg->best.cand[0];
+    dg->ntie = 0;
+    for (int r = 0; r < dg->nrank; r++) {
+        const dm_fit *f = &dg->rank[r];
+        if (f->ok && f->cand[0] != b && !nested(f->cand[0], b) &&
+            f->score - dg->best.score < DM_DIAG_TIE)
+            dg->tie[dg->ntie++] = r;
+    }
+}
+
+/* The pair with the per-chain member of `f` replaced by its global effect
+ * (0 when f has none, or when its other member is that effect or another
+ * of its chains). */
+static int global_twin(const dm_fit *f, const dm_candidate *cand[2])
+{
+    for (int i = 0; i < 2; i++) {
+        const dm_candidate *c = f->cand[i], *o = f->cand[1 - i];
+        if (c->global && !named(o, c->global) && !(o->global && !strcmp(o->global, c->global))) {
+            cand[0] = o;
+            cand[1] = dm_candidate_find(c->global);
+            return 1;
+        }
+    }
+    return 0;
+}
+
+static const dm_fit *single_fit(const dm_diagnosis *dg, const dm_candidate *c)
+{
+    int r = rank_where(dg, named, c->name);
+    return r < 0 ? NULL : &dg->rank[r];
+}
+
+/* The joint fit in fits[0..n-1] of the pair {a, b}, or -1. */
+static int find_pair(const dm_fit *fits, int n, const dm_candidate *a, const dm_candidate *b)
+{
+    for (int j = 0; j < n; j++)
+        if (fits[j].ok && ((fits[j].cand[0] == a && fits[j].cand[1] == b) ||
+                           (fits[j].cand[0] == b && fits[j].cand[1] == a)))
+            return j;
+    return -1;
+}
+
+/* The group of look-alikes a candidate belongs to: a global effect and its
+ * per-chain variants are one. */
+static const char *lookalike_group(const dm_candidate *c) { return c->global ? c->global : c->name; }
+
+/* Can a and b form a pair? */
+static int pairable(const dm_candidate *a, const dm_candidate *b)
+{
+    return a != b && !nested(a, b) && a->nparam + b->nparam <= DM_DIAG_MAXP;
+}
+
+/* Up to HEADS best single fits, one per look-alike group. */
+#define HEADS 4
+static int heads(const dm_diagnosis *dg, int *head)
+{
+    int n = 0;
+    for (int r = 0; r < dg->nrank && n < HEADS; r++) {
+        int dup = !dg->rank[r].ok;
+        for (int k = 0; k < n && !dup; k++)
+            dup = !strcmp(lookalike_group(dg->rank[head[k]].cand[0]),
+                          lookalike_group(dg->rank[r].cand[0]));
+        if (!dup)
+            head[n++] = r;
+    }
+    return n;
+}
+
+/* Two effects. Every other candidate is fitted on top of the verdict's
+ * single effect held fixed (a screen as cheap as a single fit) and the two
+ * best screened are refitted jointly from the screen's values; and every
+ * pair of the best singles (one per look-alike group) is fitted jointly
+ * from their single values: held fixed, a first effect that has absorbed
+ * part of the second's signature steers the screen to a wrong partner,
+ * and the two true effects need not include the best single one. The best
+ * pair replaces the single effect when it lowers the score by more than
+ * `need`; a pair with a per-chain member must beat its global twin (the
+ * global effect in its place) by DM_DIAG_CLEAR. */
 #define PAIR_REFITS 2
+#define MAXJOINT (PAIR_REFITS + HEADS * (HEADS - 1) / 2 + 1)
 static void add_second_effect(const shared *s, dm_diagnosis *dg, double need)
 {
-    dm_fit screen[DM_DIAG_MAXCAND], joint[PAIR_REFITS];
-    const dm_fit *one = &dg->rank[0];
-    int ns = 0, idx[DM_DIAG_MAXCAND];
-    for (int r = 1; r < dg->nrank; r++)
-        if (dg->rank[r].ok && one->cand[0]->nparam + dg->rank[r].cand[0]->nparam <= DM_DIAG_MAXP)
+    dm_fit screen[DM_DIAG_MAXCAND], joint[MAXJOINT];
+    problem pj[MAXJOINT];
+    double start[MAXJOINT][2][DM_DIAG_MAXV];
+    const dm_fit one = dg->best;
+    int ns = 0, idx[DM_DIAG_MAXCAND], head[HEADS], nh = heads(dg, head), nj = 0;
+    for (int r = 0; r < dg->nrank; r++)
+        if (dg->rank[r].ok && pairable(one.cand[0], dg->rank[r].cand[0]))
             idx[ns++] = r;
 #pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(s->o))
     for (int j = 0; j < ns; j++) {
-        problem p = {.s = s, .ncand = 2, .nfixed = 1, .cand = {one->cand[0], dg->rank[idx[j]].cand[0]}};
-        memcpy(p.fixed[0], one->value[0], sizeof p.fixed[0]);
+        problem p = {.s = s, .ncand = 2, .nfixed = 1, .cand = {one.cand[0], dg->rank[idx[j]].cand[0]}};
+        memcpy(p.fixed[0], one.value[0], sizeof p.fixed[0]);
         fit(&p, dg, NULL, &screen[j]);
     }
     qsort(screen, ns, sizeof screen[0], by_score);
-    int nj = ns < PAIR_REFITS ? ns : PAIR_REFITS;
-#pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(s->o))
-    for (int j = 0; j < nj; j++) {
-        problem p = {.s = s, .ncand = 2, .cand = {screen[j].cand[0], screen[j].cand[1]}};
-        fit(&p, dg, screen[j].value, &joint[j]);
+    for (int j = 0; j < ns && j < PAIR_REFITS; j++, nj++) { /* from the screen */
+        pj[nj] = (problem){.s = s, .ncand = 2, .cand = {screen[j].cand[0], screen[j].cand[1]}};
+        memcpy(start[nj], screen[j].value, sizeof start[nj]);
     }
+    for (int a = 0; a < nh; a++) /* pairs of the best singles, from their values */
+        for (int b = a + 1; b < nh; b++) {
+            const dm_fit *fa = &dg->rank[head[a]], *fb = &dg->rank[head[b]];
+            if (!pairable(fa->cand[0], fb->cand[0]))
+                continue;
+            pj[nj] = (problem){.s = s, .ncand = 2, .cand = {fa->cand[0], fb->cand[0]}};
+            memcpy(start[nj][0], fa->value[0], sizeof start[nj][0]);
+            memcpy(start[nj][1], fb->value[0], sizeof start[nj][1]);
+            nj++;
+        }
+#pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(s->o))
     for (int j = 0; j < nj; j++)
-        if (joint[j].ok && joint[j].score < dg->best.score - (dg->best.ncand == 1 ? need : 0))
-            dg->best = joint[j];
+        fit(&pj[j], dg, start[j], &joint[j]);
+    int pick = -1;
+    for (int j = 0; j < nj; j++)
+        if (joint[j].ok && (pick < 0 || by_score(&joint[j], &joint[pick]) < 0))
+            pick = j;
+    const dm_candidate *c[2];
+    int passed = -1;
+    if (pick >= 0 && global_twin(&joint[pick], c)) {
+        int t = find_pair(joint, nj, c[0], c[1]);
+        const dm_fit *g = single_fit(dg, c[1]);
+        if (t < 0 && g) { /* not fitted yet: from the pair's other value and the global's own */
+            t = nj++;
+            int keep = joint[pick].cand[0] == c[0] ? 0 : 1;
+            pj[t] = (problem){.s = s, .ncand = 2, .cand = {c[0], c[1]}};
+            memcpy(start[t][0], joint[pick].value[keep], sizeof start[t][0]);
+            memcpy(start[t][1], g->value[0], sizeof start[t][1]);
+            fit(&pj[t], dg, start[t], &joint[t]);
+        }
+        if (t >= 0 && joint[t].ok && joint[t].score < joint[pick].score + DM_DIAG_CLEAR) {
+            passed = pick;
+            pick = t;
+        }
+    }
+    if (pick < 0 || !(joint[pick].score < one.score - need))
+        return; /* the single effect stays, and so does what it was preferred to */
+    dg->best = joint[pick];
+    dg->has_simpler_choice = passed >= 0;
+    if (passed >= 0)
+        dg->passed_over = joint[passed];
 }
 
-/* Candidates whose single-effect score is within DM_DIAG_TIE of the best:
- * the data cannot tell them apart. */
-static void find_ties(dm_diagnosis *dg)
+/* ---- is it explained? --------------------------------------------------------- */
+
+/* z with P(Z > z) = p for a standard normal Z: bisection on erfc, which
+ * is monotone (60 halvings of [-10, 10] are below round-off). */
+static double normal_upper(double p)
 {
-    dg->ntie = 0;
-    for (int r = 1; r < dg->nrank && dg->ntie < DM_DIAG_MAXCAND; r++)
-        if (dg->rank[r].ok && dg->rank[r].score - dg->rank[0].score < DM_DIAG_TIE)
-            dg->tie[dg->ntie++] = r;
+    double lo = -10, hi = 10;
+    for (int i = 0; i < 60; i++) {
+        double mid = 0.5 * (lo + hi);
+        if (0.5 * erfc(mid / sqrt(2.0)) > p)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
+/* q with P(chi2_n > q) = p (Wilson-Hilferty: (chi2/n)^(1/3) is nearly
+ * normal with mean 1 - 2/9n and variance 2/9n). */
+static double chi2_upper(double n, double p)
+{
+    double a = 2.0 / (9.0 * n), c = 1.0 - a + normal_upper(p) * sqrt(a);
+    return n * c * c * c;
+}
+
+static int group_of(const dm_dataset *d, const dm_sample *s)
+{
+    return d->kind == DM_DATA_MODAL ? s->mode : s->comp;
+}
+
+/* Where the excess sits: the held-out poses (tracker: sample times) with
+ * the largest chi2 beyond their sample count that together carry half of
+ * the excess, and their bounding box. */
+static void locate_excess(const shared *s, const double *r, dm_noise_test *t)
+{
+    const dm_dataset *d = s->d;
+    double *ex = calloc(d->npose, sizeof(double));
+    int *order = malloc(sizeof(int) * d->npose), n = 0;
+    if (!ex || !order) {
+        free(ex), free(order);
+        out_of_memory(s);
+        return;
+    }
+    for (int i = 0; i < d->n; i++)
+        if (s->held[i])
+            ex[d->s[i].pose_id] += r[i] * r[i] - 1.0; /* each sample's chi2 beyond its mean */
+    double total = 0;
+    for (int k = 0; k < d->npose; k++)
+        if (ex[k] > 0) {
+            order[n++] = k;
+            total += ex[k];
+        }
+    for (int a = 1; a < n; a++) /* largest first; insertion sort keeps ties in pose order */
+        for (int b = a; b > 0 && ex[order[b]] > ex[order[b - 1]]; b--) {
+            int tmp = order[b];
+            order[b] = order[b - 1];
+            order[b - 1] = tmp;
+        }
+    for (int k = 0; k < 3; k++)
+        t->lo[k] = INFINITY, t->hi[k] = -INFINITY;
+    t->t_lo = INFINITY, t->t_hi = -INFINITY;
+    double sum = 0;
+    for (int a = 0; a < n && sum < 0.5 * total; a++) {
+        sum += ex[order[a]];
+        t->nregion++;
+        for (int i = 0; i < d->n; i++) /* the samples of that pose */
+            if (d->s[i].pose_id == order[a]) {
+                for (int k = 0; k < 3; k++) {
+                    t->lo[k] = fmin(t->lo[k], d->s[i].P[k]);
+                    t->hi[k] = fmax(t->hi[k], d->s[i].P[k]);
+                }
+                t->t_lo = fmin(t->t_lo, d->s[i].t);
+                t->t_hi = fmax(t->t_hi, d->s[i].t);
+            }
+    }
+    free(ex);
+    free(order);
+}
+
+/* The verdict's linearisation: weighted residuals r (all samples) and
+ * their Jacobian in scaled parameters, J (d->n x n, column-major), and the
+ * training rows' SVD: singular values s (descending) and right vectors VT
+ * (n x n). */
+typedef struct {
+    int n, q, m;             /* parameters; combinations the training data see (s > 0);
+                                training samples */
+    double *r, *J;
+    double s[DM_DIAG_MAXP], VT[DM_DIAG_MAXP * DM_DIAG_MAXP];
+} linearisation;
+
+/* Predictions of the fit's values perturbed in scaled parameter j (-1:
+ * none) into pred. */
+static int predict_scaled(problem *p, const double *x, int n, const double *sc, int j, double h,
+                          double *pred)
+{
+    double xx[DM_DIAG_MAXP], value[2][DM_DIAG_MAXV];
+    memcpy(xx, x, sizeof(double) * n);
+    if (j >= 0)
+        xx[j] += h * sc[j];
+    to_values(p, xx, value);
+    p->pred = pred;
+    return predict_with(p, value, NULL);
+}
+
+static int linearise(const shared *s, const dm_fit *f, linearisation *L)
+{
+    const dm_dataset *d = s->d;
+    problem p = {.s = s, .ncand = f->ncand, .cand = {f->cand[0], f->cand[1]}};
+    double x[DM_DIAG_MAXP], sc[DM_DIAG_MAXP], value[2][DM_DIAG_MAXV];
+    memcpy(value, f->value, sizeof value);
+    memset(L, 0, sizeof *L);
+    L->n = to_params(&p, 0, value, x);
+    param_scales(&p, 0, sc);
+    set_window(&p, 1.0);
+    int m = 0, n = L->n;
+    for (int i = 0; i < d->n; i++)
+        m += !s->held[i];
+    L->m = m;
+    double *pred = malloc(sizeof(double) * d->n), *p1 = malloc(sizeof(double) * d->n);
+    double *Jt = malloc(sizeof(double) * m * (n ? n : 1)), *U = malloc(sizeof(double) * m * (n ? n : 1));
+    L->r = malloc(sizeof(double) * d->n);
+    L->J = malloc(sizeof(double) * d->n * (n ? n : 1));
+    int rc = !pred || !p1 || !Jt || !U || !L->r || !L->J ? DM_ENOMEM
+                                                         : predict_scaled(&p, x, n, sc, -1, 0, pred);
+    for (int i = 0; !rc && i < d->n; i++)
+        L->r[i] = (d->s[i].value - pred[i]) * s->w[i];
+    /* forward differences of 1e-4 scaled units: far below any uncertainty
+     * that matters, far above round-off */
+    for (int j = 0; !rc && j < n; j++) {
+        rc = predict_scaled(&p, x, n, sc, j, 1e-4, p1);
+        for (int i = 0; !rc && i < d->n; i++)
+            L->J[(size_t)j * d->n + i] = (p1[i] - pred[i]) * s->w[i] / 1e-4;
+    }
+    for (int j = 0; !rc && j < n; j++)
+        for (int i = 0, k = 0; i < d->n; i++)
+            if (!s->held[i])
+                Jt[(size_t)j * m + k++] = L->J[(size_t)j * d->n + i];
+    if (!rc && n > 0 && m >= 1 && !svd(Jt, m, n, L->s, U, L->VT))
+        while (L->q < (m < n ? m : n) && L->s[L->q] > 1e-9 * L->s[0])
+            L->q++;
+    free(pred), free(p1), free(Jt), free(U);
+    return rc;
+}
+
+static void linearisation_free(linearisation *L)
+{
+    free(L->r);
+    free(L->J);
+}
+
+/* The prediction chi-square of the held-out samples i with keep(i): held
+ * out, a residual is noise plus the error of the fitted parameters, whose
+ * covariance the training data give: r = e - J_h dx with cov(dx) =
+ * (J_t'J_t)^-1, so cov(r) = I + J_h (J_t'J_t)^-1 J_h', and r' cov(r)^-1 r
+ * is chi2_N for an exact model. By Woodbury, in the combinations the
+ * training data see (coordinates z = V'x, J_t'J_t = diag s^2):
+ * r'r - b'(diag s^2 + Z_h'Z_h)^-1 b with Z_h = J_h V, b = Z_h'r. */
+static double predictive_chi2(const shared *s, const linearisation *L, int group, int *count)
+{
+    const dm_dataset *d = s->d;
+    int q = L->q;
+    double M[DM_DIAG_MAXP * DM_DIAG_MAXP] = {0}, b[DM_DIAG_MAXP] = {0}, rr = 0;
+    for (int k = 0; k < q; k++)
+        M[k * q + k] = L->s[k] * L->s[k];
+    *count = 0;
+    for (int i = 0; i < d->n; i++) {
+        if (!s->held[i] || (group >= 0 && group_of(d, &d->s[i]) != group))
+            continue;
+        double z[DM_DIAG_MAXP];
+        for (int k = 0; k < q; k++) {
+            z[k] = 0;
+            for (int j = 0; j < L->n; j++)
+                z[k] += L->J[(size_t)j * d->n + i] * L->VT[k + j * L->n];
+            b[k] += z[k] * L->r[i];
+        }
+        for (int k = 0; k < q; k++)
+            for (int l = 0; l < q; l++)
+                M[l * q + k] += z[k] * z[l];
+        rr += L->r[i] * L->r[i];
+        (*count)++;
+    }
+    double x[DM_DIAG_MAXP];
+    memcpy(x, b, sizeof b);
+    if (q == 0 || LAPACKE_dposv(LAPACK_COL_MAJOR, 'U', q, 1, M, q, x, q))
+        return rr;
+    double bx = 0;
+    for (int k = 0; k < q; k++)
+        bx += b[k] * x[k];
+    return rr - bx;
+}
+
+/* The noise test of dm_noise_test on the verdict's held-out residuals. */
+static void noise_test(const shared *s, const dm_diagnosis *dg, const linearisation *L,
+                       dm_noise_test *t)
+{
+    const dm_dataset *d = s->d;
+    int present[DM_DIAG_MAXGROUP + 1] = {0}, last = -1;
+    memset(t, 0, sizeof *t);
+    for (int i = 0; i < d->n; i++)
+        if (s->held[i]) {
+            present[group_of(d, &d->s[i])] = 1;
+            t->nposes += d->s[i].pose_id != last;
+            last = d->s[i].pose_id;
+        }
+    t->chi2 = predictive_chi2(s, L, -1, &t->n);
+    t->limit = chi2_upper(t->n, 0.5 * DM_DIAG_BAND);
+    t->sigmas = (t->chi2 - t->n) / sqrt(2.0 * t->n);
+    for (int g = 0; g <= DM_DIAG_MAXGROUP; g++)
+        if (present[g] && t->ngroup < DM_DIAG_MAXGROUP) {
+            t->group[t->ngroup].group = g;
+            t->group[t->ngroup].chi2 = predictive_chi2(s, L, g, &t->group[t->ngroup].n);
+            t->ngroup++;
+        }
+    t->consistent = dg->sigma_known && t->chi2 <= t->limit;
+    for (int k = 0; k < t->ngroup; k++) {
+        t->group[k].limit = chi2_upper(t->group[k].n, 0.5 * DM_DIAG_BAND / t->ngroup);
+        t->consistent &= t->group[k].chi2 <= t->group[k].limit;
+    }
+    locate_excess(s, L->r, t);
+}
+
+/* What the data determine: the training Jacobian's SVD. Each
+ * combination's sign makes its largest weight positive; the 1-sigma is
+ * scaled by the reduced chi-square when the fit misfits. */
+static void identify(const shared *s, const dm_fit *f, const linearisation *L, dm_ident *id)
+{
+    memset(id, 0, sizeof *id);
+    id->n = L->n;
+    double scale = sqrt(misfit_scale(s, f->train_chi2, L->m, L->n));
+    for (int k = 0; k < L->n; k++) {
+        id->sigma[k] = k < L->q ? scale / L->s[k] : INFINITY;
+        int big = 0;
+        for (int j = 0; j < L->n; j++)
+            if (fabs(L->VT[k + j * L->n]) > fabs(L->VT[k + big * L->n]))
+                big = j;
+        for (int j = 0; j < L->n; j++)
+            id->weight[k][j] = L->VT[k + big * L->n] < 0 ? -L->VT[k + j * L->n] : L->VT[k + j * L->n];
+        id->ndetermined += id->sigma[k] <= DM_DIAG_DETERMINED;
+    }
+}
+
+/* The verdict's checks: its held-out residual against the noise, and what
+ * the data determine of its parameters. */
+static void check_verdict(const shared *s, dm_diagnosis *dg)
+{
+    linearisation L;
+    int rc = linearise(s, &dg->best, &L);
+    if (rc == DM_ENOMEM)
+        out_of_memory(s);
+    if (!rc) {
+        noise_test(s, dg, &L, &dg->noise);
+        dg->explained = dg->noise.consistent;
+        identify(s, &dg->best, &L, &dg->ident);
+    }
+    linearisation_free(&L);
+}
+
+/* ---- entry points ------------------------------------------------------------- */
+
+/* Predictions a diagnosis makes, as measured on the CLI tests' data: a
+ * candidate takes about 25 on a survey and the equivalent of 13 whole
+ * predictions on a tracker run (its first fits are on parts of the
+ * record), the second-effect search about twice as many again, and the
+ * verdict's checks one per parameter. */
+#define PREDICTIONS_PER_FIT(kind) ((kind) == DM_DATA_TRACKER ? 13.0 : 25.0)
+#define PAIR_FACTOR 3.0
+
+/* Refused before any work when the whole diagnosis is estimated beyond
+ * DM_MAX_WORK_S on its threads (dm_check_size). */
+static int check_work(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts *o,
+                      dm_error *err)
+{
+    int nc = 0;
+    for (int c = 0; c < NCAND; c++)
+        nc += (CANDIDATES[c].kinds & (1u << d->kind)) && &CANDIDATES[c] != UNION;
+    double bytes, one = dm_predict_estimate_s(rb, d, o->na, o->nb, &bytes);
+    double fits = nc * PREDICTIONS_PER_FIT(d->kind) * (o->pairs ? PAIR_FACTOR : 1) + DM_DIAG_MAXP;
+    int threads = thread_count(o);
+    char what[sizeof d->source + 160];
+    snprintf(what, sizeof what, "diagnose: %s: %d samples, %d candidates, about %.3g "
+             "predictions of %.3g s each on %d thread%s", d->source, d->n, nc, fits, one,
+             threads, threads > 1 ? "s" : "");
+    return dm_check_size(what, fits * one / threads, bytes * threads,
+                         d->kind == DM_DATA_TRACKER ? "a shorter stretch of the record or mesh 2,2"
+                                                    : "fewer poses or a coarser mesh",
+                         o->force_long, err);
+}
+
+/* Weights 1/sigma, or without sigma the baseline's RMS residual (pred):
+ * chi2 is then in units of its mean square. Returns whether sigma is known. */
+static int weights(const dm_dataset *d, const double *pred, double *w)
+{
+    int known = 1;
+    double ms = 0;
+    for (int i = 0; i < d->n; i++) {
+        known &= d->s[i].sigma > 0;
+        ms += (d->s[i].value - pred[i]) * (d->s[i].value - pred[i]);
+    }
+    for (int i = 0; i < d->n; i++)
+        w[i] = known ? 1.0 / d->s[i].sigma : 1.0 / sqrt(ms / d->n + 1e-300);
+    return known;
 }
 
 int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts *o,
@@ -557,45 +1139,87 @@ int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts 
     int nomem = 0;
     shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w, .nomem = &nomem};
     split_samples(d, held);
-    dg->sigma_known = 1;
     for (int i = 0; i < d->n; i++) {
         dg->n_held += held[i];
-        dg->sigma_known &= d->s[i].sigma > 0;
         if (!held[i])
             s.train_end_s = fmax(s.train_end_s, d->s[i].t);
     }
     dg->n_train = d->n - dg->n_held;
     int rc = (dg->n_held < 3 || dg->n_train < 3)
                  ? dm_fail(err, DM_EINVAL, "%s: too little data to hold a third out", d->source)
-                 : dm_predict(rb, d, o->na, o->nb, pred, err);
+                 : check_work(rb, d, o, err);
+    if (!rc)
+        rc = dm_predict(rb, d, o->na, o->nb, pred, err);
     if (!rc) {
-        double ms = 0, hs = 0; /* without sigma: unit weights scaled by the baseline RMS */
-        for (int i = 0; i < d->n; i++) {
-            double r2 = (d->s[i].value - pred[i]) * (d->s[i].value - pred[i]);
-            ms += r2;
-            hs += held[i] ? r2 : 0;
-        }
+        dg->sigma_known = s.sigma_known = weights(d, pred, w);
+        double hs = 0;
         for (int i = 0; i < d->n; i++)
-            w[i] = dg->sigma_known ? 1.0 / d->s[i].sigma : 1.0 / sqrt(ms / d->n + 1e-300);
+            hs += held[i] ? (d->s[i].value - pred[i]) * (d->s[i].value - pred[i]) : 0;
         dg->base_train_chi2 = chi2(&s, pred, 0);
         dg->base_held_chi2 = chi2(&s, pred, 1);
         dg->base_held_rms = sqrt(hs / dg->n_held);
         dg->significant = dg->sigma_known
                               ? dg->base_held_chi2 > dg->n_held + 4 * sqrt(2.0 * dg->n_held)
                               : 1;
-        rank_singles(&s, dg);
-        dg->best = dg->rank[0];
         double need = 9 + log((double)dg->n_held);
         dg->base_score = held_score(dg, dg->base_held_chi2); /* no parameters */
+        rank_singles(&s, dg, need);
+        choose_single(dg, need);
         dg->found = dg->significant && dg->best.ok && dg->base_score - dg->best.score > need;
         if (dg->found) {
             find_ties(dg);
             if (o->pairs)
                 add_second_effect(&s, dg, need);
+            check_verdict(&s, dg);
+        } else {
+            dg->has_simpler_choice = 0;
         }
         if (nomem)
             rc = dm_fail(err, DM_ENOMEM, "%s: out of memory while fitting the effects",
                          d->source);
+    }
+    free(held);
+    free(pred);
+    free(w);
+    return rc;
+}
+
+int dm_fit_effects(const dm_robot *rb, const dm_dataset *d, const char *const *names, int n,
+                   const double start[][DM_DIAG_MAXV], const dm_diagnose_opts *o, dm_fit *f,
+                   dm_error *err)
+{
+    problem p = {.ncand = n};
+    int np = 0;
+    if (n < 1 || n > 2)
+        return dm_fail(err, DM_EINVAL, "fit one or two effects, not %d", n);
+    for (int i = 0; i < n; i++) {
+        if (!(p.cand[i] = dm_candidate_find(names[i])))
+            return dm_fail(err, DM_EINVAL, "'%s' is not a candidate effect", names[i]);
+        np += p.cand[i]->nparam;
+    }
+    if (np > DM_DIAG_MAXP)
+        return dm_fail(err, DM_EINVAL, "%d parameters: at most %d", np, DM_DIAG_MAXP);
+    char *held = calloc(d->n, 1); /* nothing held out */
+    double *pred = malloc(sizeof(double) * d->n), *w = malloc(sizeof(double) * d->n);
+    int rc = !held || !pred || !w ? dm_fail(err, DM_ENOMEM, "out of memory")
+                                  : dm_predict(rb, d, o->na, o->nb, pred, err);
+    if (!rc) {
+        dm_diagnosis dg = {.n_train = d->n};
+        int nomem = 0;
+        shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w, .nomem = &nomem};
+        dg.sigma_known = s.sigma_known = weights(d, pred, w);
+        for (int i = 0; i < d->n; i++)
+            s.train_end_s = fmax(s.train_end_s, d->s[i].t);
+        double st[2][DM_DIAG_MAXV];
+        if (start)
+            memcpy(st, start, sizeof st);
+        p.s = &s;
+        fit(&p, &dg, start ? st : NULL, f);
+        if (nomem)
+            rc = dm_fail(err, DM_ENOMEM, "%s: out of memory while fitting %s", d->source,
+                         names[0]);
+        else if (!f->ok)
+            rc = dm_fail(err, DM_ENUMERIC, "the fit of %s failed", names[0]);
     }
     free(held);
     free(pred);

@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <float.h>
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -75,16 +76,31 @@ void dm_dataset_free(dm_dataset *d)
 
 typedef struct {
     dm_csv in;
+    int template;          /* a measurement template: measured values may be empty */
     dm_error *err;
 } csv_ctx;
 
+/* The columns a measurement template leaves empty. */
+static int measured_column(const char *name)
+{
+    static const char *const M[] = {"freq_hz", "dx", "dy", "dz", "x_meas", "y_meas", "z_meas"};
+    for (int k = 0; k < 7; k++)
+        if (!strcmp(name, M[k]))
+            return 1;
+    return 0;
+}
+
 /* Column `name` of the current row into *out; 1 when an optional column
- * is absent. */
+ * is absent. A template's empty measured value reads as 0. */
 static int cell(const csv_ctx *c, const char *name, int required, double *out)
 {
     int i = dm_csv_column(&c->in, name);
     if (i < 0)
         return required ? dm_fail(c->err, DM_EINVAL, "%s: no column '%s'", c->in.path, name) : 1;
+    if ((i >= c->in.ncells || !*c->in.cells[i]) && c->template && measured_column(name)) {
+        *out = 0;
+        return DM_OK;
+    }
     return dm_csv_number(&c->in, i, out, c->err);
 }
 
@@ -109,7 +125,7 @@ static int read_row(csv_ctx *c, dm_dataset *d, double *last_t, double last_P[3])
             return rc;
         if (v[3] != floor(v[3]) || v[3] < 1 || v[3] > 64)
             return bad(c, "mode", "not a mode rank 1..64 (1 = lowest)");
-        if (!(v[4] > 0))
+        if (!(v[4] > 0) && !(c->template && v[4] == 0))
             return bad(c, "freq_hz", "must be > 0");
         if (rc == DM_OK && !(s.sigma > 0))
             return bad(c, "sigma_hz", "must be > 0");
@@ -180,11 +196,11 @@ static int detect_kind(csv_ctx *c, dm_dataset *d)
                    c->in.path, c->in.line);
 }
 
-int dm_dataset_read(const char *path, dm_dataset *d, dm_error *err)
+static int read_file(const char *path, int template, dm_dataset *d, dm_error *err)
 {
     memset(d, 0, sizeof *d);
     snprintf(d->source, sizeof d->source, "%s", path);
-    csv_ctx c = {.err = err};
+    csv_ctx c = {.template = template, .err = err};
     int rc = dm_csv_open(&c.in, path, err);
     if (rc)
         return rc;
@@ -209,6 +225,16 @@ int dm_dataset_read(const char *path, dm_dataset *d, dm_error *err)
     if (rc)
         dm_dataset_free(d);
     return rc;
+}
+
+int dm_dataset_read(const char *path, dm_dataset *d, dm_error *err)
+{
+    return read_file(path, 0, d, err);
+}
+
+int dm_dataset_read_template(const char *path, dm_dataset *d, dm_error *err)
+{
+    return read_file(path, 1, d, err);
 }
 
 int dm_dataset_write(const dm_dataset *d, FILE *out)
@@ -361,6 +387,7 @@ static int predict_tracker(const dm_robot *rb, const dm_dataset *d, int na, int 
         o.na = na;
         o.nb = nb;
         o.dt_s = fmin(1e-3, t[m - 1] / (m - 1));
+        o.force = 1; /* the work of the whole command is judged before it (dm_check_size) */
         rc = dm_integrate_trajectory(rb, &tr, &o, keep, &tk, &sum, err);
         dm_traj_free(&tr);
     }
@@ -377,6 +404,49 @@ static int predict_tracker(const dm_robot *rb, const dm_dataset *d, int na, int 
     free(tk.t);
     free(tk.e);
     return rc;
+}
+
+double dm_predict_cost_s(const dm_robot *rb, dm_data_kind kind, double count, int na, int nb)
+{
+    double s = dm_model_dofs(rb, na > 0 ? na : rb->na, nb > 0 ? nb : rb->nb) / 210.0;
+    double per = (kind == DM_DATA_STATIC ? 5e-3 : 2.5e-3) * (0.15 + 0.85 * s * s);
+    return count * per;
+}
+
+double dm_predict_estimate_s(const dm_robot *rb, const dm_dataset *d, int na, int nb,
+                             double *bytes)
+{
+    double count = d->npose, per_count = 0;
+    if (d->kind == DM_DATA_TRACKER && d->n > 0) { /* dm_predict's step: at most 1 ms */
+        double T = d->s[d->n - 1].t - d->s[0].t;
+        count = fmax(T / 1e-3, d->npose);
+        per_count = 4 * sizeof(double); /* the integrated error kept per step */
+    }
+    if (bytes)
+        *bytes = count * per_count + (double)d->n * 2 * sizeof(double);
+    return dm_predict_cost_s(rb, d->kind, count, na, nb);
+}
+
+int dm_check_size(const char *what, double est_s, double bytes, const char *hint, int force,
+                  dm_error *err)
+{
+    int slow = !(est_s <= DM_MAX_WORK_S), big = !(bytes <= DM_MAX_BYTES);
+    if (force || (!slow && !big))
+        return DM_OK;
+    char t[96] = "", m[96] = "";
+    if (slow)
+        snprintf(t, sizeof t, "about %.3g hours of work (the limit is %g)", est_s / 3600,
+                 DM_MAX_WORK_S / 3600);
+    if (big)
+        snprintf(m, sizeof m, "%s%.3g GB of memory (the limit is %g)", slow ? " and " : "about ",
+                 bytes / 1e9, DM_MAX_BYTES / 1e9);
+    return dm_fail(err, DM_EINVAL, "%s: %s%s: %s, or force it", what, t, m, hint);
+}
+
+int dm_size_refused(const dm_error *err)
+{
+    return err->code == DM_EINVAL && (strstr(err->msg, " hours of work (the limit is ") ||
+                                      strstr(err->msg, " GB of memory (the limit is "));
 }
 
 int dm_predict(const dm_robot *rb, const dm_dataset *d, int na, int nb, double *pred, dm_error *err)
@@ -422,7 +492,21 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
                      h[0], h[1], h[2], 0.2 * rb->arm_length_m, 4 * M_PI);
         if ((rc = dm_traj_make(spec, rb, &tr, err)))
             return rc;
-        int m = (int)floor(tr.duration_s / 1e-3 + 1e-9) + 1;
+        double steps = floor(tr.duration_s / 1e-3 + 1e-9) + 1;
+        char what[320];
+        snprintf(what, sizeof what, "synth: %s: %.4g s sampled every 1 ms", tr.name,
+                 tr.duration_s);
+        rc = dm_check_size(what, dm_predict_cost_s(rb, o->kind, steps, o->na, o->nb),
+                           steps * (3 * (sizeof(dm_sample) + sizeof(double)) + 4 * sizeof(double)),
+                           "a shorter path", o->force_long, err);
+        if (!rc && steps > INT_MAX / 3) /* the samples are counted in int */
+            rc = dm_fail(err, DM_EINVAL, "%s: %.3g samples, at most %d", what, 3 * steps,
+                         INT_MAX);
+        if (rc) {
+            dm_traj_free(&tr);
+            return rc;
+        }
+        int m = (int)steps;
         for (int i = 0; i < m && !rc; i++) {
             dm_sample s = {0};
             double v[3], a[3];
@@ -437,6 +521,17 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
         }
         dm_traj_free(&tr);
     } else {
+        double np = o->npose > 0 ? o->npose : 16;
+        double per = o->kind == DM_DATA_MODAL ? (o->modes > 0 ? o->modes : 6) : 3;
+        char what[96];
+        snprintf(what, sizeof what, "synth: %.0f poses", np);
+        if ((rc = dm_check_size(what, dm_predict_cost_s(rb, o->kind, np, o->na, o->nb),
+                                np * per * (sizeof(dm_sample) + sizeof(double)),
+                                "fewer poses", o->force_long, err)))
+            return rc;
+        if (np * per > INT_MAX) /* the samples are counted in int */
+            return dm_fail(err, DM_EINVAL, "%s: %.3g samples, at most %d", what, np * per,
+                           INT_MAX);
         for (int p = 0; p < (o->npose > 0 ? o->npose : 16) && !rc; p++) {
             dm_sample s = {0};
             if (draw_pose(rb, &rng, s.P))

@@ -11,7 +11,7 @@ layer_of() {
     static | modal | analysis) echo 3 ;;
     trajectory | integrate | integrate_trajectory | standard_move) echo 4 ;;
     grid | shard | store | sweep | sweep_schema | sweep_store | sweep_anchors | sweep_census | sweep_impl) echo 5 ;;
-    measure | diagnose) echo 6 ;;
+    measure | diagnose | plan) echo 6 ;;
     cli | cli_* | main) echo 7 ;;
     *) echo "" ;;
     esac

@@ -1,0 +1,107 @@
+/* dm_plan — the experiment that can tell, designed before it is run.
+ *
+ * Given candidate effects of dm_diagnose at assumed magnitudes, pick the N
+ * poses of a modal or static survey (or, for a tracker run, one path of a
+ * small family of circles and moves) that make their parameters
+ * identifiable: D-optimal, maximising log det F with F = J'J / sigma^2
+ * the Fisher information and J the sensitivities of the predictions to
+ * the parameters in scaled units (relative for springs, masses and
+ * damping; the candidate's scale for geometry errors). The determinant is
+ * the product of the information along each parameter and of the squared
+ * sines of the angles between their sensitivity vectors, so it rewards
+ * separating effects that look alike as well as seeing each.
+ *
+ * Candidates: poses drawn uniformly (seeded) from the reachable part of a
+ * region with cond(J) <= the robot's singular_condition (default region:
+ * the box `synth` draws from, home +- 0.3 la in x and y, +- 0.15 la in z),
+ * or the points of a grid; for static surveys each with one of seven
+ * force directions (x, y, z and four diagonals). Greedy selection, then
+ * exchanges until no swap raises the determinant; distinct candidates;
+ * deterministic for a seed and independent of the thread count. */
+#ifndef DM_PLAN_H
+#define DM_PLAN_H
+
+#include <stdint.h>
+#include <stdio.h>
+
+#include "dm_diagnose.h"
+#include "dm_measure.h"
+#include "dm_robot.h"
+
+#define DM_PLAN_MAXEFF 6
+
+typedef struct dm_plan_effect {
+    const dm_candidate *cand;
+    double value[DM_DIAG_MAXV]; /* the assumed magnitude (per chain for three parameters) */
+} dm_plan_effect;
+
+typedef struct dm_plan_opts {
+    dm_data_kind kind;
+    int npose;                  /* poses; tracker: samples at 1 ms */
+    double noise;               /* Hz or m (0: 0.02 Hz, 50 nm, 2 um) */
+    const char *region;         /* grid (dm_grid_parse) of candidate poses, or NULL */
+    uint64_t seed;
+    int na, nb;                 /* mesh (0: the robot's) */
+    int modes;                  /* modal: ranks 1..modes (default 6) */
+    double force_n;             /* static: magnitude of the added force (default 50 N) */
+    int ncandidates;            /* poses drawn without a grid (default 256) */
+    int threads;                /* 0: OpenMP's default; the result does not depend on it */
+    int force_long;             /* run even when estimated beyond DM_MAX_WORK_S or
+                                   DM_MAX_BYTES (else refused before the predictions) */
+} dm_plan_opts;
+
+typedef struct dm_plan_pair {
+    int a, b;                   /* effects */
+    double angle_deg;           /* smallest angle between their sensitivity spans */
+    double sigma;               /* 1-sigma of their least determined joint combination */
+    int alike;                  /* that combination is not determined: they stay look-alikes */
+} dm_plan_pair;
+
+typedef struct dm_plan_result {
+    dm_dataset design;          /* the planned samples (values 0, sigma = noise) */
+    char path[256];             /* tracker: the chosen path */
+    int ncandidates;            /* candidate poses (or paths) that qualified */
+    int neffect, nparam;
+    dm_plan_effect effect[DM_PLAN_MAXEFF];
+    double noise;
+    double logdet, logdet_random;       /* planned; mean over random designs */
+    double sigma[DM_DIAG_MAXP];         /* expected 1-sigma per parameter, its unit */
+    double sigma_random[DM_DIAG_MAXP];  /* the same for random candidates (rms over draws) */
+    /* per effect: the smallest magnitude the planned experiment sees at 5
+     * sigma, alone against the robot file (springs: the largest stiffness;
+     * geometry errors: the size along the assumed direction; damping: the
+     * relative change; a switch: how many sigmas it moves the data) */
+    double detect[DM_PLAN_MAXEFF];
+    int npair;
+    dm_plan_pair pair[DM_PLAN_MAXEFF * (DM_PLAN_MAXEFF - 1) / 2];
+} dm_plan_result;
+
+/* Parse "NAME[=V[,V,V]],NAME..." (values default to each candidate's
+ * typical magnitude). Unknown names and effects the kind of data cannot
+ * see are errors. */
+int dm_plan_parse_effects(const char *spec, dm_data_kind kind, dm_plan_effect *effects,
+                          int *count, dm_error *err);
+
+int dm_plan(const dm_robot *robot, const dm_plan_effect *effects, int neffect,
+            const dm_plan_opts *opts, dm_plan_result *out, dm_error *err);
+void dm_plan_free(dm_plan_result *result);
+
+/* The comparison: opts->npose random candidates of the plan's region
+ * (static: each with a direction drawn uniformly on the sphere; tracker: a
+ * random member of the path family), as a dataset like a plan's design. */
+int dm_plan_random(const dm_robot *robot, const dm_plan_opts *opts, uint64_t seed,
+                   dm_dataset *out, dm_error *err);
+
+/* Synthetic measurements at the samples of a design (or a template read
+ * by dm_dataset_read_template): the robot's predictions (its effects
+ * applied) plus Gaussian noise of standard deviation `noise`, which
+ * becomes every sample's sigma (0: the design's own sigma). Deterministic
+ * for a seed. */
+int dm_plan_observe(const dm_robot *robot, const dm_dataset *design, double noise, uint64_t seed,
+                    int na, int nb, dm_dataset *out, dm_error *err);
+
+/* The design as a measurement template in MEASURED.md format, the
+ * measured values empty. */
+int dm_plan_write_template(const dm_plan_result *result, const char *robot_name, FILE *out);
+
+#endif

@@ -1,0 +1,290 @@
+/* deltamap plan: the experiment that can tell, before it is run. */
+#include <getopt.h>
+#include <jansson.h>
+#include <limits.h>
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli_impl.h"
+#include "dm_plan.h"
+
+static const char PLAN_HELP[] =
+    "usage: deltamap plan --robot R --kind modal|static|tracker --effects NAME[=V],...\n"
+    "                     --poses N [--noise S] [--region GRID] [--seed S] [--mesh NA,NB]\n"
+    "                     [--modes K] [--threads N] [--set K=V]... [--force-long]\n"
+    "                     [--out POSES.csv] [--json]\n"
+    "\n"
+    "Picks the N poses of a modal or static survey (tracker: one path of a small\n"
+    "family of circles and ring-down moves, N samples at 1 ms) that make the named\n"
+    "candidate effects identifiable: D-optimal (the largest determinant of the\n"
+    "Fisher information of their parameters, from the sensitivities of the\n"
+    "predictions), which also separates effects that look alike. Prints per\n"
+    "effect the expected 1-sigma at the assumed magnitude (NAME=V, per chain\n"
+    "NAME=V0,V1,V2; default a typical one), the same for random poses, the\n"
+    "smallest magnitude the experiment would see at 5 sigma, and the pairs that\n"
+    "stay indistinguishable. Candidate poses: the reachable, well-conditioned\n"
+    "points of --region (a grid as for sweep, e.g. x=-0.1:0.1:9,y=-0.1:0.1:9,z=-0.4),\n"
+    "or 256 drawn from the box synth uses (--seed). --noise: Hz or m (default\n"
+    "0.02 Hz, 50 nm, 2 um). --out writes the poses as a measurement template\n"
+    "(docs/measured-data.md, values empty). Deterministic for a seed, whatever\n"
+    "--threads. A plan estimated at more than 4 hours or 2 GB is refused before\n"
+    "its predictions unless --force-long.\n";
+
+typedef struct {
+    const char *robot, *effects, *out, *sets[DM_CLI_MAXSET];
+    int nset, json, have_kind;
+    dm_plan_opts o;
+} plan_args;
+
+static int parse(int argc, char **argv, plan_args *a)
+{
+    static const struct option lo[] = {
+        {"robot", 1, 0, 'r'}, {"kind", 1, 0, 'k'},    {"effects", 1, 0, 'e'},
+        {"poses", 1, 0, 'p'}, {"noise", 1, 0, 'n'},   {"region", 1, 0, 'g'},
+        {"seed", 1, 0, 'S'},  {"mesh", 1, 0, 'm'},    {"modes", 1, 0, 'M'},
+        {"threads", 1, 0, 'T'}, {"set", 1, 0, 's'},   {"out", 1, 0, 'o'},
+        {"json", 0, 0, 'j'},  {"help", 0, 0, 'h'},    {"force-long", 0, 0, 'L'},
+        {0, 0, 0, 0}};
+    int c, seed = 1;
+    memset(a, 0, sizeof *a);
+    optind = 1;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+        switch (c) {
+        case 'r': a->robot = optarg; break;
+        case 'e': a->effects = optarg; break;
+        case 'g': a->o.region = optarg; break;
+        case 'o': a->out = optarg; break;
+        case 'j': a->json = 1; break;
+        case 'k':
+            if (dm_data_kind_parse(optarg, &a->o.kind))
+                return dm_cli_usage("plan", "--kind is modal, static or tracker", optarg);
+            a->have_kind = 1;
+            break;
+        case 'p':
+            if (dm_cli_parse_count(optarg, 1, INT_MAX, &a->o.npose))
+                return dm_cli_usage("plan", "--poses takes a whole number 1..2147483647", optarg);
+            break;
+        case 'L': a->o.force_long = 1; break;
+        case 'n':
+            if (dm_cli_parse_list(optarg, &a->o.noise, 1) || !(a->o.noise > 0))
+                return dm_cli_usage("plan", "--noise takes a value > 0 (Hz or m)", optarg);
+            break;
+        case 'S':
+            if (dm_cli_parse_int(optarg, 0, 2147483647, &seed))
+                return dm_cli_usage("plan", "--seed takes a whole number >= 0", optarg);
+            break;
+        case 'm':
+            if (dm_cli_parse_mesh(optarg, &a->o.na, &a->o.nb))
+                return dm_cli_usage("plan", "--mesh takes NA,NB, whole numbers 1..64", optarg);
+            break;
+        case 'M':
+            if (dm_cli_parse_int(optarg, 1, 64, &a->o.modes))
+                return dm_cli_usage("plan", "--modes takes 1..64", optarg);
+            break;
+        case 'T':
+            if (dm_cli_parse_int(optarg, 1, 1024, &a->o.threads))
+                return dm_cli_usage("plan", "--threads takes a whole number >= 1", optarg);
+            break;
+        case 's':
+            if (dm_cli_add_set("plan", a->sets, &a->nset, optarg))
+                return EXIT_USAGE;
+            break;
+        case 'h': fputs(PLAN_HELP, stdout); exit(0);
+        default: return dm_cli_usage("plan", "unknown or incomplete option", argv[optind - 1]);
+        }
+    }
+    if (optind < argc)
+        return dm_cli_usage("plan", "unexpected argument", argv[optind]);
+    if (!a->robot || !a->have_kind || !a->effects || !a->o.npose)
+        return dm_cli_usage("plan", "--robot, --kind, --effects and --poses are required", NULL);
+    a->o.seed = (uint64_t)seed;
+    return 0;
+}
+
+static const char *unit_of(const dm_plan_result *r)
+{
+    return r->design.kind == DM_DATA_MODAL ? "Hz" : "m";
+}
+
+/* The detectable magnitude, in words fitting the kind of effect. */
+static void print_detect(const dm_plan_effect *e, double v)
+{
+    const dm_candidate *c = e->cand;
+    if (c->nparam == 0)
+        printf("moves the data by %.3g sigma", v);
+    else if (!strncmp(c->name, "damping_", 8))
+        printf("a change of %.3g %%", 100 * v);
+    else if (c->linear)
+        printf("from %.2g %s", v, c->unit);
+    else if (v == 0 || !isfinite(v))
+        printf("never");
+    else if (c->lo < c->hi && strstr(c->unit, "N"))
+        printf("up to %.2g %s", v, c->unit); /* springs: stiffer ones look rigid */
+    else
+        printf("from %.2g %s", v, c->unit);
+}
+
+static void print_plan(const dm_robot *rb, const dm_plan_result *r)
+{
+    const dm_dataset *d = &r->design;
+    int p = r->nparam;
+    printf("robot     %s: a %s %s of %d %s planned from %d candidate %s (noise %g %s)\n",
+           rb->name, dm_data_kind_name(d->kind), d->kind == DM_DATA_TRACKER ? "run" : "survey",
+           d->npose, d->kind == DM_DATA_TRACKER ? "samples" : "poses", r->ncandidates,
+           d->kind == DM_DATA_TRACKER ? "paths" : "poses", r->noise, unit_of(r));
+    printf("design    D-optimal: information %.3gx that of random candidates per parameter\n"
+           "          (log det F %.4g against %.4g on average)\n",
+           exp((r->logdet - r->logdet_random) / p), r->logdet, r->logdet_random);
+    if (d->kind == DM_DATA_TRACKER)
+        printf("path      %s\n", r->path);
+    printf("\n %-26s %-22s %-22s %-12s %s\n", "parameter", "assumed", "1-sigma planned",
+           "random", "seen at 5 sigma");
+    for (int e = 0, j = 0; e < r->neffect; e++) {
+        const dm_plan_effect *ef = &r->effect[e];
+        int np = ef->cand->nparam;
+        for (int k = 0; k < (np ? np : 1); k++, j += np ? 1 : 0) {
+            char name[96], assumed[64], planned[64], random[32];
+            dm_candidate_param_name(ef->cand, k, name, sizeof name);
+            if (!np) {
+                printf(" %-26s %-22s %-22s %-12s ", name, "on", "-", "-");
+            } else {
+                snprintf(assumed, sizeof assumed, "%.3g %s", ef->value[k], ef->cand->unit);
+                snprintf(planned, sizeof planned, ef->cand->linear ? "%.2g" : "%.2g (%.2g %%)",
+                         r->sigma[j], 100 * r->sigma[j] / fabs(ef->value[k]));
+                snprintf(random, sizeof random, "%.2g", r->sigma_random[j]);
+                printf(" %-26s %-22s %-22s %-12s ", name, assumed, planned, random);
+            }
+            if (k == 0)
+                print_detect(ef, r->detect[e]);
+            printf("\n");
+        }
+    }
+    if (r->npair) {
+        printf("\n %-50s %10s %14s\n", "pair", "angle", "joint 1-sigma");
+        for (int k = 0; k < r->npair; k++) {
+            const dm_plan_pair *pr = &r->pair[k];
+            char name[128];
+            snprintf(name, sizeof name, "%s / %s", r->effect[pr->a].cand->name,
+                     r->effect[pr->b].cand->name);
+            printf(" %-50s %6.1f deg %14.2g   %s\n", name, pr->angle_deg, pr->sigma,
+                   pr->alike ? "indistinguishable on this experiment"
+                             : "told apart");
+        }
+        printf(" (joint 1-sigma: of the pair's least determined combination, relative or in\n"
+               "  units of the candidates' scale; above %g they stay look-alikes)\n",
+               DM_DIAG_DETERMINED);
+    }
+    if (d->kind != DM_DATA_TRACKER) {
+        printf("\nposes (x, y, z in m%s)\n", d->kind == DM_DATA_STATIC ? "; force in N" : "");
+        for (int i = 0, last = -1; i < d->n; i++) {
+            const dm_sample *s = &d->s[i];
+            if (s->pose_id == last)
+                continue;
+            last = s->pose_id;
+            printf("  %+.4f %+.4f %+.4f", s->P[0], s->P[1], s->P[2]);
+            if (d->kind == DM_DATA_STATIC)
+                printf("   F (%+.1f, %+.1f, %+.1f)", s->force[0], s->force[1], s->force[2]);
+            printf("\n");
+        }
+    }
+}
+
+static void print_plan_json(const dm_robot *rb, const dm_plan_result *r)
+{
+    const dm_dataset *d = &r->design;
+    json_t *o = json_object(), *eff = json_array(), *pairs = json_array(), *poses = json_array();
+    for (int e = 0, j = 0; e < r->neffect; e++) {
+        const dm_plan_effect *ef = &r->effect[e];
+        json_t *v = json_array(), *s = json_array(), *sr = json_array();
+        for (int k = 0; k < ef->cand->nparam; k++, j++) {
+            json_array_append_new(v, json_real(ef->value[k]));
+            json_array_append_new(s, isfinite(r->sigma[j]) ? json_real(r->sigma[j]) : json_null());
+            json_array_append_new(sr, isfinite(r->sigma_random[j]) ? json_real(r->sigma_random[j])
+                                                                   : json_null());
+        }
+        json_array_append_new(
+            eff, json_pack("{s:s, s:s, s:o, s:o, s:o, s:o}", "effect", ef->cand->name, "unit",
+                           ef->cand->unit, "assumed", v, "sigma", s, "sigma_random", sr,
+                           "detectable", isfinite(r->detect[e]) ? json_real(r->detect[e])
+                                                                : json_null()));
+    }
+    for (int k = 0; k < r->npair; k++) {
+        const dm_plan_pair *pr = &r->pair[k];
+        json_array_append_new(
+            pairs, json_pack("{s:s, s:s, s:o, s:o, s:b}", "a", r->effect[pr->a].cand->name, "b",
+                             r->effect[pr->b].cand->name, "angle_deg",
+                             isfinite(pr->angle_deg) ? json_real(pr->angle_deg) : json_null(),
+                             "joint_sigma", isfinite(pr->sigma) ? json_real(pr->sigma) : json_null(),
+                             "indistinguishable", pr->alike));
+    }
+    for (int i = 0, last = -1; i < d->n; i++) {
+        const dm_sample *s = &d->s[i];
+        if (s->pose_id == last)
+            continue;
+        last = s->pose_id;
+        json_t *q = json_pack("[f,f,f]", s->P[0], s->P[1], s->P[2]);
+        if (d->kind == DM_DATA_STATIC)
+            q = json_pack("{s:o, s:[f,f,f]}", "pose", q, "force", s->force[0], s->force[1],
+                          s->force[2]);
+        else if (d->kind == DM_DATA_TRACKER)
+            q = json_pack("{s:f, s:o}", "t", s->t, "pose", q);
+        json_array_append_new(poses, q);
+    }
+    json_object_set_new(o, "robot", json_string(rb->name));
+    json_object_set_new(o, "kind", json_string(dm_data_kind_name(d->kind)));
+    json_object_set_new(o, "poses", json_integer(d->npose));
+    json_object_set_new(o, "noise", json_real(r->noise));
+    json_object_set_new(o, "candidates", json_integer(r->ncandidates));
+    json_object_set_new(o, "logdet", json_real(r->logdet));
+    json_object_set_new(o, "logdet_random", json_real(r->logdet_random));
+    json_object_set_new(o, "path", d->kind == DM_DATA_TRACKER ? json_string(r->path) : json_null());
+    json_object_set_new(o, "effects", eff);
+    json_object_set_new(o, "pairs", pairs);
+    json_object_set_new(o, "design", poses);
+    json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
+    putchar('\n');
+    json_decref(o);
+}
+
+int dm_cli_plan(int argc, char **argv)
+{
+    int all_cores = omp_get_max_threads(); /* before BLAS is made serial (it sets OpenMP's too) */
+    dm_cli_serial_blas();
+    plan_args a;
+    int rc = parse(argc, argv, &a);
+    if (rc)
+        return rc;
+    if (!a.o.threads)
+        a.o.threads = all_cores;
+    dm_robot rb;
+    dm_error err;
+    dm_plan_effect eff[DM_PLAN_MAXEFF];
+    dm_plan_result r;
+    int neff;
+    if ((rc = dm_plan_parse_effects(a.effects, a.o.kind, eff, &neff, &err)) ||
+        (rc = dm_cli_load_robot(a.robot, a.sets, a.nset, &rb, &err)) ||
+        (rc = dm_plan(&rb, eff, neff, &a.o, &r, &err)))
+        return dm_cli_report_size(&err);
+    if (a.json)
+        print_plan_json(&rb, &r);
+    else
+        print_plan(&rb, &r);
+    if (a.out) {
+        dm_file_out out;
+        if (!(rc = dm_file_out_open(&out, a.out, &err))) {
+            dm_plan_write_template(&r, a.robot, out.f);
+            rc = dm_file_out_commit(&out, &err);
+        }
+        if (rc)
+            dm_cli_report(&err);
+        else if (!a.json)
+            printf("\nwritten   %s: the measurement template (fill in the measured values, then "
+                   "deltamap diagnose)\n", a.out);
+    }
+    dm_plan_free(&r);
+    return rc;
+}

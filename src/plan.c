@@ -1,0 +1,993 @@
+/* Experiment design for the diagnosis (see dm_plan.h). */
+#include "dm_plan.h"
+
+#include <lapacke.h>
+#include <limits.h>
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dm_kinematics.h"
+#include "dm_sweep.h"
+#include "dm_trajectory.h"
+
+#define DETECT 5.0     /* "seen": the effect moves the data by 5 sigma (norm over samples) */
+#define RANDOM_DRAWS 64
+#define NPATH 22 /* the tracker paths of the family (path_spec) */
+#define FD_STEP 1e-3   /* scaled units: 0.1 % of a spring, far below any 1-sigma that matters */
+#define RIDGE 1e-6     /* added to F's diagonal while choosing: a 1-sigma of 1000 scaled units */
+
+/* ---- effects ------------------------------------------------------------------- */
+
+static int is_number_start(char c) { return (c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.'; }
+
+int dm_plan_parse_effects(const char *spec, dm_data_kind kind, dm_plan_effect *eff, int *count,
+                          dm_error *err)
+{
+    char buf[1024], *save = NULL;
+    int n = 0, nv = 0;
+    snprintf(buf, sizeof buf, "%s", spec);
+    for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+        if (is_number_start(*tok)) { /* a further value of the effect before */
+            char *end;
+            double v = strtod(tok, &end);
+            if (!n || *end || nv >= eff[n - 1].cand->nparam || !isfinite(v))
+                return dm_fail(err, DM_EINVAL, "effects '%s': '%s' is not a value of an effect",
+                               spec, tok);
+            eff[n - 1].value[nv++] = v;
+            continue;
+        }
+        if (n && nv > 1 && nv < eff[n - 1].cand->nparam)
+            return dm_fail(err, DM_EINVAL, "effects '%s': %s takes 1 or %d values", spec,
+                           eff[n - 1].cand->name, eff[n - 1].cand->nparam);
+        if (n == DM_PLAN_MAXEFF)
+            return dm_fail(err, DM_EINVAL, "effects '%s': at most %d effects", spec,
+                           DM_PLAN_MAXEFF);
+        char *eq = strchr(tok, '=');
+        if (eq)
+            *eq = '\0';
+        const dm_candidate *c = dm_candidate_find(tok);
+        if (!c)
+            return dm_fail(err, DM_EINVAL, "effects '%s': '%s' is not a candidate effect "
+                           "(see deltamap diagnose --help)", spec, tok);
+        if (!(c->kinds & (1u << kind)))
+            return dm_fail(err, DM_EINVAL, "effects '%s': %s data cannot see %s", spec,
+                           dm_data_kind_name(kind), c->name);
+        for (int k = 0; k < n; k++)
+            if (eff[k].cand == c)
+                return dm_fail(err, DM_EINVAL, "effects '%s': %s named twice", spec, c->name);
+        eff[n].cand = c;
+        for (int k = 0; k < DM_DIAG_MAXV; k++)
+            eff[n].value[k] = c->typical;
+        nv = 0;
+        if (eq) {
+            char *end;
+            eff[n].value[0] = strtod(eq + 1, &end);
+            if (end == eq + 1 || *end || !isfinite(eff[n].value[0]) ||
+                (!c->linear && !(eff[n].value[0] > 0)))
+                return dm_fail(err, DM_EINVAL, "effects '%s': %s takes a magnitude%s, not '%s'",
+                               spec, c->name, c->linear ? "" : " > 0", eq + 1);
+            nv = 1;
+        }
+        n++;
+        if (nv == 1)
+            for (int k = 1; k < DM_DIAG_MAXV; k++)
+                eff[n - 1].value[k] = eff[n - 1].value[0];
+    }
+    if (n && nv > 1 && nv < eff[n - 1].cand->nparam)
+        return dm_fail(err, DM_EINVAL, "effects '%s': %s takes 1 or %d values", spec,
+                       eff[n - 1].cand->name, eff[n - 1].cand->nparam);
+    if (!n)
+        return dm_fail(err, DM_EINVAL, "effects: name at least one effect");
+    *count = n;
+    return DM_OK;
+}
+
+/* The named effects' parameters in fitted units (log10, or as they are
+ * for linear candidates), with their scales. */
+typedef struct {
+    const dm_robot *rb;
+    const dm_plan_effect *eff;
+    int neff, p;
+    double x0[DM_DIAG_MAXP], sc[DM_DIAG_MAXP];
+    const dm_plan_opts *o;
+} model;
+
+static void model_init(model *m, const dm_robot *rb, const dm_plan_effect *eff, int neff,
+                       const dm_plan_opts *o)
+{
+    memset(m, 0, sizeof *m);
+    m->rb = rb, m->eff = eff, m->neff = neff, m->o = o;
+    for (int e = 0; e < neff; e++)
+        for (int k = 0; k < eff[e].cand->nparam; k++, m->p++) {
+            m->x0[m->p] = eff[e].cand->linear ? eff[e].value[k] : log10(eff[e].value[k]);
+            m->sc[m->p] = dm_candidate_param_scale(eff[e].cand, k);
+        }
+}
+
+/* The robot with the effects of `only` (-1: all) at parameters x. */
+static int robot_at(const model *m, const double *x, int only, dm_robot *rb, dm_error *err)
+{
+    *rb = *m->rb;
+    for (int e = 0, j = 0; e < m->neff; e++) {
+        const dm_candidate *c = m->eff[e].cand;
+        double v[DM_DIAG_MAXV];
+        for (int k = 0; k < DM_DIAG_MAXV; k++)
+            v[k] = k >= c->nparam ? 1.0 : c->linear ? x[j + k] : pow(10.0, x[j + k]);
+        j += c->nparam;
+        if (only >= 0 && e != only)
+            continue;
+        int rc = dm_effect_apply(rb, c->name, v, err);
+        if (rc)
+            return rc;
+    }
+    return DM_OK;
+}
+
+static int predict_at(const model *m, const double *x, int only, const dm_dataset *d,
+                      double *pred, dm_error *err)
+{
+    dm_robot rb;
+    int rc = robot_at(m, x, only, &rb, err);
+    return rc ? rc : dm_predict(&rb, d, m->o->na, m->o->nb, pred, err);
+}
+
+static int thread_count(const dm_plan_opts *o)
+{
+    return o->threads > 0 ? o->threads : omp_get_max_threads();
+}
+
+/* Sensitivities J (d->n x p, column-major) of the predictions to the
+ * scaled parameters at the magnitudes, in units of the noise; pred0: the
+ * predictions there. The p + 1 predictions run in parallel. */
+static int sensitivities(const model *m, const dm_dataset *d, double noise, double *pred0,
+                         double *J, dm_error *err)
+{
+    int p = m->p, rc = DM_OK;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(m->o))
+    for (int j = -1; j < p; j++) {
+        double x[DM_DIAG_MAXP];
+        dm_error e;
+        memcpy(x, m->x0, sizeof x);
+        if (j >= 0)
+            x[j] += FD_STEP * m->sc[j];
+        double *out = j < 0 ? pred0 : J + (size_t)j * d->n;
+        int r = predict_at(m, x, -1, d, out, &e);
+#pragma omp critical(dm_plan_error)
+        if (r && !rc) {
+            rc = r;
+            if (err)
+                *err = e;
+        }
+    }
+    for (int j = 0; !rc && j < p; j++)
+        for (int i = 0; i < d->n; i++)
+            J[(size_t)j * d->n + i] = (J[(size_t)j * d->n + i] - pred0[i]) / (FD_STEP * noise);
+    return rc;
+}
+
+/* ---- information and its determinant ------------------------------------------- */
+
+/* log det of the p x p matrix F (+ ridge), by Cholesky; -inf if singular.
+ * With inv, its inverse too. */
+static double logdet(const double *F, int p, double ridge, double *inv)
+{
+    double A[DM_DIAG_MAXP * DM_DIAG_MAXP];
+    memcpy(A, F, sizeof(double) * p * p);
+    for (int j = 0; j < p; j++)
+        A[j * p + j] += ridge;
+    if (p == 0)
+        return 0;
+    if (LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', p, A, p))
+        return -INFINITY;
+    double s = 0;
+    for (int j = 0; j < p; j++)
+        s += 2 * log(A[j * p + j]);
+    if (inv) {
+        memcpy(inv, A, sizeof(double) * p * p);
+        if (LAPACKE_dpotri(LAPACK_COL_MAJOR, 'U', p, inv, p))
+            return -INFINITY;
+        for (int a = 0; a < p; a++) /* dpotri fills the upper triangle */
+            for (int b = a + 1; b < p; b++)
+                inv[a * p + b] = inv[b * p + a];
+    }
+    return s;
+}
+
+/* Information of each unit (a pose with its modes, a pose with one force
+ * direction, or a path): rows [first[u], first[u + 1]) of J. */
+static void unit_information(const double *J, int nrow, int p, const int *first, int nunit,
+                             double *info)
+{
+    for (int u = 0; u < nunit; u++)
+        for (int a = 0; a < p; a++)
+            for (int b = 0; b < p; b++) {
+                double v = 0;
+                for (int i = first[u]; i < first[u + 1]; i++)
+                    v += J[(size_t)a * nrow + i] * J[(size_t)b * nrow + i];
+                info[(size_t)u * p * p + b * p + a] = v;
+            }
+}
+
+static void add_unit(double *F, const double *info, int u, int p, double sign)
+{
+    for (int q = 0; q < p * p; q++)
+        F[q] += sign * info[(size_t)u * p * p + q];
+}
+
+/* D-optimal choice of n distinct units: greedy, then exchanges (each
+ * chosen unit against every other) while the determinant grows. Scans in
+ * unit order and keeps the first of equals, so it is deterministic. */
+static void choose_units(const double *info, int nunit, int p, int n, int *sel)
+{
+    double F[DM_DIAG_MAXP * DM_DIAG_MAXP] = {0}, G[DM_DIAG_MAXP * DM_DIAG_MAXP];
+    char *used = calloc(nunit, 1);
+    if (!used)
+        return;
+    for (int i = 0; i < n; i++) {
+        int best = -1;
+        double bv = -INFINITY;
+        for (int u = 0; u < nunit; u++) {
+            if (used[u])
+                continue;
+            memcpy(G, F, sizeof(double) * p * p);
+            add_unit(G, info, u, p, 1);
+            double v = logdet(G, p, RIDGE, NULL);
+            if (best < 0 || v > bv)
+                best = u, bv = v;
+        }
+        sel[i] = best;
+        used[best] = 1;
+        add_unit(F, info, best, p, 1);
+    }
+    for (int pass = 0, changed = 1; changed && pass < 50; pass++) {
+        changed = 0;
+        for (int i = 0; i < n; i++) {
+            double cur = logdet(F, p, RIDGE, NULL), bv = cur;
+            int best = -1;
+            for (int u = 0; u < nunit; u++) {
+                if (used[u])
+                    continue;
+                memcpy(G, F, sizeof(double) * p * p);
+                add_unit(G, info, sel[i], p, -1);
+                add_unit(G, info, u, p, 1);
+                double v = logdet(G, p, RIDGE, NULL);
+                if (v > bv + 1e-9 * fabs(bv) + 1e-12)
+                    best = u, bv = v;
+            }
+            if (best >= 0) {
+                add_unit(F, info, sel[i], p, -1);
+                add_unit(F, info, best, p, 1);
+                used[sel[i]] = 0;
+                used[best] = 1;
+                sel[i] = best;
+                changed = 1;
+            }
+        }
+    }
+    free(used);
+}
+
+/* 1-sigma of each scaled parameter for the units sel[0..n-1]; log det. */
+static double design_sigma(const double *info, const int *sel, int n, int p, double *sig)
+{
+    double F[DM_DIAG_MAXP * DM_DIAG_MAXP] = {0}, inv[DM_DIAG_MAXP * DM_DIAG_MAXP];
+    for (int i = 0; i < n; i++)
+        add_unit(F, info, sel[i], p, 1);
+    double ld = logdet(F, p, 0, inv);
+    for (int j = 0; j < p; j++)
+        sig[j] = isfinite(ld) && inv[j * p + j] > 0 ? sqrt(inv[j * p + j]) : INFINITY;
+    return ld;
+}
+
+/* The same for random designs: n distinct units drawn RANDOM_DRAWS times;
+ * rms 1-sigma and mean log det over the draws that determine everything. */
+static double random_sigma(const double *info, int nunit, int p, int n, uint64_t seed,
+                           double *sig)
+{
+    dm_rng rng = {seed * 0x9E3779B97F4A7C15ull + 7};
+    int *sel = malloc(sizeof(int) * nunit), ok = 0;
+    double var[DM_DIAG_MAXP] = {0}, ld = 0;
+    for (int d = 0; sel && d < RANDOM_DRAWS; d++) {
+        for (int u = 0; u < nunit; u++)
+            sel[u] = u;
+        for (int i = 0; i < n; i++) { /* partial Fisher-Yates */
+            int k = i + (int)(dm_rng_uniform(&rng) * (nunit - i));
+            int t = sel[i];
+            sel[i] = sel[k];
+            sel[k] = t;
+        }
+        double s[DM_DIAG_MAXP], l = design_sigma(info, sel, n, p, s);
+        if (!isfinite(l))
+            continue;
+        ok++;
+        ld += l;
+        for (int j = 0; j < p; j++)
+            var[j] += s[j] * s[j];
+    }
+    for (int j = 0; j < p; j++)
+        sig[j] = ok ? sqrt(var[j] / ok) : INFINITY;
+    free(sel);
+    return ok ? ld / ok : -INFINITY;
+}
+
+/* ---- candidates -------------------------------------------------------------------- */
+
+static int well_placed(const dm_robot *rb, const double P[3])
+{
+    dm_pose pose;
+    return !dm_kin_inverse(rb, P, &pose, NULL) && pose.cond <= rb->singular_cond;
+}
+
+/* A pose drawn uniformly from the default region (synth's box). */
+static int draw_pose(const dm_robot *rb, dm_rng *rng, double P[3])
+{
+    double h = rb->arm_length_m;
+    for (int tries = 0; tries < 1000; tries++) {
+        P[0] = rb->home_m[0] + 0.3 * h * (2 * dm_rng_uniform(rng) - 1);
+        P[1] = rb->home_m[1] + 0.3 * h * (2 * dm_rng_uniform(rng) - 1);
+        P[2] = rb->home_m[2] + 0.15 * h * (2 * dm_rng_uniform(rng) - 1);
+        if (well_placed(rb, P))
+            return DM_OK;
+    }
+    return DM_EUNREACHABLE;
+}
+
+/* Candidate poses: the region's grid points that qualify, or poses drawn. */
+static int candidate_poses(const dm_robot *rb, const dm_plan_opts *o, double **out, int *count,
+                           dm_error *err)
+{
+    dm_grid g;
+    long total = o->ncandidates > 0 ? o->ncandidates : 256;
+    int rc = o->region ? dm_grid_parse(o->region, &g, err) : DM_OK;
+    if (rc)
+        return rc;
+    if (o->region && (total = dm_grid_points(&g)) > 100000)
+        return dm_fail(err, DM_EINVAL, "region '%s': %ld points, at most 100000", o->region,
+                       total);
+    double *P = malloc(sizeof(double) * 3 * total);
+    if (!P)
+        return dm_fail(err, DM_ENOMEM, "out of memory");
+    int n = 0;
+    dm_rng rng = {o->seed * 0x2545F4914F6CDD1Dull + 3};
+    for (long k = 0; k < total; k++) {
+        if (!o->region) {
+            if (draw_pose(rb, &rng, P + 3 * n))
+                break;
+            n++;
+            continue;
+        }
+        int idx[3] = {(int)(k % g.axis[0].count), (int)(k / g.axis[0].count % g.axis[1].count),
+                      (int)(k / g.axis[0].count / g.axis[1].count)};
+        dm_grid_position(&g, idx, P + 3 * n);
+        n += well_placed(rb, P + 3 * n);
+    }
+    if (!n) {
+        free(P);
+        return o->region ? dm_fail(err, DM_EINVAL,
+                                   "region '%s': no reachable pose with cond(J) <= %g in it",
+                                   o->region, rb->singular_cond)
+                         : dm_fail(err, DM_EUNREACHABLE, "no reachable pose found near home");
+    }
+    *out = P;
+    *count = n;
+    return DM_OK;
+}
+
+/* ---- what a plan costs, judged before its predictions -------------------------- */
+
+/* Predictions of the assessment: the design's sensitivities and, per
+ * effect, a bisection of 30 steps on its signature. */
+#define ASSESS_PREDICTIONS(m) ((m)->p + 1 + 32.0 * (m)->neff)
+/* One log det of a p x p information (Cholesky through LAPACKE, its
+ * overhead included) and the exchange passes a design takes as a rule. */
+#define LOGDET_S(p) (2e-7 + 2e-9 * (double)(p) * (p) * (p))
+#define EXCHANGE_PASSES 4
+
+/* Survey: p + 1 predictions of the candidates' poses, the greedy choice
+ * and the exchanges (n x units log dets each), the assessment; memory:
+ * the units' information and the candidates' sensitivities. */
+static int check_survey(const model *m, const dm_dataset *cand, int nunit, dm_error *err)
+{
+    const dm_plan_opts *o = m->o;
+    int p = m->p, n = o->npose, threads = thread_count(o);
+    double per_pose = dm_predict_cost_s(m->rb, o->kind, 1, o->na, o->nb);
+    double est = (p + 1.0) * cand->npose * per_pose / fmin(threads, p + 1.0) +
+                 (1.0 + EXCHANGE_PASSES) * n * (double)nunit * LOGDET_S(p) +
+                 ASSESS_PREDICTIONS(m) * n * per_pose;
+    double bytes = (double)nunit * p * p * sizeof(double) +
+                   (double)cand->n * (p + 1) * sizeof(double);
+    char what[160];
+    snprintf(what, sizeof what, "plan: %d of %d candidate%s for %d parameter%s", n, nunit,
+             nunit == 1 ? "" : "s", p, p == 1 ? "" : "s");
+    return dm_check_size(what, est, bytes, "fewer poses or a smaller region", o->force_long,
+                         err);
+}
+
+/* Tracker: p + 1 predictions of each of the NPATH paths of n samples (in
+ * parallel over the parameters), the assessment of the chosen one. */
+static int check_tracker(const model *m, dm_error *err)
+{
+    const dm_plan_opts *o = m->o;
+    int p = m->p, n = o->npose, threads = thread_count(o);
+    double run = dm_predict_cost_s(m->rb, o->kind, n, o->na, o->nb);
+    double est = NPATH * (p + 1.0) * run / threads + ASSESS_PREDICTIONS(m) * run;
+    double bytes = fmin(threads, NPATH) * 3.0 * n * (p + 2) * sizeof(double) +
+                   3.0 * n * sizeof(dm_sample) + 4.0 * n * sizeof(double);
+    char what[160];
+    snprintf(what, sizeof what, "plan: a tracker run of %d samples, %d paths, %d parameter%s",
+             n, NPATH, p, p == 1 ? "" : "s");
+    int rc = dm_check_size(what, est, bytes, "fewer samples", o->force_long, err);
+    if (!rc && n > INT_MAX / 3) /* the samples are counted in int */
+        rc = dm_fail(err, DM_EINVAL, "%s: %.3g samples, at most %d", what, 3.0 * n, INT_MAX);
+    return rc;
+}
+
+static const double DIRS[7][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1},           {1, 1, 1},
+                                  {1, -1, 1}, {-1, 1, 1}, {-1, -1, 1}};
+
+static int push(dm_dataset *d, const dm_sample *s)
+{
+    if (d->n == d->cap) {
+        int cap = d->cap ? 2 * d->cap : 256;
+        dm_sample *g = realloc(d->s, sizeof *g * cap);
+        if (!g)
+            return DM_ENOMEM;
+        d->s = g;
+        d->cap = cap;
+    }
+    d->s[d->n++] = *s;
+    return DM_OK;
+}
+
+/* The samples of one unit: a pose with its modes, or a pose with a force
+ * along unit vector u (three components). */
+static int push_unit(dm_dataset *d, const dm_plan_opts *o, const double P[3], const double *u,
+                     int pose_id, double noise)
+{
+    dm_sample s = {0};
+    int rc = DM_OK;
+    memcpy(s.P, P, sizeof s.P);
+    s.pose_id = pose_id;
+    s.sigma = noise;
+    if (d->kind == DM_DATA_MODAL) {
+        for (int j = 1; j <= (o->modes > 0 ? o->modes : 6) && !rc; j++) {
+            s.mode = j;
+            rc = push(d, &s);
+        }
+        return rc;
+    }
+    double nu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    for (int k = 0; k < 3; k++)
+        s.force[k] = (o->force_n > 0 ? o->force_n : 50.0) * u[k] / nu;
+    for (int k = 0; k < 3 && !rc; k++) {
+        s.comp = k;
+        rc = push(d, &s);
+    }
+    return rc;
+}
+
+/* ---- tracker paths -------------------------------------------------------------- */
+
+/* The family of paths about home lasting n samples at 1 ms, no faster
+ * than the standard move's 50 m/s^2 (MODEL.md §5): circles in the three
+ * planes (two radii, centripetal 20 and 50 m/s^2) and bang-bang moves (two
+ * lengths, five directions, 50 m/s^2, within half the record, shortened to
+ * fit), then a dwell in which the structure rings down. */
+#define AMAX 50.0
+static void path_spec(const dm_robot *rb, int k, int n, char *spec, size_t len)
+{
+    static const char *const PLANES[3] = {"xy", "xz", "yz"};
+    static const double MOVE[5][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}, {1, -1, 0.5}};
+    const double *h = rb->home_m, la = rb->arm_length_m, T = (n - 1) * 1e-3;
+    if (k < 12) {
+        double r = (k % 2 ? 0.25 : 0.1) * la * (k / 4 == 0 ? 1.0 : 0.5);
+        double a = k / 2 % 2 ? AMAX : 0.4 * AMAX;
+        snprintf(spec, len, "circle:centre=%.6g,%.6g,%.6g;radius=%.6g;rate=%.9g;duration=%.9g;plane=%s",
+                 h[0], h[1], h[2], r, sqrt(a / r), T, PLANES[k / 4]);
+        return;
+    }
+    k -= 12;
+    const double *u = MOVE[k / 2];
+    double nu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    double d = (k % 2 ? 0.25 : 0.1) * la, tau = fmin(0.5 * T, sqrt(4 * d / AMAX));
+    d = fmin(d, AMAX * tau * tau / 4) / nu; /* bang-bang: d = a tau^2 / 4 */
+    snprintf(spec, len,
+             "p2p:from=%.6g,%.6g,%.6g;to=%.6g,%.6g,%.6g;duration=%.9g;law=bangbang;dwell=%.9g",
+             h[0] - d * u[0] / 2, h[1] - d * u[1] / 2, h[2] - d * u[2] / 2, h[0] + d * u[0] / 2,
+             h[1] + d * u[1] / 2, h[2] + d * u[2] / 2, tau, T - tau);
+}
+
+/* The tracker samples of a path (n times at 1 ms); DM_EUNREACHABLE if it
+ * leaves the well-conditioned workspace. */
+static int path_samples(const dm_robot *rb, const char *spec, int n, double noise, dm_dataset *d,
+                        dm_error *err)
+{
+    dm_trajectory tr;
+    memset(d, 0, sizeof *d);
+    int rc = dm_traj_make(spec, rb, &tr, err);
+    if (rc)
+        return rc;
+    d->kind = DM_DATA_TRACKER;
+    snprintf(d->source, sizeof d->source, "%s", spec);
+    for (int i = 0; i < n && !rc; i++) {
+        dm_sample s = {0};
+        double v[3], a[3];
+        s.t = i * 1e-3;
+        dm_traj_eval(&tr, s.t, s.P, v, a);
+        s.pose_id = d->npose++;
+        s.sigma = noise;
+        if (!well_placed(rb, s.P))
+            rc = dm_fail(err, DM_EUNREACHABLE, "%s leaves the workspace at t = %g s", spec, s.t);
+        for (int k = 0; k < 3 && !rc; k++) {
+            s.comp = k;
+            rc = push(d, &s) ? dm_fail(err, DM_ENOMEM, "out of memory") : DM_OK;
+        }
+    }
+    dm_traj_free(&tr);
+    if (rc)
+        dm_dataset_free(d);
+    return rc;
+}
+
+/* ---- planning -------------------------------------------------------------------- */
+
+static double default_noise(dm_data_kind kind)
+{
+    return kind == DM_DATA_MODAL ? 0.02 : kind == DM_DATA_STATIC ? 5e-8 : 2e-6;
+}
+
+/* Without clearance a deflection is linear in the force, so the seven
+ * directions of a pose can share its analysis (one pose id); with it the
+ * loaded pose depends on the force. */
+static int share_analysis(const model *m)
+{
+    if (dm_effects_clearance(&m->rb->effects))
+        return 0;
+    for (int e = 0; e < m->neff; e++)
+        if (strstr(m->eff[e].cand->name, "clearance"))
+            return 0;
+    return 1;
+}
+
+/* The candidate units of a survey: a dataset of all of them, and where
+ * each unit's rows start (first[nunit] = d->n). */
+static int survey_units(const model *m, double noise, dm_dataset *d, int **first, int *nunit,
+                        dm_error *err)
+{
+    const dm_plan_opts *o = m->o;
+    double *P;
+    int np, rc = candidate_poses(m->rb, o, &P, &np, err);
+    if (rc)
+        return rc;
+    int per = o->kind == DM_DATA_STATIC ? 7 : 1, share = share_analysis(m);
+    memset(d, 0, sizeof *d);
+    d->kind = o->kind;
+    *nunit = np * per;
+    *first = malloc(sizeof(int) * (*nunit + 1));
+    if (!*first)
+        rc = dm_fail(err, DM_ENOMEM, "out of memory");
+    for (int c = 0, u = 0; c < np && !rc; c++)
+        for (int k = 0; k < per && !rc; k++, u++) {
+            (*first)[u] = d->n;
+            int id = per == 1 || share ? c : u;
+            if (push_unit(d, o, P + 3 * c, DIRS[k], id, noise))
+                rc = dm_fail(err, DM_ENOMEM, "out of memory");
+            d->npose = id + 1;
+        }
+    if (!rc)
+        (*first)[*nunit] = d->n;
+    free(P);
+    return rc;
+}
+
+static int by_int(const void *a, const void *b) { return *(const int *)a - *(const int *)b; }
+
+/* The design: the chosen units' samples, each unit its own pose id. */
+static int design_of(const dm_dataset *cand, const int *first, int *sel, int n, dm_dataset *d)
+{
+    qsort(sel, n, sizeof *sel, by_int);
+    memset(d, 0, sizeof *d);
+    d->kind = cand->kind;
+    snprintf(d->source, sizeof d->source, "planned %s survey", dm_data_kind_name(cand->kind));
+    for (int i = 0; i < n; i++)
+        for (int r = first[sel[i]]; r < first[sel[i] + 1]; r++) {
+            dm_sample s = cand->s[r];
+            s.pose_id = i;
+            if (push(d, &s))
+                return DM_ENOMEM;
+        }
+    d->npose = n;
+    return DM_OK;
+}
+
+static int plan_survey(const model *m, double noise, dm_plan_result *r, dm_error *err)
+{
+    dm_dataset cand;
+    int *first = NULL, nunit = 0, p = m->p, n = m->o->npose;
+    int rc = survey_units(m, noise, &cand, &first, &nunit, err);
+    if (!rc && nunit < n)
+        rc = dm_fail(err, DM_EINVAL, "%d poses: the region has only %d candidate%s", n, nunit,
+                     nunit == 1 ? "" : "s");
+    if (!rc && (rc = check_survey(m, &cand, nunit, err)))
+        dm_dataset_free(&cand), nunit = 0;
+    double *pred = rc ? NULL : malloc(sizeof(double) * cand.n);
+    double *J = rc ? NULL : malloc(sizeof(double) * cand.n * p);
+    double *info = rc ? NULL : malloc(sizeof(double) * nunit * p * p);
+    int *sel = rc ? NULL : malloc(sizeof(int) * n);
+    if (!rc && (!pred || !J || !info || !sel))
+        rc = dm_fail(err, DM_ENOMEM, "out of memory");
+    if (!rc)
+        rc = sensitivities(m, &cand, noise, pred, J, err);
+    if (!rc) {
+        r->ncandidates = m->o->kind == DM_DATA_STATIC ? nunit / 7 : nunit;
+        unit_information(J, cand.n, p, first, nunit, info);
+        choose_units(info, nunit, p, n, sel);
+        r->logdet = design_sigma(info, sel, n, p, r->sigma);
+        r->logdet_random = random_sigma(info, nunit, p, n, m->o->seed, r->sigma_random);
+        if (design_of(&cand, first, sel, n, &r->design))
+            rc = dm_fail(err, DM_ENOMEM, "out of memory");
+    }
+    free(pred), free(J), free(info), free(sel), free(first);
+    if (nunit)
+        dm_dataset_free(&cand);
+    return rc;
+}
+
+/* Tracker: the path of the family with the largest determinant. */
+static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_error *err)
+{
+    int p = m->p, n = m->o->npose, status[NPATH];
+    double ld[NPATH], sig[NPATH][DM_DIAG_MAXP];
+    dm_error perr[NPATH];
+    int rc0 = check_tracker(m, err);
+    if (rc0)
+        return rc0;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(m->o))
+    for (int k = 0; k < NPATH; k++) {
+        char spec[256];
+        dm_dataset d;
+        path_spec(m->rb, k, n, spec, sizeof spec);
+        status[k] = path_samples(m->rb, spec, n, noise, &d, &perr[k]);
+        ld[k] = -INFINITY;
+        if (status[k])
+            continue;
+        double *pred = malloc(sizeof(double) * d.n), *J = malloc(sizeof(double) * d.n * p);
+        double F[DM_DIAG_MAXP * DM_DIAG_MAXP];
+        int first[2] = {0, d.n}, all = 0;
+        status[k] = !pred || !J ? dm_fail(&perr[k], DM_ENOMEM, "out of memory")
+                                : sensitivities(m, &d, noise, pred, J, &perr[k]);
+        if (!status[k]) {
+            unit_information(J, d.n, p, first, 1, F);
+            ld[k] = design_sigma(F, &all, 1, p, sig[k]);
+        }
+        free(pred), free(J);
+        dm_dataset_free(&d);
+    }
+    int best = -1, ok = 0;
+    double var[DM_DIAG_MAXP] = {0};
+    r->logdet_random = 0;
+    for (int k = 0; k < NPATH; k++) {
+        if (status[k] && status[k] != DM_EUNREACHABLE)
+            return err ? (*err = perr[k], perr[k].code) : status[k];
+        if (status[k])
+            continue;
+        r->ncandidates++;
+        if (!isfinite(ld[k]))
+            continue;
+        ok++;
+        r->logdet_random += ld[k];
+        for (int j = 0; j < p; j++)
+            var[j] += sig[k][j] * sig[k][j];
+        if (best < 0 || ld[k] > ld[best])
+            best = k;
+    }
+    if (!r->ncandidates)
+        return dm_fail(err, DM_EUNREACHABLE, "no path of the family stays in the workspace");
+    if (best < 0)
+        return dm_fail(err, DM_EINVAL, "no path of the family determines these effects");
+    r->logdet = ld[best];
+    r->logdet_random /= ok;
+    for (int j = 0; j < p; j++) {
+        r->sigma[j] = sig[best][j];
+        r->sigma_random[j] = sqrt(var[j] / ok);
+    }
+    path_spec(m->rb, best, n, r->path, sizeof r->path);
+    int rc = path_samples(m->rb, r->path, n, noise, &r->design, err);
+    snprintf(r->design.source, sizeof r->design.source, "planned tracker run");
+    return rc;
+}
+
+/* ---- what the planned experiment will see ---------------------------------------- */
+
+/* How far (in sigmas, norm over the design) effect e alone at parameters
+ * x[e's] moves the predictions from base. */
+static double signature(const model *m, int e, const double *x, const dm_dataset *d,
+                        const double *base, double noise, double *buf)
+{
+    if (predict_at(m, x, e, d, buf, NULL))
+        return NAN;
+    double q = 0;
+    for (int i = 0; i < d->n; i++)
+        q += (buf[i] - base[i]) * (buf[i] - base[i]);
+    return sqrt(q) / noise;
+}
+
+static int first_param(const model *m, int e)
+{
+    int j = 0;
+    for (int k = 0; k < e; k++)
+        j += m->eff[k].cand->nparam;
+    return j;
+}
+
+/* The smallest magnitude seen at DETECT sigma (see dm_plan_result). */
+static double detectable(const model *m, int e, const double *F, const dm_dataset *d,
+                         const double *base, double noise, double *buf)
+{
+    const dm_candidate *c = m->eff[e].cand;
+    int j0 = first_param(m, e);
+    double x[DM_DIAG_MAXP];
+    memcpy(x, m->x0, sizeof x);
+    if (c->nparam == 0)
+        return signature(m, e, x, d, base, noise, buf);
+    if (!strncmp(c->name, "damping_", 8)) /* a change of the file's damping */
+        return F[j0 * m->p + j0] > 0 ? DETECT / sqrt(F[j0 * m->p + j0]) : INFINITY;
+    if (c->linear) { /* linear: scale the assumed errors */
+        double s = signature(m, e, x, d, base, noise, buf), big = 0;
+        for (int k = 0; k < c->nparam; k++)
+            big = fmax(big, fabs(m->eff[e].value[k]));
+        return s > 0 ? DETECT / s * big : INFINITY;
+    }
+    double lo = c->lo - 2, hi = c->hi + 2; /* bisection in log10 on the signature */
+    x[j0] = lo;
+    double slo = signature(m, e, x, d, base, noise, buf);
+    x[j0] = hi;
+    double shi = signature(m, e, x, d, base, noise, buf);
+    int strong_low = slo > shi; /* springs: soft is strong */
+    if ((strong_low ? slo : shi) < DETECT)
+        return strong_low ? 0 : INFINITY; /* never seen */
+    if ((strong_low ? shi : slo) >= DETECT)
+        return pow(10.0, strong_low ? hi : lo); /* seen over the whole range */
+    for (int it = 0; it < 30; it++) {
+        x[j0] = 0.5 * (lo + hi);
+        double s = signature(m, e, x, d, base, noise, buf);
+        if ((s >= DETECT) == strong_low)
+            lo = x[j0];
+        else
+            hi = x[j0];
+    }
+    return pow(10.0, 0.5 * (lo + hi));
+}
+
+/* Pairs of effects: the smallest angle between their sensitivity spans
+ * (cosines: singular values of La^-1 Fab Lb^-T, F = L L') and their least
+ * determined joint combination (smallest eigenvalue of their block). */
+static void compare_pair(const model *m, const double *F, int a, int b, dm_plan_pair *pr)
+{
+    int ja = first_param(m, a), jb = first_param(m, b), pa = m->eff[a].cand->nparam,
+        pb = m->eff[b].cand->nparam, p = m->p, q = pa + pb;
+    double Fab[DM_DIAG_MAXP * DM_DIAG_MAXP], La[DM_DIAG_MAXP * DM_DIAG_MAXP],
+        Lb[DM_DIAG_MAXP * DM_DIAG_MAXP], B[DM_DIAG_MAXP * DM_DIAG_MAXP], w[DM_DIAG_MAXP];
+    int idx[DM_DIAG_MAXP];
+    memset(pr, 0, sizeof *pr);
+    pr->a = a, pr->b = b, pr->angle_deg = NAN, pr->sigma = INFINITY, pr->alike = 1;
+    for (int k = 0; k < pa; k++)
+        idx[k] = ja + k;
+    for (int k = 0; k < pb; k++)
+        idx[pa + k] = jb + k;
+    for (int u = 0; u < q; u++)
+        for (int v = 0; v < q; v++)
+            B[v * q + u] = F[idx[v] * p + idx[u]];
+    memcpy(Fab, B, sizeof(double) * q * q);
+    if (!LAPACKE_dsyev(LAPACK_COL_MAJOR, 'V', 'U', q, Fab, q, w) && w[0] > 0) {
+        double wa = 0; /* the weakest combination's share on a */
+        for (int k = 0; k < pa; k++)
+            wa += Fab[k] * Fab[k];
+        pr->sigma = 1 / sqrt(w[0]);
+        pr->alike = pr->sigma > DM_DIAG_DETERMINED && wa >= 0.09 && 1 - wa >= 0.09;
+    }
+    for (int u = 0; u < pa; u++)
+        for (int v = 0; v < pa; v++)
+            La[v * pa + u] = B[v * q + u];
+    for (int u = 0; u < pb; u++)
+        for (int v = 0; v < pb; v++)
+            Lb[v * pb + u] = B[(pa + v) * q + pa + u];
+    double M[DM_DIAG_MAXP * DM_DIAG_MAXP], sv[DM_DIAG_MAXP], superb[DM_DIAG_MAXP];
+    for (int u = 0; u < pa; u++) /* M = Fab (pa x pb) */
+        for (int v = 0; v < pb; v++)
+            M[v * pa + u] = B[(pa + v) * q + u];
+    if (LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', pa, La, pa) ||
+        LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', pb, Lb, pb))
+        return;
+    LAPACKE_dtrtrs(LAPACK_COL_MAJOR, 'L', 'N', 'N', pa, pb, La, pa, M, pa); /* La^-1 Fab */
+    double MT[DM_DIAG_MAXP * DM_DIAG_MAXP]; /* (M Lb^-T)' = Lb^-1 M' */
+    for (int u = 0; u < pa; u++)
+        for (int v = 0; v < pb; v++)
+            MT[u * pb + v] = M[v * pa + u];
+    LAPACKE_dtrtrs(LAPACK_COL_MAJOR, 'L', 'N', 'N', pb, pa, Lb, pb, MT, pb);
+    if (!LAPACKE_dgesvd(LAPACK_COL_MAJOR, 'N', 'N', pb, pa, MT, pb, sv, NULL, 1, NULL, 1, superb))
+        pr->angle_deg = acos(fmin(1.0, sv[0])) * 180 / M_PI;
+}
+
+static int assess(const model *m, double noise, dm_plan_result *r, dm_error *err)
+{
+    const dm_dataset *d = &r->design;
+    int p = m->p, nrow = d->n;
+    double *base = malloc(sizeof(double) * nrow), *buf = malloc(sizeof(double) * nrow);
+    double *J = malloc(sizeof(double) * nrow * (p ? p : 1)), *pred = malloc(sizeof(double) * nrow);
+    double F[DM_DIAG_MAXP * DM_DIAG_MAXP];
+    int first[2] = {0, nrow}, rc = !base || !buf || !J || !pred ? DM_ENOMEM : DM_OK;
+    if (!rc)
+        rc = dm_predict(m->rb, d, m->o->na, m->o->nb, base, err);
+    if (!rc)
+        rc = sensitivities(m, d, noise, pred, J, err);
+    if (!rc) {
+        unit_information(J, nrow, p, first, 1, F);
+        for (int e = 0; e < m->neff; e++)
+            r->detect[e] = detectable(m, e, F, d, base, noise, buf);
+        for (int a = 0; a < m->neff; a++)
+            for (int b = a + 1; b < m->neff; b++)
+                if (m->eff[a].cand->nparam && m->eff[b].cand->nparam)
+                    compare_pair(m, F, a, b, &r->pair[r->npair++]);
+    }
+    free(base), free(buf), free(J), free(pred);
+    return rc == DM_ENOMEM ? dm_fail(err, rc, "out of memory") : rc;
+}
+
+/* Scaled 1-sigma to the parameter's unit: relative for log parameters. */
+static void to_units(const model *m, double *sig)
+{
+    for (int e = 0, j = 0; e < m->neff; e++)
+        for (int k = 0; k < m->eff[e].cand->nparam; k++, j++)
+            sig[j] *= m->eff[e].cand->linear ? m->sc[j] : fabs(m->eff[e].value[k]);
+}
+
+int dm_plan(const dm_robot *rb, const dm_plan_effect *eff, int neff, const dm_plan_opts *o,
+            dm_plan_result *r, dm_error *err)
+{
+    memset(r, 0, sizeof *r);
+    if (neff < 1 || neff > DM_PLAN_MAXEFF)
+        return dm_fail(err, DM_EINVAL, "plan for 1 to %d effects, not %d", DM_PLAN_MAXEFF, neff);
+    model m;
+    model_init(&m, rb, eff, neff, o);
+    if (m.p > DM_DIAG_MAXP)
+        return dm_fail(err, DM_EINVAL, "effects: %d parameters, at most %d", m.p, DM_DIAG_MAXP);
+    if (m.p == 0)
+        return dm_fail(err, DM_EINVAL, "effects: %s has no parameter to plan for",
+                       eff[0].cand->name);
+    if (o->npose < m.p)
+        return dm_fail(err, DM_EINVAL,
+                       "%d poses: fewer than the %d parameters of these effects", o->npose, m.p);
+    r->neffect = neff;
+    memcpy(r->effect, eff, sizeof(dm_plan_effect) * neff);
+    r->nparam = m.p;
+    r->noise = o->noise > 0 ? o->noise : default_noise(o->kind);
+    int rc = o->kind == DM_DATA_TRACKER ? plan_tracker(&m, r->noise, r, err)
+                                        : plan_survey(&m, r->noise, r, err);
+    if (!rc)
+        rc = assess(&m, r->noise, r, err);
+    if (rc) {
+        dm_plan_free(r);
+        return rc;
+    }
+    snprintf(r->design.robot, sizeof r->design.robot, "%s", rb->name);
+    to_units(&m, r->sigma);
+    to_units(&m, r->sigma_random);
+    return DM_OK;
+}
+
+void dm_plan_free(dm_plan_result *r) { dm_dataset_free(&r->design); }
+
+/* ---- the comparison and the template --------------------------------------------- */
+
+int dm_plan_random(const dm_robot *rb, const dm_plan_opts *o, uint64_t seed, dm_dataset *d,
+                   dm_error *err)
+{
+    dm_rng rng = {seed * 0xD1B54A32D192ED03ull + 11};
+    double noise = o->noise > 0 ? o->noise : default_noise(o->kind);
+    memset(d, 0, sizeof *d);
+    if (o->kind == DM_DATA_TRACKER) {
+        for (int tries = 0; tries < 100; tries++) {
+            char spec[256];
+            path_spec(rb, (int)(dm_rng_uniform(&rng) * NPATH), o->npose, spec, sizeof spec);
+            int rc = path_samples(rb, spec, o->npose, noise, d, err);
+            if (rc != DM_EUNREACHABLE)
+                return rc;
+        }
+        return dm_fail(err, DM_EUNREACHABLE, "no path of the family stays in the workspace");
+    }
+    double *P = NULL;
+    int np = 0, rc = o->region ? candidate_poses(rb, o, &P, &np, err) : DM_OK;
+    if (rc)
+        return rc;
+    if (o->region && np < o->npose) {
+        free(P);
+        return dm_fail(err, DM_EINVAL, "%d poses: the region has only %d candidates", o->npose,
+                       np);
+    }
+    d->kind = o->kind;
+    snprintf(d->source, sizeof d->source, "random %s survey", dm_data_kind_name(o->kind));
+    for (int i = 0; i < o->npose && !rc; i++) {
+        double Q[3], u[3] = {dm_rng_normal(&rng), dm_rng_normal(&rng), dm_rng_normal(&rng)};
+        if (o->region) { /* distinct grid points: partial Fisher-Yates */
+            int k = i + (int)(dm_rng_uniform(&rng) * (np - i));
+            for (int c = 0; c < 3; c++) {
+                double t = P[3 * i + c];
+                P[3 * i + c] = P[3 * k + c];
+                P[3 * k + c] = t;
+            }
+            memcpy(Q, P + 3 * i, sizeof Q);
+        } else if (draw_pose(rb, &rng, Q)) {
+            rc = dm_fail(err, DM_EUNREACHABLE, "no reachable pose found near home");
+            break;
+        }
+        if (push_unit(d, o, Q, u, i, noise))
+            rc = dm_fail(err, DM_ENOMEM, "out of memory");
+        d->npose = i + 1;
+    }
+    free(P);
+    if (rc)
+        dm_dataset_free(d);
+    return rc;
+}
+
+int dm_plan_observe(const dm_robot *rb, const dm_dataset *design, double noise, uint64_t seed,
+                    int na, int nb, dm_dataset *d, dm_error *err)
+{
+    *d = *design;
+    d->s = malloc(sizeof(dm_sample) * (design->n ? design->n : 1));
+    d->cap = design->n;
+    double *pred = malloc(sizeof(double) * (design->n ? design->n : 1));
+    int rc = !d->s || !pred ? dm_fail(err, DM_ENOMEM, "out of memory") : DM_OK;
+    if (!rc) {
+        memcpy(d->s, design->s, sizeof(dm_sample) * design->n);
+        rc = dm_predict(rb, d, na, nb, pred, err);
+    }
+    dm_rng rng = {seed * 977 + 13};
+    for (int i = 0; !rc && i < d->n; i++) {
+        double s = noise > 0 ? noise : d->s[i].sigma;
+        d->s[i].value = pred[i] + s * dm_rng_normal(&rng);
+        d->s[i].sigma = s;
+    }
+    free(pred);
+    if (rc) {
+        free(d->s);
+        d->s = NULL;
+        d->n = d->cap = 0;
+    }
+    return rc;
+}
+
+int dm_plan_write_template(const dm_plan_result *r, const char *robot, FILE *out)
+{
+    const dm_dataset *d = &r->design;
+    fprintf(out, "# robot: %s\n", robot);
+    fprintf(out, "# planned by deltamap plan for");
+    for (int e = 0; e < r->neffect; e++)
+        fprintf(out, "%s %s", e ? "," : "", r->effect[e].cand->name);
+    fprintf(out, "; fill in the measured values\n");
+    if (d->kind == DM_DATA_MODAL) {
+        fprintf(out, "x,y,z,mode,freq_hz,sigma_hz\n");
+        for (int i = 0; i < d->n; i++)
+            fprintf(out, "%.9g,%.9g,%.9g,%d,,%.6g\n", d->s[i].P[0], d->s[i].P[1], d->s[i].P[2],
+                    d->s[i].mode, d->s[i].sigma);
+    } else if (d->kind == DM_DATA_STATIC) {
+        fprintf(out, "x,y,z,fx,fy,fz,dx,dy,dz,sigma_m\n");
+        for (int i = 0; i + 2 < d->n; i += 3) {
+            const dm_sample *s = &d->s[i];
+            fprintf(out, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,,,,%.6g\n", s->P[0], s->P[1], s->P[2],
+                    s->force[0], s->force[1], s->force[2], s->sigma);
+        }
+    } else {
+        fprintf(out, "# path: %s\n# tracker files carry no sigma: diagnose with --sigma %g\n",
+                r->path, r->noise);
+        fprintf(out, "t,x_cmd,y_cmd,z_cmd,x_meas,y_meas,z_meas\n");
+        for (int i = 0; i + 2 < d->n; i += 3) {
+            const dm_sample *s = &d->s[i];
+            fprintf(out, "%.9g,%.12g,%.12g,%.12g,,,\n", s->t, s->P[0], s->P[1], s->P[2]);
+        }
+    }
+    return ferror(out) ? DM_EIO : DM_OK;
+}
