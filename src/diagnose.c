@@ -94,7 +94,6 @@ void dm_candidate_param_name(const dm_candidate *c, int k, char *buf, size_t n)
 
 int dm_effect_apply(dm_robot *rb, const char *name, const double *v, dm_error *err)
 {
-    char set[256];
     const dm_candidate *c = dm_candidate_find(name);
     if (c == UNION) {
         for (int f = 0; f < 6; f++) {
@@ -104,17 +103,17 @@ int dm_effect_apply(dm_robot *rb, const char *name, const double *v, dm_error *e
         }
         return DM_OK;
     }
-    if (!strcmp(name, "geometric_stiffness"))
-        snprintf(set, sizeof set, "effects.geometric_stiffness=on");
-    else if (!strncmp(name, "damping_", 8))
-        snprintf(set, sizeof set, "damping.%s=%.17g", name + 8, v[0]);
-    else if (!strncmp(name, "base_stiffness", 14))
-        snprintf(set, sizeof set, "effects.%s=%.17g,%.17g,%.17g", name, v[0], v[0], v[0]);
-    else if (c && c->nparam == 3)
-        snprintf(set, sizeof set, "effects.%s=%.17g,%.17g,%.17g", name, v[0], v[1], v[2]);
-    else
-        snprintf(set, sizeof set, "effects.%s=%.17g", name, v[0]);
-    return dm_robot_set(rb, set, err);
+    /* typed, in place: no robot file written and read per evaluation */
+    const double on[1] = {1};
+    if (!strcmp(name, "geometric_stiffness")) /* no parameter: v may be NULL */
+        return dm_robot_set_number(rb, "effects", name, on, err);
+    if (!strncmp(name, "damping_", 8))
+        return dm_robot_set_number(rb, "damping", name + 8, v, err);
+    if (!strncmp(name, "base_stiffness", 14)) { /* one stiffness, all three axes */
+        const double all3[3] = {v[0], v[0], v[0]};
+        return dm_robot_set_number(rb, "effects", name, all3, err);
+    }
+    return dm_robot_set_number(rb, "effects", name, v, err);
 }
 
 int dm_fit_apply(const dm_robot *rb, const dm_fit *f, dm_robot *out, dm_error *err)

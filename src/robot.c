@@ -96,6 +96,14 @@ static const key_spec KEYS[] = {
 };
 #define NKEYS (sizeof KEYS / sizeof KEYS[0])
 
+/* What an unknown [effects] key is told. */
+static const char NOT_AN_EFFECT[] =
+    "not a model extension (actuator_stiffness, joint_stiffness, payload_mass, "
+    "payload_offset, elbow_mass, base_stiffness[_0|_1|_2], geometric_stiffness, clearance, "
+    "actuator_clearance_axial, actuator_clearance_radial, error_arm_length, "
+    "error_rod_length, error_base_radius, error_platform_radius, error_theta_deg, "
+    "error_alpha0_deg)";
+
 /* Sections whose unknown keys get a more specific message. */
 static const char *const RESERVED_SECTIONS[] = {"effects", NULL};
 
@@ -255,12 +263,7 @@ static int handler(void *user, const char *section, const char *name, const char
     for (int r = 0; RESERVED_SECTIONS[r]; r++)
         if (!strcmp(section, RESERVED_SECTIONS[r]))
             return key_error(st, st->line, section, name,
-                             "not a model extension (actuator_stiffness, joint_stiffness, "
-                             "payload_mass, payload_offset, elbow_mass, base_stiffness[_0|_1|_2], "
-                             "geometric_stiffness, clearance, actuator_clearance_axial, "
-                             "actuator_clearance_radial, error_arm_length, error_rod_length, "
-                             "error_base_radius, error_platform_radius, error_theta_deg, "
-                             "error_alpha0_deg)");
+                             "%s", NOT_AN_EFFECT);
     int known_section = 0;
     for (size_t i = 0; i < NKEYS; i++)
         known_section |= !strcmp(KEYS[i].section, section);
@@ -811,8 +814,11 @@ int dm_robot_set_number(dm_robot *robot, const char *section, const char *key, c
                         dm_error *err)
 {
     const key_spec *ks = find_key(section, key);
+    if (!ks && !strcmp(section, "effects"))
+        return dm_fail(err, DM_EINVAL, "%s: [effects] %s: %s", robot->source, key, NOT_AN_EFFECT);
     if (!ks)
-        return dm_fail(err, DM_EINVAL, "[%s] %s: no such key of a robot file", section, key);
+        return dm_fail(err, DM_EINVAL, "%s: [%s] %s: no such key of a robot file",
+                       robot->source, section, key);
     if (!settable(ks))
         return dm_fail(err, DM_EINVAL,
                        "[%s] %s: other values derive from it; change it with dm_robot_set",
