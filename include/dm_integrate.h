@@ -143,6 +143,7 @@ typedef struct dm_integ_sample {
     double tool_error_m[3]; /* error + eps x tool */
     double freq_hz[DM_INTEG_MAXFREQ];
     int nfreq;
+    double coupling_index_log10; /* of the step's frozen K (dm_coupling.h) */
 } dm_integ_sample;
 
 typedef struct dm_integ_summary {
@@ -156,6 +157,9 @@ typedef struct dm_integ_summary {
     double truncation_beta_s;  /* > 0: the robot is undamped, and both runs of the
                                   truncation figure had Rayleigh beta = this */
     int aliasing_risk;       /* undamped, > 20 modes, dt > 1.25e-4 s (MODEL.md §4) */
+    /* Zheng's coupling index log10 det K over the frozen steps: time mean
+     * (each step's value weighted by its length), minimum, maximum */
+    double coupling_mean_log10, coupling_min_log10, coupling_max_log10;
 } dm_integ_summary;
 
 /* An undamped robot's truncation figure is measured with this light

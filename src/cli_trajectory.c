@@ -48,7 +48,8 @@ static const char HELP[] =
     "                   the initial static equilibrium)\n"
     "  --tool X,Y,Z     tool point offset from the platform centre in m (default 0)\n"
     "  --out FILE       per-step CSV: t, pose, six error components, |error|, tool\n"
-    "                   error, first three frequencies; a name ending in .zarr writes\n"
+    "                   error, first three frequencies, coupling index log10 det K\n"
+    "                   (Zheng eq. 33, of the step's frozen K); a name ending in .zarr writes\n"
     "                   the same as a Zarr v3 group (the map store's format)\n"
     "  --force-long     run even when the estimated work exceeds 4 hours (refused\n"
     "                   before it starts otherwise)\n"
@@ -159,7 +160,7 @@ static int csv_sample(void *user, const dm_integ_sample *s)
             fprintf(f, ",%.9g", s->freq_hz[j]);
         else
             fprintf(f, ",");
-    fputc('\n', f);
+    fprintf(f, ",%.12g\n", s->coupling_index_log10);
     return ferror(f) ? 1 : 0;
 }
 
@@ -215,7 +216,8 @@ static double sample_value(const dm_integ_sample *s, int array, int j)
     case 2: return s->error[j];
     case 3: return sqrt(s->error[0] * s->error[0] + s->error[1] * s->error[1] + s->error[2] * s->error[2]);
     case 4: return s->tool_error_m[j];
-    default: return j < s->nfreq ? s->freq_hz[j] : NAN;
+    case 5: return j < s->nfreq ? s->freq_hz[j] : NAN;
+    default: return s->coupling_index_log10;
     }
 }
 
@@ -231,8 +233,10 @@ static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory 
     time_array(&st, "error_norm", NULL, 1, "m", "|(dx, dy, dz)|", l->n);
     time_array(&st, "tool_error", "axis", 3, "m", "tool point error", l->n);
     time_array(&st, "frequencies_hz", "mode", nfreq, "Hz", "frequencies of the frozen configuration", l->n);
-    json_t *names = json_pack("[ssssss]", "time", "position", "error", "error_norm", "tool_error",
-                              "frequencies_hz");
+    time_array(&st, "coupling_index_log10", NULL, 1, "1",
+               "log10 of Zheng's coupling index (eq. 33), det K of the frozen model", l->n);
+    json_t *names = json_pack("[sssssss]", "time", "position", "error", "error_norm", "tool_error",
+                              "frequencies_hz", "coupling_index_log10");
     st.group_attributes = json_pack("{s:s, s:{s:s, s:s, s:s, s:o}}", "title",
                                     "deltamap trajectory run", "deltamap", "tool",
                                     "deltamap " DM_VERSION, "robot", rb->name, "path", tr->name,
@@ -281,6 +285,9 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
                             isnan(s->reference_mean_error_m) ? json_null()
                                                              : json_real(s->reference_mean_error_m));
         json_object_set_new(o, "quasi_static", json_boolean(t->o.quasi_static));
+        json_object_set_new(o, "coupling_index_log10",
+                            json_pack("{s:f, s:f, s:f}", "mean", s->coupling_mean_log10, "min",
+                                      s->coupling_min_log10, "max", s->coupling_max_log10));
         json_object_set_new(o, "truncation_damping_beta_s",
                             s->truncation_beta_s > 0 ? json_real(s->truncation_beta_s) : json_null());
         json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(17));
@@ -294,6 +301,8 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
            t->o.dt_s);
     printf("mean error  %.6e m   (Chen eq. 27: (1/T) sum dt |Delta|)\n", s->mean_error_m);
     printf("peak error  %.6e m\n", s->peak_error_m);
+    printf("coupling    log10 lambda_s (Zheng eq. 33) mean %.10g, min %.10g, max %.10g\n",
+           s->coupling_mean_log10, s->coupling_min_log10, s->coupling_max_log10);
     if (!isnan(s->truncation_error) && s->truncation_beta_s > 0)
         printf("truncation  %.3f %% (RMS of Delta_k - Delta_all over RMS of Delta_all, both with "
                "Rayleigh beta = %g s: undamped, the all-modes run is not converged in dt; all %d "
@@ -330,7 +339,7 @@ int dm_cli_trajectory(int argc, char **argv)
     }
     if (out.f)
         fprintf(out.f, "t_s,x_m,y_m,z_m,dx_m,dy_m,dz_m,ex_rad,ey_rad,ez_rad,error_m,"
-                       "tool_dx_m,tool_dy_m,tool_dz_m,f1_hz,f2_hz,f3_hz\n");
+                       "tool_dx_m,tool_dy_m,tool_dz_m,f1_hz,f2_hz,f3_hz,coupling_index_log10\n");
     dm_integ_summary sum;
     rc = dm_integrate_trajectory(&rb, &tr, &t.o, zarr ? keep_sample : out.f ? csv_sample : NULL,
                                  zarr ? (void *)&kept : (void *)out.f, &sum, &err);

@@ -124,6 +124,20 @@ c = np.genfromtxt('$TMP/run.csv', delimiter=',', names=True)
 ok = ds.sizes['time'] == 51 and np.allclose(ds.time.values, c['t_s']) and np.allclose(ds.error_norm.values, c['error_m'], rtol=1e-8)
 sys.exit(0 if ok and ds.error.attrs['units'] == 'm, rad' else 1)"; then ok; else bad "trajectory zarr content"; fi
 
+# coupling index (Zheng eq. 33): modes at the path's first pose == the run's first CSV row
+# (same frozen K, printed with 12 digits); a preset has no effects, so no change
+if .venv/bin/python -c "
+import xarray as xr, numpy as np, sys
+ds = xr.open_zarr('$TMP/run.zarr', consolidated=False)
+c = np.genfromtxt('$TMP/run.csv', delimiter=',', names=True)
+sys.exit(0 if np.allclose(ds.coupling_index_log10.values, c['coupling_index_log10'], rtol=1e-11, atol=0) else 1)"; then ok; else bad "trajectory zarr coupling index"; fi
+P0=$(awk -F, 'NR == 2 {print $2 "," $3 "," $4}' "$TMP/run.csv")
+C0=$(awk -F, 'NR == 2 {print $18}' "$TMP/run.csv")
+expect 0 "modes coupling index" "$DM" modes --robot zheng2017 --at "$P0" --mesh 1,1 --json
+json_true "abs(d['coupling_index_log10'] - $C0) <= 1e-11 * abs($C0) and d['coupling_index_change_log10'] == 0"
+expect 0 "modes coupling index with effects" "$DM" modes --robot zheng2017 --mesh 1,1 --set effects.base_stiffness=1e8,1e8,1e8 --json
+json_true "d['coupling_index_change_log10'] > 0"
+
 # ---- study ----
 expect 0 "study json" "$DM" study --robot chen2018 --path "p2p:from=0,0,-0.5;to=0.05,0,-0.5;duration=0.02" --mesh 1,1 --vary arm.side=0.02:0.03:2 --vary rod.side=0.006:0.01:2 --json --out "$TMP/study.csv"
 json_true "len(d['mean_error_m']) == 2 and len(d['mean_error_m'][0]) == 2 and d['parameters'] == ['arm.side', 'rod.side']"
