@@ -135,6 +135,25 @@ P0=$(awk -F, 'NR == 2 {print $2 "," $3 "," $4}' "$TMP/run.csv")
 C0=$(awk -F, 'NR == 2 {print $18}' "$TMP/run.csv")
 expect 0 "modes coupling index" "$DM" modes --robot zheng2017 --at "$P0" --mesh 1,1 --json
 json_true "abs(d['coupling_index_log10'] - $C0) <= 1e-11 * abs($C0) and d['coupling_index_change_log10'] == 0"
+# error budget (Zheng §5): columns, JSON, rigid with one source == that source
+# (the CSV has 10 significant digits: sums of 1e-4 m terms agree to 1e-12 m)
+GEO="effects.error_arm_length=1e-4,-5e-5,2e-5"
+expect 0 "budget run" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --no-reference --set "$GEO" --set effects.clearance=1e-5 --json --out "$TMP/budget.csv"
+json_true "all(k in d['budget'] for k in ('geometry', 'clearance', 'flexibility', 'sum', 'combined', 'coupling')) and d['budget']['flexibility_on']"
+json_true "abs(d['budget']['combined']['mean_m'] - d['mean_error_m']) <= 1e-15 and d['budget']['coupling']['mean_m'] < 1e-3 * d['budget']['sum']['mean_m']"
+if python3 -c "
+import csv, sys
+r = list(csv.DictReader(open('$TMP/budget.csv')))
+ok = len(r) == 51 and all(abs(float(x['combined_m']) - float(x['error_m'])) <= 1e-12 * float(x['error_m']) for x in r)
+ok = ok and all(abs(float(x['sum_dx_m']) - sum(float(x[s + '_dx_m']) for s in ('geometry', 'clearance', 'flexibility'))) < 1e-12 for x in r)
+sys.exit(0 if ok else 1)"; then ok; else bad "budget CSV columns"; fi
+expect 0 "budget plot" .venv/bin/python tools/plot_trajectory.py "$TMP/budget.csv"
+expect 0 "rigid budget" "$DM" trajectory --robot zheng2017 --path "$SHORT" --rigid --set "$GEO" --json
+json_true "d['budget']['flexibility']['mean_m'] == 0 and d['budget']['clearance']['mean_m'] == 0 and abs(d['budget']['combined']['mean_m'] - d['budget']['geometry']['mean_m']) <= 1e-12 * d['budget']['geometry']['mean_m']"
+expect 1 "rigid without budget" "$DM" trajectory --robot zheng2017 --path "$SHORT" --rigid --no-budget
+contains err "--rigid"
+expect 0 "no budget" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --no-reference --set "$GEO" --json --no-budget
+json_true "'budget' not in d"
 expect 0 "modes coupling index with effects" "$DM" modes --robot zheng2017 --mesh 1,1 --set effects.base_stiffness=1e8,1e8,1e8 --json
 json_true "d['coupling_index_change_log10'] > 0"
 
