@@ -25,6 +25,7 @@ static const char MAIN_HELP[] =
     "  sweep       workspace maps (frequencies, errors, stiffness) into a store\n"
     "  info        what a map store holds, its completeness and checksums\n"
     "  study       mean trajectory error over one or two robot parameters\n"
+    "  tolerance   Monte Carlo of the platform error over tolerances and clearance\n"
     "  compare     residuals of the model against measured data\n"
     "  diagnose    name the physical effect behind the residuals, fit it\n"
     "  synth       synthetic measured data from an extended robot\n"
@@ -313,6 +314,8 @@ int dm_cli_main(int argc, char **argv)
         return dm_cli_diagnose(argc - 1, argv + 1);
     if (!strcmp(cmd, "synth"))
         return dm_cli_synth(argc - 1, argv + 1);
+    if (!strcmp(cmd, "tolerance"))
+        return dm_cli_tolerance(argc - 1, argv + 1);
     if (!strcmp(cmd, "study"))
         return dm_cli_study(argc - 1, argv + 1);
     if (!strcmp(cmd, "robot"))

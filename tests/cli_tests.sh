@@ -157,6 +157,27 @@ json_true "'budget' not in d"
 expect 0 "modes coupling index with effects" "$DM" modes --robot zheng2017 --mesh 1,1 --set effects.base_stiffness=1e8,1e8,1e8 --json
 json_true "d['coupling_index_change_log10'] > 0"
 
+# ---- tolerance (Monte Carlo at a pose) ----
+TOLR="--robot zheng2017 --set effects.clearance=1e-5 --set effects.actuator_clearance_radial=2e-5 --mesh 1,1 --tol arm_length=5e-5 --tol theta_deg=0.01"
+expect 0 "tolerance json" "$DM" tolerance $TOLR --at 0.03,0.02,-0.41 --samples 400 --seed 7 --spec 0.05e-3 --threads 2 --json
+cp "$TMP/out" "$TMP/tol2.json"
+json_true "d['samples'] == 400 and 0 <= d['p_exceed_spec'] <= 1 and d['p95_error_m'] <= d['max_error_m'] and d['dominant_source'] == 'arm_length'"
+json_true "set(d['sensitivity']) >= {'arm_length', 'clearance', 'actuator_clearance_radial'} and d['tolerances']['theta_deg'] == 0.01"
+expect 0 "tolerance one thread" "$DM" tolerance $TOLR --at 0.03,0.02,-0.41 --samples 400 --seed 7 --spec 0.05e-3 --threads 1 --json
+json_true "d == json.load(open('$TMP/tol2.json'))"
+expect 0 "tolerance table" "$DM" tolerance $TOLR --samples 50 --seed 1
+contains out "dominant    arm_length"
+expect 2 "tolerance negative" "$DM" tolerance --robot zheng2017 --samples 10 --seed 1 --tol rod_length=-1e-5
+contains err "rod_length: must be >= 0"
+expect 2 "tolerance spec 0" "$DM" tolerance --robot zheng2017 --samples 10 --seed 1 --spec 0
+contains err "--spec: must be > 0"
+expect 2 "tolerance zero samples" "$DM" tolerance --robot zheng2017 --samples 0 --seed 1
+contains err "samples: must be >= 1"
+expect 2 "tolerance hours refused at once" timeout 10 "$DM" tolerance --robot zheng2017 --samples 90000000 --seed 1
+contains err "hours of work"
+expect 1 "tolerance needs a seed" "$DM" tolerance --robot zheng2017 --samples 10
+expect 1 "tolerance bad name" "$DM" tolerance --robot zheng2017 --samples 10 --seed 1 --tol colour=1
+
 # ---- study ----
 expect 0 "study json" "$DM" study --robot chen2018 --path "p2p:from=0,0,-0.5;to=0.05,0,-0.5;duration=0.02" --mesh 1,1 --vary arm.side=0.02:0.03:2 --vary rod.side=0.006:0.01:2 --json --out "$TMP/study.csv"
 json_true "len(d['mean_error_m']) == 2 and len(d['mean_error_m'][0]) == 2 and d['parameters'] == ['arm.side', 'rod.side']"
