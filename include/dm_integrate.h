@@ -122,7 +122,12 @@ typedef struct dm_integ_opts {
                             static equilibrium as well) */
     int nfreq;           /* frequencies reported per sample (<= DM_INTEG_MAXFREQ) */
     int force;           /* run even beyond DM_INTEG_MAX_SECONDS of estimated work */
+    /* Zheng fig. 15: also report the mean |error component| along base axes
+     * rotated about z by each of these angles (rad) */
+    int naxes;           /* <= DM_INTEG_MAXAXES */
+    double axes_rotation_rad[8];
 } dm_integ_opts;
+#define DM_INTEG_MAXAXES 8
 
 /* A run whose estimated work exceeds this is refused before it starts
  * unless opts.force: an estimate from the step count and the model size,
@@ -160,6 +165,9 @@ typedef struct dm_integ_summary {
     /* Zheng's coupling index log10 det K over the frozen steps: time mean
      * (each step's value weighted by its length), minimum, maximum */
     double coupling_mean_log10, coupling_min_log10, coupling_max_log10;
+    /* per opts.axes_rotation_rad[a]: (1/T) sum dt |e . x'|, |e . y'|, |e . z|
+     * with x' = (cos b, sin b, 0), y' = (-sin b, cos b, 0), e the total error */
+    double mean_axes_m[DM_INTEG_MAXAXES][3];
 } dm_integ_summary;
 
 /* An undamped robot's truncation figure is measured with this light

@@ -17,6 +17,7 @@ static const char HELP[] =
     "                           [--no-quasi-static] [--from-rest] [--no-reference]\n"
     "                           [--mesh NA,NB] [--tool X,Y,Z] [--force FX,FY,FZ]\n"
     "                           [--set SECTION.KEY=V]... [--force-long] [--rigid] [--no-budget]\n"
+    "                           [--axes-rotation DEG[,DEG...]]\n"
     "                           [--out FILE.csv] [--json]\n"
     "\n"
     "Normal-coordinate integration along a trajectory (MODEL.md §4): the robot is\n"
@@ -64,7 +65,10 @@ static const char HELP[] =
     "flexibility_*, sum_*, combined_*, coupling_*; the summary's means and peaks).\n"
     "  --rigid          kinematic sources only: no flexible model (flexibility alone\n"
     "                   is zero, combined is the rigid closure); implies the budget\n"
-    "  --no-budget      the combined run only (its CSV columns as without errors)\n";
+    "  --no-budget      the combined run only (its CSV columns as without errors)\n"
+    "  --axes-rotation B[,B...]  also report the mean |error| components along the\n"
+    "                   base axes rotated about z by each angle B (deg, up to 8;\n"
+    "                   Zheng fig. 15); not with --rigid\n";
 
 typedef struct {
     const char *robot, *path, *out;
@@ -83,7 +87,7 @@ static int parse(int argc, char **argv, traj_opts *t)
         {"no-reference", 0, 0, 'n'},
         {"mesh", 1, 0, 'm'}, {"tool", 1, 0, 't'}, {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'},
         {"set", 1, 0, 's'}, {"force", 1, 0, 'F'}, {"force-long", 0, 0, 'L'},
-        {"rigid", 0, 0, 'G'}, {"no-budget", 0, 0, 'B'},
+        {"rigid", 0, 0, 'G'}, {"no-budget", 0, 0, 'B'}, {"axes-rotation", 1, 0, 'X'},
         {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     int c;
     double v[2];
@@ -102,6 +106,21 @@ static int parse(int argc, char **argv, traj_opts *t)
         case 'L': t->o.force = 1; break;
         case 'G': t->rigid = 1; break;
         case 'B': t->no_budget = 1; break;
+        case 'X': {
+            const char *p = optarg;
+            t->o.naxes = 0;
+            for (;;) {
+                char *end;
+                double b = strtod(p, &end);
+                if (end == p || !isfinite(b) || t->o.naxes == DM_INTEG_MAXAXES || (*end && *end != ','))
+                    return dm_cli_usage("trajectory", "--axes-rotation takes up to 8 angles in degrees, B[,B...]", optarg);
+                t->o.axes_rotation_rad[t->o.naxes++] = b * M_PI / 180;
+                if (!*end)
+                    break;
+                p = end + 1;
+            }
+            break;
+        }
         case 'z': t->o.from_rest = 1; break;
         case 's':
             if (dm_cli_add_set("trajectory", t->sets, &t->nset, optarg))
@@ -156,6 +175,8 @@ static int parse(int argc, char **argv, traj_opts *t)
         return dm_cli_usage("trajectory", "--robot and --path are required", NULL);
     if (t->o.method == DM_ODE_FULL)
         t->o.k = 0;
+    if (t->rigid && t->o.naxes)
+        return dm_cli_usage("trajectory", "--axes-rotation reports the flexible run: not with --rigid", NULL);
     if (t->rigid && t->no_budget)
         return dm_cli_usage("trajectory", "--rigid is a budget run: it cannot go with --no-budget", NULL);
     return 0;
@@ -407,6 +428,16 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
                                       s->coupling_min_log10, "max", s->coupling_max_log10));
         if (b)
             json_object_set_new(o, "budget", budget_json(b));
+        if (t->o.naxes) {
+            json_t *ax = json_array();
+            for (int a = 0; a < t->o.naxes; a++)
+                json_array_append_new(ax, json_pack("{s:f, s:f, s:f, s:f}", "rotation_deg",
+                                                    t->o.axes_rotation_rad[a] * 180 / M_PI,
+                                                    "mean_abs_x_m", s->mean_axes_m[a][0],
+                                                    "mean_abs_y_m", s->mean_axes_m[a][1],
+                                                    "mean_abs_z_m", s->mean_axes_m[a][2]));
+            json_object_set_new(o, "axes_rotation", ax);
+        }
         json_object_set_new(o, "truncation_damping_beta_s",
                             s->truncation_beta_s > 0 ? json_real(s->truncation_beta_s) : json_null());
         json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(17));
@@ -433,6 +464,13 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
                100 * s->truncation_error, s->n, s->reference_mean_error_m);
     if (b)
         print_budget(b);
+    if (t->o.naxes) {
+        printf("\nmean |error| along axes rotated about z by beta (Zheng fig. 15), m\n");
+        printf("  %10s %14s %14s %14s\n", "beta (deg)", "x'", "y'", "z");
+        for (int a = 0; a < t->o.naxes; a++)
+            printf("  %10.4g %14.6e %14.6e %14.6e\n", t->o.axes_rotation_rad[a] * 180 / M_PI,
+                   s->mean_axes_m[a][0], s->mean_axes_m[a][1], s->mean_axes_m[a][2]);
+    }
     if (t->out)
         printf("written     %s\n", t->out);
 }

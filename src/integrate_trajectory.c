@@ -220,6 +220,7 @@ static int initial_state(run_ws *w, dm_error *err)
 typedef struct {
     double mean, peak, ref_mean, ref_sq, diff_sq; /* time integrals and maxima */
     double coupling_mean, coupling_min, coupling_max;
+    double axes[DM_INTEG_MAXAXES][3];
 } run_stats;
 
 static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, run_stats *rs,
@@ -273,6 +274,12 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     double e = dm_norm3(s.error);
     rs->mean += h * e;
     rs->coupling_mean += h * w->coupling_log10;
+    for (int a = 0; a < w->o.naxes && a < DM_INTEG_MAXAXES; a++) {
+        double b = w->o.axes_rotation_rad[a], c = cos(b), sn = sin(b);
+        rs->axes[a][0] += h * fabs(c * s.error[0] + sn * s.error[1]);
+        rs->axes[a][1] += h * fabs(-sn * s.error[0] + c * s.error[1]);
+        rs->axes[a][2] += h * fabs(s.error[2]);
+    }
     rs->coupling_min = j == 0 ? w->coupling_log10 : fmin(rs->coupling_min, w->coupling_log10);
     rs->coupling_max = j == 0 ? w->coupling_log10 : fmax(rs->coupling_max, w->coupling_log10);
     rs->peak = fmax(rs->peak, e);
@@ -335,6 +342,9 @@ int dm_integrate_trajectory(const dm_robot *rb, const dm_trajectory *tr, const d
         sum->coupling_mean_log10 = rs.coupling_mean / tr->duration_s;
         sum->coupling_min_log10 = rs.coupling_min;
         sum->coupling_max_log10 = rs.coupling_max;
+        for (int a = 0; a < o->naxes && a < DM_INTEG_MAXAXES; a++)
+            for (int k = 0; k < 3; k++)
+                sum->mean_axes_m[a][k] = rs.axes[a][k] / tr->duration_s;
     }
     free_ws(&w);
     return rc;

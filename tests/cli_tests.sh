@@ -154,6 +154,24 @@ expect 1 "rigid without budget" "$DM" trajectory --robot zheng2017 --path "$SHOR
 contains err "--rigid"
 expect 0 "no budget" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --no-reference --set "$GEO" --json --no-budget
 json_true "'budget' not in d"
+# --axes-rotation (Zheng fig. 15): beta = 0 is the mean |dx|, |dy| of the CSV
+# (Chen eq. 27 weighting; the CSV's 10 digits: 1e-8); 90 swaps x and y, 180 is 0
+expect 0 "axes rotation" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --no-reference --set effects.base_stiffness_1=2e6,2e6,2e6 --axes-rotation 0,90,180 --json --out "$TMP/axes.csv"
+json_true "[a['rotation_deg'] for a in d['axes_rotation']] == [0, 90, 180]"
+json_true "all(abs(d['axes_rotation'][1][p] - d['axes_rotation'][0][q]) <= 1e-12 * d['axes_rotation'][0][q] for p, q in (('mean_abs_x_m', 'mean_abs_y_m'), ('mean_abs_y_m', 'mean_abs_x_m'), ('mean_abs_z_m', 'mean_abs_z_m')))"
+json_true "all(abs(d['axes_rotation'][2][k] - d['axes_rotation'][0][k]) <= 1e-12 * d['axes_rotation'][0][k] for k in ('mean_abs_x_m', 'mean_abs_y_m'))"
+if python3 -c "
+import csv, json, sys
+r = list(csv.DictReader(open('$TMP/axes.csv')))
+d = json.load(open('$TMP/out'))['axes_rotation'][0]
+T = float(r[-1]['t_s'])
+ok = True
+for c, k in (('dx_m', 'mean_abs_x_m'), ('dy_m', 'mean_abs_y_m'), ('dz_m', 'mean_abs_z_m')):
+    m = sum((float(r[i]['t_s']) - float(r[i - 1]['t_s'])) * abs(float(r[i][c])) for i in range(1, len(r))) / T
+    ok = ok and abs(m - d[k]) <= 1e-8 * d[k]
+sys.exit(0 if ok else 1)"; then ok; else bad "axes rotation 0 == CSV means"; fi
+expect 1 "axes rotation with rigid" "$DM" trajectory --robot zheng2017 --path "$SHORT" --rigid --axes-rotation 30
+expect 1 "axes rotation bad" "$DM" trajectory --robot zheng2017 --path "$SHORT" --axes-rotation 30,x
 expect 0 "modes coupling index with effects" "$DM" modes --robot zheng2017 --mesh 1,1 --set effects.base_stiffness=1e8,1e8,1e8 --json
 json_true "d['coupling_index_change_log10'] > 0"
 
