@@ -254,8 +254,8 @@ int dm_tolerance_check(const dm_robot *rb, const dm_tolerance_spec *sp, dm_error
                            dm_tolerance_class_name(c), sp->tol[c]);
     if (sp->samples < 1)
         return dm_fail(err, DM_EINVAL, "samples: must be >= 1, got %ld", sp->samples);
-    if (sp->samples > 100000000L)
-        return dm_fail(err, DM_EINVAL, "samples: at most 1e8, got %ld", sp->samples);
+    if (sp->samples > 10000000L) /* 24 bytes of results each: at most 240 MB */
+        return dm_fail(err, DM_EINVAL, "samples: at most 1e7, got %ld", sp->samples);
     if (!(sp->spec_m >= 0) || !isfinite(sp->spec_m))
         return dm_fail(err, DM_EINVAL, "spec: must be > 0 m, got %g", sp->spec_m);
     double est = dm_tolerance_estimate_s(rb, sp);

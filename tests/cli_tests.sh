@@ -191,8 +191,10 @@ expect 2 "tolerance spec 0" "$DM" tolerance --robot zheng2017 --samples 10 --see
 contains err "--spec: must be > 0"
 expect 2 "tolerance zero samples" "$DM" tolerance --robot zheng2017 --samples 0 --seed 1
 contains err "samples: must be >= 1"
-expect 2 "tolerance hours refused at once" timeout 10 "$DM" tolerance --robot zheng2017 --samples 90000000 --seed 1
+expect 2 "tolerance hours refused at once" timeout 10 "$DM" tolerance --robot zheng2017 --samples 9000000 --mesh 8,8 --seed 1
 contains err "hours of work"
+expect 2 "tolerance too many samples" "$DM" tolerance --robot zheng2017 --samples 20000000 --rigid --seed 1
+contains err "at most 1e7"
 expect 1 "tolerance needs a seed" "$DM" tolerance --robot zheng2017 --samples 10
 expect 1 "tolerance bad name" "$DM" tolerance --robot zheng2017 --samples 10 --seed 1 --tol colour=1
 
