@@ -30,6 +30,7 @@ typedef struct dm_pose_result {
     double compliance_dir[3];
     double stiffness_min_n_per_m;/* 1 / compliance_max */
     int near_singular;           /* pose.cond > robot->singular_cond */
+    double coupling_index_log10; /* log10 det K, Zheng eq. 33 (dm_coupling.h) */
 } dm_pose_result;
 
 dm_analysis *dm_analysis_alloc(const dm_robot *robot, int na, int nb, int kmax,

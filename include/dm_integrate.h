@@ -126,7 +126,12 @@ typedef struct dm_integ_opts {
                             static equilibrium as well) */
     int nfreq;           /* frequencies reported per sample (<= DM_INTEG_MAXFREQ) */
     int force;           /* run even beyond DM_INTEG_MAX_SECONDS of estimated work */
+    /* Zheng fig. 15: also report the mean |error component| along base axes
+     * rotated about z by each of these angles (rad) */
+    int naxes;           /* <= DM_INTEG_MAXAXES */
+    double axes_rotation_rad[8];
 } dm_integ_opts;
+#define DM_INTEG_MAXAXES 8
 
 /* A run whose estimated work exceeds this is refused before it starts
  * unless opts.force: an estimate from the step count and the model size,
@@ -147,6 +152,7 @@ typedef struct dm_integ_sample {
     double tool_error_m[3]; /* error + eps x tool */
     double freq_hz[DM_INTEG_MAXFREQ];
     int nfreq;
+    double coupling_index_log10; /* of the step's frozen K (dm_coupling.h) */
 } dm_integ_sample;
 
 typedef struct dm_integ_summary {
@@ -160,6 +166,12 @@ typedef struct dm_integ_summary {
     double truncation_beta_s;  /* > 0: the robot is undamped, and both runs of the
                                   truncation figure had Rayleigh beta = this */
     int aliasing_risk;       /* undamped, > 20 modes, dt > 1.25e-4 s (MODEL.md §4) */
+    /* Zheng's coupling index log10 det K over the frozen steps: time mean
+     * (each step's value weighted by its length), minimum, maximum */
+    double coupling_mean_log10, coupling_min_log10, coupling_max_log10;
+    /* per opts.axes_rotation_rad[a]: (1/T) sum dt |e . x'|, |e . y'|, |e . z|
+     * with x' = (cos b, sin b, 0), y' = (-sin b, cos b, 0), e the total error */
+    double mean_axes_m[DM_INTEG_MAXAXES][3];
 } dm_integ_summary;
 
 /* An undamped robot's truncation figure is measured with this light

@@ -50,6 +50,21 @@ int dm_kin_pose(const dm_robot *robot, const double P[3], dm_pose *pose, dm_erro
 int dm_kin_pose_loaded(const dm_robot *robot, const double P[3], const double W[3],
                        dm_pose *pose, dm_error *err);
 
+/* A joint-clearance state given explicitly, per chain: the extra effective
+ * rod length dlb (m; the parallelogram's rods together) and the shift of
+ * the whole arm by its revolute joint's play (m, base frame). */
+typedef struct dm_kin_play {
+    double dlb[3];
+    double shift[3][3];
+} dm_kin_play;
+
+/* The real configuration commanded to P (as dm_kin_pose) with this
+ * clearance state instead of the one the load opens; the robot's own
+ * clearance values are not used. Always closes the real chains, so with
+ * no errors and zero play the offset is round-off, not exactly 0. */
+int dm_kin_pose_play(const dm_robot *robot, const double P[3], const dm_kin_play *play,
+                     dm_pose *pose, dm_error *err);
+
 /* Net force on the platform (N): (platform + payload mass) (g - a) + F.
  * a or F may be NULL (zero). */
 void dm_kin_platform_force(const dm_robot *robot, const double a[3], const double F[3],

@@ -3,6 +3,8 @@
 #include "dm_analysis.h"
 
 #include <math.h>
+
+#include "dm_coupling.h"
 #include <stdlib.h>
 
 dm_analysis *dm_analysis_alloc(const dm_robot *robot, int na, int nb, int kmax,
@@ -52,6 +54,8 @@ int dm_analysis_run(dm_analysis *an, const double P[3], int k, dm_pose_result *r
     if (!rc)
         rc = dm_static_platform_error(an->statics, an->model, an->model->F_gravity,
                                       res->static_error, err);
+    if (!rc)
+        res->coupling_index_log10 = dm_coupling_index_log10(an->statics);
     if (!rc)
         rc = dm_static_compliance(an->statics, an->model, res->compliance, err);
     if (!rc)

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "dm_analysis.h"
+#include "dm_coupling.h"
 #include "cli_impl.h"
 
 
@@ -24,6 +25,7 @@ static const char MAIN_HELP[] =
     "  sweep       workspace maps (frequencies, errors, stiffness) into a store\n"
     "  info        what a map store holds, its completeness and checksums\n"
     "  study       mean trajectory error over one or two robot parameters\n"
+    "  tolerance   Monte Carlo of the platform error over tolerances and clearance\n"
     "  compare     residuals of the model against measured data\n"
     "  diagnose    name the physical effect behind the residuals, fit it\n"
     "  synth       synthetic measured data from an extended robot\n"
@@ -128,7 +130,7 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
 }
 
 static void print_modes_table(const dm_robot *rb, const dm_analysis *an,
-                              const dm_pose_result *res)
+                              const dm_pose_result *res, double nominal_log10)
 {
     const dm_pose *p = &res->pose;
     const dm_modes *mo = res->modes;
@@ -155,6 +157,10 @@ static void print_modes_table(const dm_robot *rb, const dm_analysis *an,
            res->compliance_max_m_per_n, res->stiffness_min_n_per_m);
     printf("  diagonal: cxx %.5e  cyy %.5e  czz %.5e m/N\n", res->compliance[0],
            res->compliance[7], res->compliance[14]);
+    printf("\ncoupling index (Zheng eq. 33, product of the singular values of K)\n");
+    printf("  log10 = %.10g   change from the nominal robot (no effects) = %+.6g\n"
+           "  (depends on the mesh and the DOF units: compare at the same mesh only)\n",
+           res->coupling_index_log10, res->coupling_index_log10 - nominal_log10);
 }
 
 static json_t *json_array_of(const double *v, int n)
@@ -166,7 +172,7 @@ static json_t *json_array_of(const double *v, int n)
 }
 
 static int print_modes_json(const dm_robot *rb, const dm_analysis *an,
-                            const dm_pose_result *res)
+                            const dm_pose_result *res, double nominal_log10)
 {
     const dm_modes *mo = res->modes;
     json_t *o = json_object(), *modes = json_array(), *C = json_array();
@@ -199,6 +205,9 @@ static int print_modes_json(const dm_robot *rb, const dm_analysis *an,
     json_object_set_new(o, "compliance_max_m_per_n", json_real(res->compliance_max_m_per_n));
     json_object_set_new(o, "compliance_max_direction", json_array_of(res->compliance_dir, 3));
     json_object_set_new(o, "stiffness_min_n_per_m", json_real(res->stiffness_min_n_per_m));
+    json_object_set_new(o, "coupling_index_log10", json_real(res->coupling_index_log10));
+    json_object_set_new(o, "coupling_index_change_log10",
+                        json_real(res->coupling_index_log10 - nominal_log10));
     int rc = json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(17));
     putchar('\n');
     json_decref(o);
@@ -227,11 +236,20 @@ static int cmd_modes(int argc, char **argv)
         return DM_EINVAL;
     }
     dm_pose_result res;
-    rc = dm_analysis_run(an, o.have_at ? o.at : rb.home_m, o.k, &res, &err);
+    const double *P = o.have_at ? o.at : rb.home_m;
+    double nominal = 0;
+    dm_coupling *cw = NULL;
+    rc = dm_analysis_run(an, P, o.k, &res, &err);
+    if (!rc && !(cw = dm_coupling_alloc(&rb, na, nb, &err)))
+        rc = err.code;
     if (!rc)
-        rc = o.json ? print_modes_json(&rb, an, &res) : (print_modes_table(&rb, an, &res), 0);
+        rc = dm_coupling_nominal_log10(cw, P, &nominal, &err);
+    if (!rc)
+        rc = o.json ? print_modes_json(&rb, an, &res, nominal)
+                    : (print_modes_table(&rb, an, &res, nominal), 0);
     else
         dm_cli_report(&err);
+    dm_coupling_free(cw);
     dm_analysis_free(an);
     return rc;
 }
@@ -299,6 +317,8 @@ int dm_cli_main(int argc, char **argv)
         return dm_cli_synth(argc - 1, argv + 1);
     if (!strcmp(cmd, "plan"))
         return dm_cli_plan(argc - 1, argv + 1);
+    if (!strcmp(cmd, "tolerance"))
+        return dm_cli_tolerance(argc - 1, argv + 1);
     if (!strcmp(cmd, "study"))
         return dm_cli_study(argc - 1, argv + 1);
     if (!strcmp(cmd, "robot"))

@@ -47,6 +47,7 @@ void dm_cli_serial_blas(void);
 /* Commands. */
 int dm_cli_trajectory(int argc, char **argv);
 int dm_cli_study(int argc, char **argv);
+int dm_cli_tolerance(int argc, char **argv);
 int dm_cli_sweep(int argc, char **argv);
 int dm_cli_info(int argc, char **argv);
 int dm_cli_compare(int argc, char **argv);

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "cli_impl.h"
+#include "dm_budget.h"
 #include "dm_integrate.h"
 #include "dm_store.h"
 
@@ -17,7 +18,8 @@ static const char HELP[] =
     "                           [--integrator cvode|closed-form|full] [--rtol X] [--atol X]\n"
     "                           [--no-quasi-static] [--from-rest] [--no-reference]\n"
     "                           [--mesh NA,NB] [--tool X,Y,Z] [--force FX,FY,FZ]\n"
-    "                           [--set SECTION.KEY=V]... [--force-long]\n"
+    "                           [--set SECTION.KEY=V]... [--force-long] [--rigid] [--no-budget]\n"
+    "                           [--axes-rotation DEG[,DEG...]]\n"
     "                           [--out FILE.csv] [--json]\n"
     "\n"
     "Normal-coordinate integration along a trajectory (docs/model.md §4): the\n"
@@ -51,17 +53,31 @@ static const char HELP[] =
     "                   the initial static equilibrium)\n"
     "  --tool X,Y,Z     tool point offset from the platform centre in m (default 0)\n"
     "  --out FILE       per-step CSV: t, pose, six error components, |error|, tool\n"
-    "                   error, first three frequencies; a name ending in .zarr writes\n"
+    "                   error, first three frequencies, coupling index log10 det K\n"
+    "                   (Zheng eq. 33, of the step's frozen K); a name ending in .zarr writes\n"
     "                   the same as a Zarr v3 group (the map store's format)\n"
     "  --force-long     run even when the estimated work exceeds 4 hours (refused\n"
     "                   before it starts otherwise)\n"
-    "  --json           summary as JSON: mean_error_m, peak_error_m, truncation_error\n";
+    "  --json           summary as JSON: mean_error_m, peak_error_m, truncation_error,\n"
+    "                   coupling_index_log10 {mean, min, max}, budget\n"
+    "\n"
+    "Error budget (Zheng §5): when the robot's [effects] hold geometry errors or\n"
+    "clearances, the run also gives the platform error of each source alone\n"
+    "(geometry errors, clearance, flexibility), their simple sum, the combined\n"
+    "model and combined - sum (CSV columns geometry_*, clearance_*,\n"
+    "flexibility_*, sum_*, combined_*, coupling_*; the summary's means and peaks).\n"
+    "  --rigid          kinematic sources only: no flexible model (flexibility alone\n"
+    "                   is zero, combined is the rigid closure); implies the budget\n"
+    "  --no-budget      the combined run only (its CSV columns as without errors)\n"
+    "  --axes-rotation B[,B...]  also report the mean |error| components along the\n"
+    "                   base axes rotated about z by each angle B (deg, up to 8;\n"
+    "                   Zheng fig. 15); not with --rigid\n";
 
 typedef struct {
     const char *robot, *path, *out;
     const char *sets[16];
     int nset;
-    int json, na, nb;
+    int json, na, nb, rigid, no_budget;
     dm_integ_opts o;
 } traj_opts;
 
@@ -74,6 +90,7 @@ static int parse(int argc, char **argv, traj_opts *t)
         {"no-reference", 0, 0, 'n'},
         {"mesh", 1, 0, 'm'}, {"tool", 1, 0, 't'}, {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'},
         {"set", 1, 0, 's'}, {"force", 1, 0, 'F'}, {"force-long", 0, 0, 'L'},
+        {"rigid", 0, 0, 'G'}, {"no-budget", 0, 0, 'B'}, {"axes-rotation", 1, 0, 'X'},
         {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     int c;
     double v[2];
@@ -90,6 +107,23 @@ static int parse(int argc, char **argv, traj_opts *t)
         case 'q': t->o.quasi_static = 1; break;
         case 'Q': t->o.quasi_static = 0; break;
         case 'L': t->o.force = 1; break;
+        case 'G': t->rigid = 1; break;
+        case 'B': t->no_budget = 1; break;
+        case 'X': {
+            const char *p = optarg;
+            t->o.naxes = 0;
+            for (;;) {
+                char *end;
+                double b = strtod(p, &end);
+                if (end == p || !isfinite(b) || t->o.naxes == DM_INTEG_MAXAXES || (*end && *end != ','))
+                    return dm_cli_usage("trajectory", "--axes-rotation takes up to 8 angles in degrees, B[,B...]", optarg);
+                t->o.axes_rotation_rad[t->o.naxes++] = b * M_PI / 180;
+                if (!*end)
+                    break;
+                p = end + 1;
+            }
+            break;
+        }
         case 'z': t->o.from_rest = 1; break;
         case 's':
             if (dm_cli_add_set("trajectory", t->sets, &t->nset, optarg))
@@ -144,6 +178,10 @@ static int parse(int argc, char **argv, traj_opts *t)
         return dm_cli_usage("trajectory", "--robot and --path are required", NULL);
     if (t->o.method == DM_ODE_FULL)
         t->o.k = 0;
+    if (t->rigid && t->o.naxes)
+        return dm_cli_usage("trajectory", "--axes-rotation reports the flexible run: not with --rigid", NULL);
+    if (t->rigid && t->no_budget)
+        return dm_cli_usage("trajectory", "--rigid is a budget run: it cannot go with --no-budget", NULL);
     return 0;
 }
 
@@ -162,6 +200,47 @@ static int csv_sample(void *user, const dm_integ_sample *s)
             fprintf(f, ",%.9g", s->freq_hz[j]);
         else
             fprintf(f, ",");
+    fprintf(f, ",%.12g\n", s->coupling_index_log10);
+    return ferror(f) ? 1 : 0;
+}
+
+static const char BUDGET_COLUMNS[] =
+    ",geometry_dx_m,geometry_dy_m,geometry_dz_m,geometry_m"
+    ",clearance_dx_m,clearance_dy_m,clearance_dz_m,clearance_m"
+    ",flexibility_dx_m,flexibility_dy_m,flexibility_dz_m,flexibility_m"
+    ",sum_dx_m,sum_dy_m,sum_dz_m,sum_m"
+    ",combined_dx_m,combined_dy_m,combined_dz_m,combined_m"
+    ",coupling_dx_m,coupling_dy_m,coupling_dz_m,coupling_m";
+
+static void csv_vec(FILE *f, const double v[3])
+{
+    fprintf(f, ",%.9e,%.9e,%.9e,%.9e", v[0], v[1], v[2], sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
+}
+
+static int csv_budget_row(FILE *f, const dm_budget_sample *b)
+{
+    const dm_integ_sample *s = &b->run;
+    const double *e = s->error;
+    fprintf(f, "%.9g,%.9g,%.9g,%.9g", s->t_s, s->P_m[0], s->P_m[1], s->P_m[2]);
+    for (int k = 0; k < 6; k++)
+        fprintf(f, ",%.9e", e[k]);
+    fprintf(f, ",%.9e", sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]));
+    for (int k = 0; k < 3; k++)
+        fprintf(f, ",%.9e", s->tool_error_m[k]);
+    for (int j = 0; j < 3; j++)
+        if (j < s->nfreq)
+            fprintf(f, ",%.9g", s->freq_hz[j]);
+        else
+            fprintf(f, ",");
+    if (isnan(s->coupling_index_log10))
+        fprintf(f, ",");
+    else
+        fprintf(f, ",%.12g", s->coupling_index_log10);
+    for (int src = 0; src < DM_BUDGET_NSRC; src++)
+        csv_vec(f, b->alone_m[src]);
+    csv_vec(f, b->sum_m);
+    csv_vec(f, b->combined_m);
+    csv_vec(f, b->coupling_m);
     fputc('\n', f);
     return ferror(f) ? 1 : 0;
 }
@@ -210,7 +289,8 @@ static double sample_value(const dm_integ_sample *s, int array, int j)
     case 2: return s->error[j];
     case 3: return sqrt(s->error[0] * s->error[0] + s->error[1] * s->error[1] + s->error[2] * s->error[2]);
     case 4: return s->tool_error_m[j];
-    default: return j < s->nfreq ? s->freq_hz[j] : NAN;
+    case 5: return j < s->nfreq ? s->freq_hz[j] : NAN;
+    default: return s->coupling_index_log10;
     }
 }
 
@@ -252,8 +332,10 @@ static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory 
     time_array(&st, "error_norm", NULL, 1, "m", "|(dx, dy, dz)|", l->n);
     time_array(&st, "tool_error", "axis", 3, "m", "tool point error", l->n);
     time_array(&st, "frequencies_hz", "mode", nfreq, "Hz", "frequencies of the frozen configuration", l->n);
-    json_t *names = json_pack("[ssssss]", "time", "position", "error", "error_norm", "tool_error",
-                              "frequencies_hz");
+    time_array(&st, "coupling_index_log10", NULL, 1, "1",
+               "log10 of Zheng's coupling index (eq. 33), det K of the frozen model", l->n);
+    json_t *names = json_pack("[sssssss]", "time", "position", "error", "error_norm", "tool_error",
+                              "frequencies_hz", "coupling_index_log10");
     st.group_attributes = json_pack("{s:s, s:{s:s, s:s, s:s, s:o}}", "title",
                                     "deltamap trajectory run", "deltamap", "tool",
                                     "deltamap " DM_VERSION, "robot", rb->name, "path", tr->name,
@@ -283,16 +365,76 @@ static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory 
     return rc;
 }
 
+/* A budget run's sink: CSV rows, or the combined run's samples for Zarr. */
+typedef struct {
+    FILE *csv;
+    void *kept;
+} budget_out;
+
+static int budget_sample(void *user, const dm_budget_sample *b)
+{
+    budget_out *bo = user;
+    if (bo->csv)
+        return csv_budget_row(bo->csv, b);
+    return bo->kept ? keep_sample(bo->kept, &b->run) : 0;
+}
+
 static int ends_with(const char *s, const char *tail)
 {
     size_t n = strlen(s), m = strlen(tail);
     return n >= m && !strcmp(s + n - m, tail);
 }
 
+static json_t *budget_json(const dm_budget_summary *b)
+{
+    json_t *o = json_object();
+    for (int src = 0; src < DM_BUDGET_NSRC; src++)
+        json_object_set_new(o, dm_budget_source_name(src),
+                            json_pack("{s:f, s:f}", "mean_m", b->mean_alone_m[src], "peak_m",
+                                      b->peak_alone_m[src]));
+    json_object_set_new(o, "sum", json_pack("{s:f, s:f}", "mean_m", b->mean_sum_m, "peak_m", b->peak_sum_m));
+    json_object_set_new(o, "combined", json_pack("{s:f, s:f}", "mean_m", b->mean_combined_m,
+                                                 "peak_m", b->peak_combined_m));
+    json_object_set_new(o, "coupling", json_pack("{s:f, s:f}", "mean_m", b->mean_coupling_m,
+                                                 "peak_m", b->peak_coupling_m));
+    json_object_set_new(o, "flexibility_on", json_boolean(b->flexibility));
+    return o;
+}
+
+static void print_budget(const dm_budget_summary *b)
+{
+    printf("\nerror budget (Zheng §5; Chen eq. 27 mean and peak of |e|, m)\n");
+    printf("  %-26s %14s %14s\n", "source", "mean", "peak");
+    for (int src = 0; src < DM_BUDGET_NSRC; src++)
+        printf("  %-26s %14.6e %14.6e\n", dm_budget_source_name(src), b->mean_alone_m[src],
+               b->peak_alone_m[src]);
+    printf("  %-26s %14.6e %14.6e\n", "sum (b)", b->mean_sum_m, b->peak_sum_m);
+    printf("  %-26s %14.6e %14.6e\n", "combined (c)", b->mean_combined_m, b->peak_combined_m);
+    printf("  %-26s %14.6e %14.6e\n", "coupling (c) - (b)", b->mean_coupling_m, b->peak_coupling_m);
+    if (!b->flexibility)
+        printf("  (--rigid: kinematic sources only)\n");
+}
+
 static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_trajectory *tr,
-                          const dm_integ_summary *s)
+                          const dm_integ_summary *s, const dm_budget_summary *b)
 {
     static const char *const methods[] = {"CVODE", "closed form", "full model (CVODE)"};
+    if (t->json && b && !b->flexibility) {
+        json_t *o = json_pack("{s:s, s:s, s:f, s:o}", "robot", rb->name, "path", tr->name,
+                              "dt_s", t->o.dt_s, "budget", budget_json(b));
+        json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(17));
+        putchar('\n');
+        json_decref(o);
+        return;
+    }
+    if (!t->json && b && !b->flexibility) {
+        printf("robot       %s, rigid (kinematic error sources only)\n", rb->name);
+        printf("path        %s, %.6g s in steps of %g s\n", tr->name, tr->duration_s, t->o.dt_s);
+        print_budget(b);
+        if (t->out)
+            printf("written     %s\n", t->out);
+        return;
+    }
     if (t->json) {
         json_t *o = json_pack("{s:s, s:s, s:i, s:i, s:I, s:f, s:f, s:f, s:f, s:s, s:b}",
                               "robot", rb->name, "path", tr->name, "dof", s->n, "modes", s->k,
@@ -306,6 +448,21 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
                             isnan(s->reference_mean_error_m) ? json_null()
                                                              : json_real(s->reference_mean_error_m));
         json_object_set_new(o, "quasi_static", json_boolean(t->o.quasi_static));
+        json_object_set_new(o, "coupling_index_log10",
+                            json_pack("{s:f, s:f, s:f}", "mean", s->coupling_mean_log10, "min",
+                                      s->coupling_min_log10, "max", s->coupling_max_log10));
+        if (b)
+            json_object_set_new(o, "budget", budget_json(b));
+        if (t->o.naxes) {
+            json_t *ax = json_array();
+            for (int a = 0; a < t->o.naxes; a++)
+                json_array_append_new(ax, json_pack("{s:f, s:f, s:f, s:f}", "rotation_deg",
+                                                    t->o.axes_rotation_rad[a] * 180 / M_PI,
+                                                    "mean_abs_x_m", s->mean_axes_m[a][0],
+                                                    "mean_abs_y_m", s->mean_axes_m[a][1],
+                                                    "mean_abs_z_m", s->mean_axes_m[a][2]));
+            json_object_set_new(o, "axes_rotation", ax);
+        }
         json_object_set_new(o, "truncation_damping_beta_s",
                             s->truncation_beta_s > 0 ? json_real(s->truncation_beta_s) : json_null());
         json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(17));
@@ -319,6 +476,8 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
            t->o.dt_s);
     printf("mean error  %.6e m   (Chen eq. 27: (1/T) sum dt |Delta|)\n", s->mean_error_m);
     printf("peak error  %.6e m\n", s->peak_error_m);
+    printf("coupling    log10 lambda_s (Zheng eq. 33) mean %.10g, min %.10g, max %.10g\n",
+           s->coupling_mean_log10, s->coupling_min_log10, s->coupling_max_log10);
     if (!isnan(s->truncation_error) && s->truncation_beta_s > 0)
         printf("truncation  %.3f %% (RMS of Delta_k - Delta_all over RMS of Delta_all, both with "
                "Rayleigh beta = %g s: undamped, the all-modes run is not converged in dt; all %d "
@@ -328,6 +487,15 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
         printf("truncation  %.3f %% (RMS of Delta_k - Delta_all over RMS of Delta_all; all %d "
                "modes: mean error %.6e m)\n",
                100 * s->truncation_error, s->n, s->reference_mean_error_m);
+    if (b)
+        print_budget(b);
+    if (t->o.naxes) {
+        printf("\nmean |error| along axes rotated about z by beta (Zheng fig. 15), m\n");
+        printf("  %10s %14s %14s %14s\n", "beta (deg)", "x'", "y'", "z");
+        for (int a = 0; a < t->o.naxes; a++)
+            printf("  %10.4g %14.6e %14.6e %14.6e\n", t->o.axes_rotation_rad[a] * 180 / M_PI,
+                   s->mean_axes_m[a][0], s->mean_axes_m[a][1], s->mean_axes_m[a][2]);
+    }
     if (t->out)
         printf("written     %s\n", t->out);
 }
@@ -353,12 +521,20 @@ int dm_cli_trajectory(int argc, char **argv)
         dm_traj_free(&tr);
         return dm_cli_report(&err);
     }
+    int budget = !t.no_budget && (t.rigid || dm_effects_geometry_errors(&rb.effects));
     if (out.f)
         fprintf(out.f, "t_s,x_m,y_m,z_m,dx_m,dy_m,dz_m,ex_rad,ey_rad,ez_rad,error_m,"
-                       "tool_dx_m,tool_dy_m,tool_dz_m,f1_hz,f2_hz,f3_hz\n");
+                       "tool_dx_m,tool_dy_m,tool_dz_m,f1_hz,f2_hz,f3_hz,coupling_index_log10%s\n",
+                budget ? BUDGET_COLUMNS : "");
     dm_integ_summary sum;
-    rc = dm_integrate_trajectory(&rb, &tr, &t.o, zarr ? keep_sample : out.f ? csv_sample : NULL,
-                                 zarr ? (void *)&kept : (void *)out.f, &sum, &err);
+    dm_budget_summary bsum;
+    if (budget) {
+        budget_out bo = {out.f, zarr ? (void *)&kept : NULL};
+        rc = dm_budget_trajectory(&rb, &tr, &t.o, !t.rigid, budget_sample, &bo, &bsum, &err);
+        sum = bsum.run;
+    } else
+        rc = dm_integrate_trajectory(&rb, &tr, &t.o, zarr ? keep_sample : out.f ? csv_sample : NULL,
+                                     zarr ? (void *)&kept : (void *)out.f, &sum, &err);
     if (!rc && out.f)
         rc = dm_file_out_commit(&out, &err);
     if (!rc && zarr)
@@ -372,13 +548,13 @@ int dm_cli_trajectory(int argc, char **argv)
         dm_traj_free(&tr);
         return dm_cli_report(&err);
     }
-    if (sum.aliasing_risk)
+    if (!(budget && t.rigid) && sum.aliasing_risk)
         fprintf(stderr,
                 "deltamap: warning: undamped run with more than 20 modes and dt %g s > 1.25e-4 "
                 "s: step-boundary projections can alias into high modes and grow (docs/model.md "
                 "§4). Add damping, keep <= 20 modes, or use --dt 1.25e-4.\n",
                 t.o.dt_s);
-    print_summary(&t, &rb, &tr, &sum);
+    print_summary(&t, &rb, &tr, &sum, budget ? &bsum : NULL);
     dm_traj_free(&tr);
     return 0;
 }

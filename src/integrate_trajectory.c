@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "dm_integrate.h"
+#include "dm_coupling.h"
 #include "dm_kinematics.h"
 #include "dm_loads.h"
 #include "dm_static.h"
@@ -42,6 +43,7 @@ typedef struct {
      * the very same pose (a robot standing still) reuses them */
     dm_pose frozen;
     int have_frozen;
+    double coupling_log10; /* of the frozen K */
     const dm_modes *mo, *mo_all;
 } run_ws;
 
@@ -192,6 +194,7 @@ static void fill_sample(const run_ws *w, double t, const double *x, const dm_mod
         s->nfreq = DM_INTEG_MAXFREQ;
     for (int j = 0; j < s->nfreq; j++)
         s->freq_hz[j] = mo->freq_hz[j];
+    s->coupling_index_log10 = w->coupling_log10;
 }
 
 static double platform_diff(const run_ws *w, const double *a, const double *b)
@@ -216,6 +219,8 @@ static int initial_state(run_ws *w, dm_error *err)
 
 typedef struct {
     double mean, peak, ref_mean, ref_sq, diff_sq; /* time integrals and maxima */
+    double coupling_mean, coupling_min, coupling_max;
+    double axes[DM_INTEG_MAXAXES][3];
 } run_stats;
 
 static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, run_stats *rs,
@@ -235,6 +240,7 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
         w->have_frozen = 0;
         rc = dm_model_build(w->md, &pose, err);
         if (!rc) rc = dm_static_factor(w->statics, w->md, err);
+        if (!rc) w->coupling_log10 = dm_coupling_index_log10(w->statics);
         if (!rc) rc = dm_modal_solve(w->modal, w->md, w->statics, w->ksolve, &w->mo, err);
         if (!rc && w->ref_stepper)
             rc = dm_modal_solve(w->modal_all, w->md, NULL, w->n, &w->mo_all, err);
@@ -267,6 +273,15 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     fill_sample(w, t1, w->xout, mo, &s);
     double e = dm_norm3(s.error);
     rs->mean += h * e;
+    rs->coupling_mean += h * w->coupling_log10;
+    for (int a = 0; a < w->o.naxes && a < DM_INTEG_MAXAXES; a++) {
+        double b = w->o.axes_rotation_rad[a], c = cos(b), sn = sin(b);
+        rs->axes[a][0] += h * fabs(c * s.error[0] + sn * s.error[1]);
+        rs->axes[a][1] += h * fabs(-sn * s.error[0] + c * s.error[1]);
+        rs->axes[a][2] += h * fabs(s.error[2]);
+    }
+    rs->coupling_min = j == 0 ? w->coupling_log10 : fmin(rs->coupling_min, w->coupling_log10);
+    rs->coupling_max = j == 0 ? w->coupling_log10 : fmax(rs->coupling_max, w->coupling_log10);
     rs->peak = fmax(rs->peak, e);
     if (w->ref_stepper) {
         double er = dm_norm3(w->xr + w->md->platform_dof);
@@ -324,6 +339,12 @@ int dm_integrate_trajectory(const dm_robot *rb, const dm_trajectory *tr, const d
         sum->truncation_beta_s = w.fig_beta;
         int undamped = rb->rayleigh_alpha == 0 && rb->rayleigh_beta == 0;
         sum->aliasing_risk = undamped && o->dt_s > 1.25e-4 && w.k > 20;
+        sum->coupling_mean_log10 = rs.coupling_mean / tr->duration_s;
+        sum->coupling_min_log10 = rs.coupling_min;
+        sum->coupling_max_log10 = rs.coupling_max;
+        for (int a = 0; a < o->naxes && a < DM_INTEG_MAXAXES; a++)
+            for (int k = 0; k < 3; k++)
+                sum->mean_axes_m[a][k] = rs.axes[a][k] / tr->duration_s;
     }
     free_ws(&w);
     return rc;

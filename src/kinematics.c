@@ -105,12 +105,8 @@ int dm_kin_inverse(const dm_robot *rb, const double P[3], dm_pose *pose, dm_erro
     return DM_OK;
 }
 
-/* What joint clearances do to each chain: extra rod length, and a shift of
- * the whole arm (its revolute joint's play). */
-typedef struct {
-    double dlb[3];
-    double shift[3][3];
-} chain_play;
+/* What joint clearances do to each chain (dm_kin_play). */
+typedef dm_kin_play chain_play;
 
 static int forward_lb(const dm_robot *rb, int real, const double alpha[3], const chain_play *play,
                       double P[2][3]);
@@ -239,18 +235,14 @@ static void clearance_play(const dm_robot *rb, const dm_pose *pose, const double
     }
 }
 
-int dm_kin_pose_loaded(const dm_robot *rb, const double P[3], const double W[3], dm_pose *pose,
-                       dm_error *err)
+/* The real closure: pose holds the nominal inverse kinematics at P; the
+ * real arms turn to those angles (+ offset) and the platform goes where the
+ * real chains, with their play, close (the solution nearest P). */
+static int real_closure(const dm_robot *rb, const double P[3], const chain_play *play,
+                        dm_pose *pose, dm_error *err)
 {
-    int rc = dm_kin_inverse(rb, P, pose, err);
-    if (rc || !dm_effects_geometry_errors(&rb->effects))
-        return rc;
     double sol[2][3], alpha[3];
-    chain_play play;
-    memset(&play, 0, sizeof play);
-    if (dm_effects_clearance(&rb->effects))
-        clearance_play(rb, pose, W, &play);
-    int n = forward_lb(rb, 1, pose->alpha, &play, sol);
+    int n = forward_lb(rb, 1, pose->alpha, play, sol);
     if (n == 0)
         return dm_fail(err, DM_EUNREACHABLE,
                        "pose (%g, %g, %g) m: the real robot (with its geometry errors) cannot "
@@ -270,6 +262,26 @@ int dm_kin_pose_loaded(const dm_robot *rb, const double P[3], const double W[3],
     double J[9];
     pose->cond = dm_kin_jacobian(rb, pose, J, NULL) ? INFINITY : condition_number(J);
     return DM_OK;
+}
+
+int dm_kin_pose_loaded(const dm_robot *rb, const double P[3], const double W[3], dm_pose *pose,
+                       dm_error *err)
+{
+    int rc = dm_kin_inverse(rb, P, pose, err);
+    if (rc || !dm_effects_geometry_errors(&rb->effects))
+        return rc;
+    chain_play play;
+    memset(&play, 0, sizeof play);
+    if (dm_effects_clearance(&rb->effects))
+        clearance_play(rb, pose, W, &play);
+    return real_closure(rb, P, &play, pose, err);
+}
+
+int dm_kin_pose_play(const dm_robot *rb, const double P[3], const dm_kin_play *play,
+                     dm_pose *pose, dm_error *err)
+{
+    int rc = dm_kin_inverse(rb, P, pose, err);
+    return rc ? rc : real_closure(rb, P, play, pose, err);
 }
 
 /* Row i of J is L_i / (L_i . dB_i/dalpha_i), from d/dt |B_i - C_i|^2 = 0. */

@@ -130,6 +130,79 @@ mkdir -p "$TMP/foreign.zarr" && touch "$TMP/foreign.zarr/notes.txt"
 expect 2 "trajectory zarr over a foreign directory" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --out "$TMP/foreign.zarr"
 contains err "not a trajectory store"
 if [ -f "$TMP/foreign.zarr/notes.txt" ] && ! ls -d "$TMP"/*.tmp.* >/dev/null 2>&1; then ok; else bad "foreign directory touched or temporaries left"; fi
+# coupling index (Zheng eq. 33): modes at the path's first pose == the run's first CSV row
+# (same frozen K, printed with 12 digits); a preset has no effects, so no change
+if .venv/bin/python -c "
+import xarray as xr, numpy as np, sys
+ds = xr.open_zarr('$TMP/run.zarr', consolidated=False)
+c = np.genfromtxt('$TMP/run.csv', delimiter=',', names=True)
+sys.exit(0 if np.allclose(ds.coupling_index_log10.values, c['coupling_index_log10'], rtol=1e-11, atol=0) else 1)"; then ok; else bad "trajectory zarr coupling index"; fi
+P0=$(awk -F, 'NR == 2 {print $2 "," $3 "," $4}' "$TMP/run.csv")
+C0=$(awk -F, 'NR == 2 {print $18}' "$TMP/run.csv")
+expect 0 "modes coupling index" "$DM" modes --robot zheng2017 --at "$P0" --mesh 1,1 --json
+json_true "abs(d['coupling_index_log10'] - $C0) <= 1e-11 * abs($C0) and d['coupling_index_change_log10'] == 0"
+# error budget (Zheng §5): columns, JSON, rigid with one source == that source
+# (the CSV has 10 significant digits: sums of 1e-4 m terms agree to 1e-12 m)
+GEO="effects.error_arm_length=1e-4,-5e-5,2e-5"
+expect 0 "budget run" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --no-reference --set "$GEO" --set effects.clearance=1e-5 --json --out "$TMP/budget.csv"
+json_true "all(k in d['budget'] for k in ('geometry', 'clearance', 'flexibility', 'sum', 'combined', 'coupling')) and d['budget']['flexibility_on']"
+json_true "abs(d['budget']['combined']['mean_m'] - d['mean_error_m']) <= 1e-15 and d['budget']['coupling']['mean_m'] < 1e-3 * d['budget']['sum']['mean_m']"
+if python3 -c "
+import csv, sys
+r = list(csv.DictReader(open('$TMP/budget.csv')))
+ok = len(r) == 51 and all(abs(float(x['combined_m']) - float(x['error_m'])) <= 1e-12 * float(x['error_m']) for x in r)
+ok = ok and all(abs(float(x['sum_dx_m']) - sum(float(x[s + '_dx_m']) for s in ('geometry', 'clearance', 'flexibility'))) < 1e-12 for x in r)
+sys.exit(0 if ok else 1)"; then ok; else bad "budget CSV columns"; fi
+expect 0 "budget plot" .venv/bin/python tools/plot_trajectory.py "$TMP/budget.csv"
+expect 0 "rigid budget" "$DM" trajectory --robot zheng2017 --path "$SHORT" --rigid --set "$GEO" --json
+json_true "d['budget']['flexibility']['mean_m'] == 0 and d['budget']['clearance']['mean_m'] == 0 and abs(d['budget']['combined']['mean_m'] - d['budget']['geometry']['mean_m']) <= 1e-12 * d['budget']['geometry']['mean_m']"
+expect 1 "rigid without budget" "$DM" trajectory --robot zheng2017 --path "$SHORT" --rigid --no-budget
+contains err "--rigid"
+expect 0 "no budget" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --no-reference --set "$GEO" --json --no-budget
+json_true "'budget' not in d"
+# --axes-rotation (Zheng fig. 15): beta = 0 is the mean |dx|, |dy| of the CSV
+# (Chen eq. 27 weighting; the CSV's 10 digits: 1e-8); 90 swaps x and y, 180 is 0
+expect 0 "axes rotation" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --no-reference --set effects.base_stiffness_1=2e6,2e6,2e6 --axes-rotation 0,90,180 --json --out "$TMP/axes.csv"
+json_true "[a['rotation_deg'] for a in d['axes_rotation']] == [0, 90, 180]"
+json_true "all(abs(d['axes_rotation'][1][p] - d['axes_rotation'][0][q]) <= 1e-12 * d['axes_rotation'][0][q] for p, q in (('mean_abs_x_m', 'mean_abs_y_m'), ('mean_abs_y_m', 'mean_abs_x_m'), ('mean_abs_z_m', 'mean_abs_z_m')))"
+json_true "all(abs(d['axes_rotation'][2][k] - d['axes_rotation'][0][k]) <= 1e-12 * d['axes_rotation'][0][k] for k in ('mean_abs_x_m', 'mean_abs_y_m'))"
+if python3 -c "
+import csv, json, sys
+r = list(csv.DictReader(open('$TMP/axes.csv')))
+d = json.load(open('$TMP/out'))['axes_rotation'][0]
+T = float(r[-1]['t_s'])
+ok = True
+for c, k in (('dx_m', 'mean_abs_x_m'), ('dy_m', 'mean_abs_y_m'), ('dz_m', 'mean_abs_z_m')):
+    m = sum((float(r[i]['t_s']) - float(r[i - 1]['t_s'])) * abs(float(r[i][c])) for i in range(1, len(r))) / T
+    ok = ok and abs(m - d[k]) <= 1e-8 * d[k]
+sys.exit(0 if ok else 1)"; then ok; else bad "axes rotation 0 == CSV means"; fi
+expect 1 "axes rotation with rigid" "$DM" trajectory --robot zheng2017 --path "$SHORT" --rigid --axes-rotation 30
+expect 1 "axes rotation bad" "$DM" trajectory --robot zheng2017 --path "$SHORT" --axes-rotation 30,x
+expect 0 "modes coupling index with effects" "$DM" modes --robot zheng2017 --mesh 1,1 --set effects.base_stiffness=1e8,1e8,1e8 --json
+json_true "d['coupling_index_change_log10'] > 0"
+
+# ---- tolerance (Monte Carlo at a pose) ----
+TOLR="--robot zheng2017 --set effects.clearance=1e-5 --set effects.actuator_clearance_radial=2e-5 --mesh 1,1 --tol arm_length=5e-5 --tol theta_deg=0.01"
+expect 0 "tolerance json" "$DM" tolerance $TOLR --at 0.03,0.02,-0.41 --samples 400 --seed 7 --spec 0.05e-3 --threads 2 --json
+cp "$TMP/out" "$TMP/tol2.json"
+json_true "d['samples'] == 400 and 0 <= d['p_exceed_spec'] <= 1 and d['p95_error_m'] <= d['max_error_m'] and d['dominant_source'] == 'arm_length'"
+json_true "set(d['sensitivity']) >= {'arm_length', 'clearance', 'actuator_clearance_radial'} and d['tolerances']['theta_deg'] == 0.01"
+expect 0 "tolerance one thread" "$DM" tolerance $TOLR --at 0.03,0.02,-0.41 --samples 400 --seed 7 --spec 0.05e-3 --threads 1 --json
+json_true "d == json.load(open('$TMP/tol2.json'))"
+expect 0 "tolerance table" "$DM" tolerance $TOLR --samples 50 --seed 1
+contains out "dominant    arm_length"
+expect 2 "tolerance negative" "$DM" tolerance --robot zheng2017 --samples 10 --seed 1 --tol rod_length=-1e-5
+contains err "rod_length: must be >= 0"
+expect 2 "tolerance spec 0" "$DM" tolerance --robot zheng2017 --samples 10 --seed 1 --spec 0
+contains err "--spec: must be > 0"
+expect 2 "tolerance zero samples" "$DM" tolerance --robot zheng2017 --samples 0 --seed 1
+contains err "samples: must be >= 1"
+expect 2 "tolerance hours refused at once" timeout 10 "$DM" tolerance --robot zheng2017 --samples 9000000 --mesh 8,8 --seed 1
+contains err "hours of work"
+expect 2 "tolerance too many samples" "$DM" tolerance --robot zheng2017 --samples 20000000 --rigid --seed 1
+contains err "at most 1e7"
+expect 1 "tolerance needs a seed" "$DM" tolerance --robot zheng2017 --samples 10
+expect 1 "tolerance bad name" "$DM" tolerance --robot zheng2017 --samples 10 --seed 1 --tol colour=1
 
 # ---- study ----
 expect 0 "study json" "$DM" study --robot chen2018 --path "p2p:from=0,0,-0.5;to=0.05,0,-0.5;duration=0.02" --mesh 1,1 --vary arm.side=0.02:0.03:2 --vary rod.side=0.006:0.01:2 --json --out "$TMP/study.csv"

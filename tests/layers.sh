@@ -8,8 +8,8 @@ layer_of() {
     error | vec3 | threads | file | csv | version) echo 0 ;;
     robot | kinematics) echo 1 ;;
     beam | arrow | model | loads) echo 2 ;;
-    static | modal | analysis) echo 3 ;;
-    trajectory | integrate | integrate_trajectory | standard_move) echo 4 ;;
+    static | modal | analysis | coupling) echo 3 ;;
+    trajectory | integrate | integrate_trajectory | standard_move | budget | tolerance) echo 4 ;;
     grid | shard | store | sweep | sweep_schema | sweep_store | sweep_anchors | sweep_census | sweep_impl) echo 5 ;;
     measure | diagnose | plan) echo 6 ;;
     cli | cli_* | main) echo 7 ;;

@@ -5,7 +5,10 @@
 
 Three panels over time: the platform's translational error components and
 its magnitude (mm), the rotational components (mrad), and the first
-frequencies of the frozen configuration (Hz).
+frequencies of the frozen configuration (Hz). A run with an error budget
+(a robot with geometry errors or clearances) gets a fourth panel: |e| of
+each source alone, their sum, the combined model and combined − sum
+(Zheng §5). A rigid budget run (--rigid) has only the budget panel.
 """
 import argparse
 
@@ -31,7 +34,14 @@ def main():
     a = ap.parse_args()
     d = load(a.csv)
     t = d["t_s"]
-    fig, ax = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
+    names = d.dtype.names
+    budget = "combined_m" in names
+    rigid = budget and np.all(np.isnan(d["f1_hz"]))
+    if rigid:
+        fig, ax = plt.subplots(1, 1, figsize=(8, 4))
+        draw_budget(ax, t, d, a.title or f"{a.csv}: error budget (rigid)")
+        return save(fig, a)
+    fig, ax = plt.subplots(4 if budget else 3, 1, figsize=(8, 12 if budget else 9), sharex=True)
     for name, label in (("dx_m", "Δx"), ("dy_m", "Δy"), ("dz_m", "Δz"), ("error_m", "|Δ|")):
         ax[0].plot(t, 1e3 * d[name], label=label, lw=1.8 if name == "error_m" else 1.0)
     ax[0].set_ylabel("platform error (mm)")
@@ -47,10 +57,36 @@ def main():
         if col in d.dtype.names and not np.all(np.isnan(d[col])):
             ax[2].plot(t, d[col], label=f"f{k}")
     ax[2].set_ylabel("frequency (Hz)")
-    ax[2].set_xlabel("time (s)")
     ax[2].legend(ncol=3, fontsize=8)
+    if budget:
+        draw_budget(ax[3], t, d, "error budget (Zheng §5)")
+    ax[-1].set_xlabel("time (s)")
     for x in ax:
         x.grid(alpha=0.3)
+    save(fig, a)
+
+
+def draw_budget(ax, t, d, title):
+    """|e| of each source alone, their sum, the combined model, and
+    |combined - sum| on a second axis (it is orders of magnitude smaller)."""
+    styles = (("geometry_m", "geometry", "-"), ("clearance_m", "clearance", "-"),
+              ("flexibility_m", "flexibility", "-"), ("sum_m", "sum (b)", "--"),
+              ("combined_m", "combined (c)", "-"))
+    for name, label, ls in styles:
+        ax.plot(t, 1e3 * d[name], ls, label=label, lw=1.8 if name == "combined_m" else 1.0)
+    ax.set_ylabel("|error| (mm)")
+    ax.set_title(title)
+    tw = ax.twinx()
+    tw.plot(t, 1e6 * d["coupling_m"], ":", color="k", label="|(c) − (b)|")
+    tw.set_ylabel("|(c) − (b)| (µm)")
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = tw.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, ncol=3, fontsize=8)
+    ax.grid(alpha=0.3)
+    ax.set_xlabel("time (s)")
+
+
+def save(fig, a):
     fig.tight_layout()
     out = a.output or a.csv.rsplit(".", 1)[0] + ".png"
     fig.savefig(out, dpi=110)
