@@ -185,9 +185,9 @@ static int parse(int argc, char **argv, traj_opts *t)
     return 0;
 }
 
-static int csv_sample(void *user, const dm_integ_sample *s)
+/* The columns every trajectory CSV row has (without the newline). */
+static void csv_base(FILE *f, const dm_integ_sample *s)
 {
-    FILE *f = user;
     const double *e = s->error;
     fprintf(f, "%.9g,%.9g,%.9g,%.9g", s->t_s, s->P_m[0], s->P_m[1], s->P_m[2]);
     for (int k = 0; k < 6; k++)
@@ -200,7 +200,17 @@ static int csv_sample(void *user, const dm_integ_sample *s)
             fprintf(f, ",%.9g", s->freq_hz[j]);
         else
             fprintf(f, ",");
-    fprintf(f, ",%.12g\n", s->coupling_index_log10);
+    if (isnan(s->coupling_index_log10))
+        fprintf(f, ",");
+    else
+        fprintf(f, ",%.12g", s->coupling_index_log10);
+}
+
+static int csv_sample(void *user, const dm_integ_sample *s)
+{
+    FILE *f = user;
+    csv_base(f, s);
+    fputc('\n', f);
     return ferror(f) ? 1 : 0;
 }
 
@@ -219,23 +229,7 @@ static void csv_vec(FILE *f, const double v[3])
 
 static int csv_budget_row(FILE *f, const dm_budget_sample *b)
 {
-    const dm_integ_sample *s = &b->run;
-    const double *e = s->error;
-    fprintf(f, "%.9g,%.9g,%.9g,%.9g", s->t_s, s->P_m[0], s->P_m[1], s->P_m[2]);
-    for (int k = 0; k < 6; k++)
-        fprintf(f, ",%.9e", e[k]);
-    fprintf(f, ",%.9e", sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]));
-    for (int k = 0; k < 3; k++)
-        fprintf(f, ",%.9e", s->tool_error_m[k]);
-    for (int j = 0; j < 3; j++)
-        if (j < s->nfreq)
-            fprintf(f, ",%.9g", s->freq_hz[j]);
-        else
-            fprintf(f, ",");
-    if (isnan(s->coupling_index_log10))
-        fprintf(f, ",");
-    else
-        fprintf(f, ",%.12g", s->coupling_index_log10);
+    csv_base(f, &b->run);
     for (int src = 0; src < DM_BUDGET_NSRC; src++)
         csv_vec(f, b->alone_m[src]);
     csv_vec(f, b->sum_m);

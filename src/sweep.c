@@ -36,15 +36,6 @@ static void auto_tile(const dm_grid *g, const int req[3], int tile[3])
 
 /* ---- per-thread work -------------------------------------------------------- */
 
-typedef struct {
-    dm_analysis *an;
-    dm_move_ws *move;
-    double *mac_work, *mac;
-    int *assign;
-    double *shapes;     /* families' shapes at the point (n x k) */
-    void *buf[N_DATA];
-} worker;
-
 static void worker_free(sweep_worker *w)
 {
     dm_analysis_free(w->an);
@@ -89,7 +80,7 @@ static void point_nan(dm_point_result *r, int status)
         r->freq_hz[j] = r->tracked_hz[j] = nan;
     for (int j = 0; j < 6; j++)
         r->static_error[j] = nan;
-    r->compliance_max = r->stiffness_min = r->singularity = nan;
+    r->compliance_max = r->stiffness_min = r->singularity = r->coupling_index_log10 = nan;
     for (int j = 0; j < 3; j++)
         r->compliance_dir[j] = r->move_peak[j] = r->move_residual[j] = r->move_settling[j] = nan;
 }
@@ -118,6 +109,7 @@ static void compute_point(const sweep_ctx *c, sweep_worker *w, const double P[3]
     memcpy(r->compliance_dir, res.compliance_dir, sizeof r->compliance_dir);
     r->stiffness_min = res.stiffness_min_n_per_m;
     r->singularity = res.pose.cond;
+    r->coupling_index_log10 = res.coupling_index_log10;
     /* families: matched against the nearest anchor's */
     if (an >= 0) {
         dm_sweep_anchors_track(c, w, c->anchor_phi + (size_t)an * c->n * c->k, res.modes, w->shapes);
@@ -193,6 +185,7 @@ static void store_point(const sweep_ctx *c, sweep_worker *w, size_t off, const d
     PUT(A_PEAK, r->move_peak, 3);
     PUT(A_RESID, r->move_residual, 3);
     PUT(A_SETTLE, r->move_settling, 3);
+    PUT(A_COUPLING, &r->coupling_index_log10, 1);
 #undef PUT
 }
 

@@ -18,7 +18,7 @@
 
 enum {
     A_STATUS, A_FREQ, A_TRACKED, A_STATIC, A_CMAX, A_CDIR, A_KMIN, A_COND, A_PEAK, A_RESID,
-    A_SETTLE, N_DATA, A_C0 = N_DATA, A_C1, A_C2, A_MODE, A_COMPONENT, A_AXIS, A_MOVE, N_ARRAYS
+    A_SETTLE, A_COUPLING, N_DATA, A_C0 = N_DATA, A_C1, A_C2, A_MODE, A_COMPONENT, A_AXIS, A_MOVE, N_ARRAYS
 };
 
 typedef struct {
@@ -48,6 +48,7 @@ typedef struct dm_point_result {
     double static_error[6];
     double compliance_max, compliance_dir[3], stiffness_min, singularity;
     double move_peak[3], move_residual[3], move_settling[3];
+    double coupling_index_log10;
 } dm_point_result;
 
 /* ---- sweep.c: the run's context and its workers ----------------------------- */

@@ -22,6 +22,7 @@ const dm_sweep_array dm_sweep_arrays[N_DATA] = {
     {"move_peak_m", DM_DTYPE_FLOAT64, X_MOVE, "m", "standard move: peak |Delta - Delta_static| during the move"},
     {"move_residual_m", DM_DTYPE_FLOAT64, X_MOVE, "m", "standard move: residual vibration amplitude after it"},
     {"move_settling_s", DM_DTYPE_FLOAT64, X_MOVE, "s", "standard move: settling time after it (inf: never)"},
+    {"coupling_index_log10", DM_DTYPE_FLOAT64, X_NONE, "1", "Zheng's coupling index: log10 det K (depends on mesh and DOF units)"},
 };
 
 static int extra_len(int x, int k)

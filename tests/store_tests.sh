@@ -90,6 +90,13 @@ if [ $? -eq 2 ] && grep -q "another robot" "$TMP/err"; then ok; else bad "robot 
 $DM sweep --robot chen2018 --grid "x=0,y=0,z=-0.5" --mesh 2,2 --modes 6 --tile 4,4,1 --out "$TMP/ref" --progress none >/dev/null 2>"$TMP/err"
 if [ $? -eq 2 ] && grep -q "another grid" "$TMP/err"; then ok; else bad "grid mismatch accepted"; fi
 $DM sweep --robot chen2018 --grid "x=0,y=0,z=-0.5" --out "$TMP/ref" --force --progress none >/dev/null && ok || bad "--force"
+# the coupling index map (Zheng eq. 33) is the one-pose analysis's (JSON's
+# 17 digits: 1e-15 relative)
+C=$($DM modes --robot chen2018 --at 0,0,-0.5 --json | $PY -c "import json, sys; print(repr(json.load(sys.stdin)['coupling_index_log10']))")
+if $PY -c "
+import zarr, sys
+v = float(zarr.open_group('$TMP/ref', mode='r')['coupling_index_log10'][0, 0, 0])
+sys.exit(0 if abs(v - $C) <= 1e-15 * abs(v) and abs(v) > 100 else 1)"; then ok; else bad "coupling index map differs from modes ($C)"; fi
 
 # a sweep that implies days of work, or millions of files, is refused at once
 $DM sweep --robot chen2018 --grid "x=-0.3:0.3:10000,y=-0.3:0.3:10000,z=-0.5" --tile 64,64,1 --threads 2 --out "$TMP/huge" 2>"$TMP/err"
