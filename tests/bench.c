@@ -356,6 +356,60 @@ static double sweep_rss_mb(const char *grid_spec)
     return ru.ru_maxrss / 1024.0;
 }
 
+/* Start `deltamap sweep ... --out dir [--shard k/n] --threads th` (fork +
+ * exec: forking this OpenMP process and carrying on in the child is not
+ * safe); its pid. */
+static pid_t start_sweep(const char *grid_spec, const char *dir, int th, int k, int n)
+{
+    const char *dm = getenv("DELTAMAP") ? getenv("DELTAMAP") : "build/deltamap";
+    char threads[16], shard[32];
+    snprintf(threads, sizeof threads, "%d", th);
+    snprintf(shard, sizeof shard, "%d/%d", k, n);
+    pid_t pid = fork();
+    if (pid == 0) {
+        if (!freopen("/dev/null", "w", stdout))
+            _exit(127);
+        if (n > 1)
+            execl(dm, dm, "sweep", "--robot", "chen2018", "--grid", grid_spec, "--threads",
+                  threads, "--progress", "none", "--shard", shard, "--out", dir, (char *)NULL);
+        else
+            execl(dm, dm, "sweep", "--robot", "chen2018", "--grid", grid_spec, "--threads",
+                  threads, "--progress", "none", "--out", dir, (char *)NULL);
+        _exit(127);
+    }
+    return pid;
+}
+
+/* Wall seconds of one process on 2 threads against 2 shards of 1 thread
+ * each, at once, into one store (docs/cluster.md). */
+static void shard_throughput(const char *grid_spec, long points)
+{
+    double wall[2];
+    for (int v = 0; v < 2; v++) {
+        char dir[] = "/tmp/dm_bench_XXXXXX", cmd[64];
+        if (!mkdtemp(dir))
+            return;
+        rmdir(dir); /* the sweep creates it */
+        double t0 = now_s();
+        pid_t p[2] = {start_sweep(grid_spec, dir, v ? 1 : 2, 0, v ? 2 : 1),
+                      v ? start_sweep(grid_spec, dir, 1, 1, 2) : 0};
+        int bad = 0;
+        for (int i = 0; i < 1 + v; i++) {
+            int status = 0;
+            waitpid(p[i], &status, 0);
+            bad |= !WIFEXITED(status) || WEXITSTATUS(status);
+        }
+        wall[v] = now_s() - t0;
+        snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+        if (system(cmd)) {}
+        if (bad)
+            fprintf(stderr, "bench: a sweep process failed\n");
+    }
+    printf("   sweep chen2018 default mesh, %ld points: 1 process x 2 threads %.2f s, "
+           "2 shards x 1 thread %.2f s (%.1f / %.1f poses/s; shards / threads %.2f)\n",
+           points, wall[0], wall[1], points / wall[0], points / wall[1], wall[0] / wall[1]);
+}
+
 int main(void)
 {
     setvbuf(stdout, NULL, _IOLBF, 0);
@@ -393,6 +447,7 @@ int main(void)
         if (th == 2)
             printf("   2 threads / 1 thread: %.2f\n", r / r1);
     }
+    shard_throughput("x=-0.3:0.3:32,y=-0.3:0.3:32,z=-0.5", 32 * 32);
     printf("\n4. peak memory of a sweep (default mesh, 2 threads)\n");
     double m1 = sweep_rss_mb("x=-0.3:0.3:16,y=-0.3:0.3:16,z=-0.5");
     double m2 = sweep_rss_mb("x=-0.3:0.3:51,y=-0.3:0.3:51,z=-0.5");
