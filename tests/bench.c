@@ -341,6 +341,8 @@ static double sweep_rss_mb(const char *grid_spec)
         return 0;
     pid_t pid = fork();
     if (pid == 0) {
+        if (!freopen("/dev/null", "w", stdout))
+            _exit(127);
         execl(dm, dm, "sweep", "--robot", "chen2018", "--grid", grid_spec, "--threads", "2",
               "--progress", "none", "--out", dir, (char *)NULL);
         _exit(127);
