@@ -1,4 +1,4 @@
-/* dm_beam — the 2-node 3-D Euler–Bernoulli beam element (MODEL.md §2).
+/* dm_beam — the 2-node 3-D Euler–Bernoulli beam element (docs/model.md §2).
  *
  * Local DOF order per node: u, v, w (m), theta_x, theta_y, theta_z (rad);
  * node 1 then node 2 (12 DOF). Local x runs from node 1 to node 2; v and

@@ -1,7 +1,7 @@
 /* dm_diagnose — what the model gets wrong about measured data, and why.
  *
  * Residuals r = measured - predicted, normalised by each sample's sigma.
- * For every candidate effect of MODEL.md §6 the effect's parameters are
+ * For every candidate effect of docs/model.md §6 the effect's parameters are
  * fitted by nonlinear least squares (cminpack lmdif, parameters in log10;
  * geometry errors as they are, by the chord method) on a training part of
  * the data and scored on the held-out rest: poses whose index is 2 mod 3

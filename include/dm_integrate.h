@@ -1,5 +1,5 @@
 /* dm_integrate — time response of the robot in normal coordinates
- * (MODEL.md §4, Han eq. 10–13).
+ * (docs/model.md §4, Han eq. 10–13).
  *
  * Along a trajectory the configuration is frozen per step: at each step
  * start M, K and the k lowest modes Phi are rebuilt at the new pose, the
@@ -60,7 +60,7 @@ int dm_stepper_advance(dm_stepper *st, const dm_model *model, const dm_modes *mo
 void dm_sdof_step(double omega, double zeta, double f0, double f1, double h, double *q,
                   double *qd);
 
-/* ---- standard_move.c: the standard move (MODEL.md §5) ------------------- */
+/* ---- standard_move.c: the standard move (docs/model.md §5) ------------------- */
 
 /* A rest-to-rest bang-bang move starting at the pose: +amax for tau/2, then
  * -amax for tau/2, configuration frozen at the start pose, load = inertia of
@@ -165,7 +165,7 @@ typedef struct dm_integ_summary {
     double reference_mean_error_m; /* of the all-modes run */
     double truncation_beta_s;  /* > 0: the robot is undamped, and both runs of the
                                   truncation figure had Rayleigh beta = this */
-    int aliasing_risk;       /* undamped, > 20 modes, dt > 1.25e-4 s (MODEL.md §4) */
+    int aliasing_risk;       /* undamped, > 20 modes, dt > 1.25e-4 s (docs/model.md §4) */
     /* Zheng's coupling index log10 det K over the frozen steps: time mean
      * (each step's value weighted by its length), minimum, maximum */
     double coupling_mean_log10, coupling_min_log10, coupling_max_log10;

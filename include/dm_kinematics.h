@@ -1,4 +1,4 @@
-/* dm_kinematics — rigid-body kinematics of the Delta robot (MODEL.md §1).
+/* dm_kinematics — rigid-body kinematics of the Delta robot (docs/model.md §1).
  *
  * Base frame O-XYZ at the centre of the fixed platform, Z up. Chain i has
  * radial unit e_i, actuator axis t_i; arm angle alpha_i > 0 points the arm
@@ -84,7 +84,7 @@ int dm_kin_rates(const dm_robot *robot, const dm_pose *pose, const double v[3],
 int dm_kin_accelerations(const dm_robot *robot, const dm_pose *pose, const double v[3],
                          const double a[3], double alpha_ddot[3], dm_error *err);
 
-/* Rigid-body motion of the links, for inertial loads (MODEL.md §3). */
+/* Rigid-body motion of the links, for inertial loads (docs/model.md §3). */
 typedef struct dm_link_motion {
     double alpha_dot[3], alpha_ddot[3];
     double vB[3][3], aB[3][3];       /* elbow velocity / acceleration */

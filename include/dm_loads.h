@@ -1,4 +1,4 @@
-/* dm_loads — load vectors of the frozen model (MODEL.md §3), in the
+/* dm_loads — load vectors of the frozen model (docs/model.md §3), in the
  * reduced DOFs of a dm_model (N and N*m).
  *
  * Gravity is built with the model (dm_model.F_gravity). This module adds

@@ -1,5 +1,5 @@
 /* dm_modal — natural frequencies and mass-normalised mode shapes
- * (MODEL.md §4–5): K phi = omega^2 M phi, Phi' M Phi = I, ascending.
+ * (docs/model.md §4–5): K phi = omega^2 M phi, Phi' M Phi = I, ascending.
  *
  * A dm_modal is a per-thread workspace sized for one model: allocate once,
  * solve at many poses with no allocation in between. */

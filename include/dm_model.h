@@ -1,4 +1,4 @@
-/* dm_model — the frozen-configuration finite-element model (MODEL.md §2).
+/* dm_model — the frozen-configuration finite-element model (docs/model.md §2).
  *
  * Arms (na elements) and rods (nb elements each, two per chain) are 3-D
  * beams; short bars and the platform are rigid. Each beam node's six global
@@ -17,7 +17,7 @@
  * block-arrow matrices (dm_arrow): a banded block per chain (half-bandwidth
  * 17 at any mesh with nb >= 2) and the platform as the border.
  *
- * Model extensions (MODEL.md §6, robot [effects]): actuator springs and
+ * Model extensions (docs/model.md §6, robot [effects]): actuator springs and
  * compliant bases add arm-root DOFs and springs to ground; joint springs
  * give each rod end its own translations tied to its short-bar point;
  * payload and elbow masses add mass and weight; geometric stiffness adds

@@ -100,7 +100,7 @@ int dm_plan_random(const dm_robot *robot, const dm_plan_opts *opts, uint64_t see
 int dm_plan_observe(const dm_robot *robot, const dm_dataset *design, double noise, uint64_t seed,
                     int na, int nb, dm_dataset *out, dm_error *err);
 
-/* The design as a measurement template in MEASURED.md format, the
+/* The design as a measurement template in the format of docs/measured-data.md, the
  * measured values empty. */
 int dm_plan_write_template(const dm_plan_result *result, const char *robot_name, FILE *out);
 

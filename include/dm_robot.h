@@ -1,4 +1,4 @@
-/* dm_robot — the description of a Delta robot (MODEL.md §1, §2, §6, §7).
+/* dm_robot — the description of a Delta robot (docs/model.md §1, §2, §6, §7).
  *
  * A robot comes from an INI file parsed with libinih, or from a built-in
  * preset (chen2018, zheng2017, han2011) whose text is the same INI format
@@ -43,7 +43,7 @@ typedef struct dm_member {
     dm_section section;       /* derived by dm_robot_finish */
 } dm_member;
 
-/* Model extensions (MODEL.md §6); all off (zero) in the baseline. */
+/* Model extensions (docs/model.md §6); all off (zero) in the baseline. */
 typedef struct dm_effects {
     double actuator_stiffness_nm_per_rad; /* 0 = clamped arm root */
     double joint_stiffness_n_per_m;       /* 0 = rigid rod-end joints */
@@ -137,7 +137,7 @@ int dm_robot_set(dm_robot *robot, const char *assignment, dm_error *err);
 int dm_robot_set_number(dm_robot *robot, const char *section, const char *key, const double *v,
                         dm_error *err);
 
-/* Section properties of a member (MODEL.md §2). */
+/* Section properties of a member (docs/model.md §2). */
 int dm_section_compute(const dm_member *member, dm_section *out, dm_error *err);
 
 #endif

@@ -1,4 +1,4 @@
-/* dm_static — static responses of the frozen model (MODEL.md §5):
+/* dm_static — static responses of the frozen model (docs/model.md §5):
  * elastic error of the platform under a load (uP = SP K^-1 F, six
  * components: dx, dy, dz in m, ex, ey, ez in rad) and the 6x6 compliance at
  * P (CP = SP K^-1 SP', m/N, rad/(N*m) ...), its worst translational

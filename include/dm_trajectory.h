@@ -4,7 +4,7 @@
  * moves with a motion law, the industry pick-and-place cycle (25 mm up,
  * 305 mm across, 25 mm down), and samples t,x,y,z from a CSV file (natural
  * cubic spline through the samples). The three papers' trajectories are
- * named presets (MODEL.md §7). A trajectory is a read-only value once made. */
+ * named presets (docs/model.md §7). A trajectory is a read-only value once made. */
 #ifndef DM_TRAJECTORY_H
 #define DM_TRAJECTORY_H
 

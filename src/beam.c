@@ -1,4 +1,4 @@
-/* Element matrices of the 3-D Euler–Bernoulli beam (MODEL.md §2). */
+/* Element matrices of the 3-D Euler–Bernoulli beam (docs/model.md §2). */
 #include "dm_beam.h"
 
 #include <math.h>

@@ -1,4 +1,4 @@
-/* Normal-coordinate integration with frozen configurations (MODEL.md §4). */
+/* Normal-coordinate integration with frozen configurations (docs/model.md §4). */
 #include "dm_integrate.h"
 
 #include <cblas.h>

@@ -1,5 +1,5 @@
 /* Integration along a trajectory: frozen configuration per step, state
- * carried by projection, optional all-modes reference (MODEL.md §4). */
+ * carried by projection, optional all-modes reference (docs/model.md §4). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>

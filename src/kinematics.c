@@ -1,5 +1,5 @@
 /* Inverse/forward kinematics, rates, accelerations and the singularity
- * measure of the Delta robot (MODEL.md §1). */
+ * measure of the Delta robot (docs/model.md §1). */
 #include "dm_kinematics.h"
 
 #include <lapacke.h>

@@ -1,4 +1,4 @@
-/* Inertial loads of the nominal rigid motion (MODEL.md §3). */
+/* Inertial loads of the nominal rigid motion (docs/model.md §3). */
 #include "dm_loads.h"
 
 #include "dm_vec3.h"

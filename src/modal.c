@@ -1,5 +1,5 @@
 /* Generalized symmetric-definite eigenproblem K phi = lambda M phi
- * (MODEL.md §4): subspace iteration on the block-arrow factor of K, and the
+ * (docs/model.md §4): subspace iteration on the block-arrow factor of K, and the
  * dense LAPACK paths (reference, cold start, small models). */
 #include "dm_modal.h"
 

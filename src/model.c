@@ -1,4 +1,5 @@
-/* The frozen-configuration model: DOFs, assembly of M, K and the gravity load (MODEL.md §2). */
+/* The frozen-configuration model: DOFs, assembly of M, K and the gravity
+ * load (docs/model.md §2). */
 #include "dm_model.h"
 
 #include <assert.h>
@@ -517,7 +518,7 @@ static void add_root_springs_and_elbow_masses(dm_model *md)
     }
 }
 
-/* Stress stiffening (MODEL.md §6): axial forces N = EA (u2 - u1)/L from one
+/* Stress stiffening (docs/model.md §6): axial forces N = EA (u2 - u1)/L from one
  * linear static gravity solve, then K += sum of the elements' K_G(N). */
 static int add_geometric_stiffness(dm_model *md, dm_error *err)
 {

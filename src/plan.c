@@ -471,7 +471,7 @@ static int push_unit(dm_dataset *d, const dm_plan_opts *o, const double P[3], co
 /* ---- tracker paths -------------------------------------------------------------- */
 
 /* The family of paths about home lasting n samples at 1 ms, no faster
- * than the standard move's 50 m/s^2 (MODEL.md §5): circles in the three
+ * than the standard move's 50 m/s^2 (docs/model.md §5): circles in the three
  * planes (two radii, centripetal 20 and 50 m/s^2) and bang-bang moves (two
  * lengths, five directions, 50 m/s^2, within half the record, shortened to
  * fit), then a dwell in which the structure rings down. */

@@ -306,7 +306,7 @@ static void set_defaults(dm_robot *robot)
 {
     memset(robot, 0, sizeof *robot);
     robot->gravity_ms2[2] = -9.80665;
-    robot->na = 4; /* converges f1..f6 to 0.1 % (MODEL.md §2, docs/convergence) */
+    robot->na = 4; /* converges f1..f6 to 0.1 % (docs/model.md §2, docs/convergence) */
     robot->nb = 4;
     robot->singular_cond = 100.0;
 }

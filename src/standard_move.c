@@ -1,4 +1,4 @@
-/* Dynamic error of the standard bang-bang move at a frozen pose (MODEL.md §5).
+/* Dynamic error of the standard bang-bang move at a frozen pose (docs/model.md §5).
  *
  * y = x - x_static obeys M y'' + C y' + K y = a(t) G with G the inertial
  * load of a unit platform acceleration along the move (zero velocity) and

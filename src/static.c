@@ -1,4 +1,4 @@
-/* Static gravity error and compliance at the platform (MODEL.md §5). */
+/* Static gravity error and compliance at the platform (docs/model.md §5). */
 #include "dm_static.h"
 
 #include <assert.h>

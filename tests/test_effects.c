@@ -1,4 +1,4 @@
-/* Model extensions (MODEL.md §6), each against its own physics: very stiff
+/* Model extensions (docs/model.md §6), each against its own physics: very stiff
  * springs recover the clamped baseline, masses lower every frequency and
  * add their weight exactly, geometric stiffness follows Euler buckling. */
 #include "dm_test.h"

@@ -1,5 +1,5 @@
 /* Modal analysis: mass normalisation, the two eigen methods agree, the
- * independent check values of MODEL.md §8, symmetry pairs, mesh
+ * independent check values of docs/model.md §8, symmetry pairs, mesh
  * convergence. */
 #include "dm_test.h"
 
@@ -14,7 +14,7 @@ typedef struct {
     double f[6], dz;
 } check_row;
 
-/* MODEL.md §8, from an independent implementation of the contract. */
+/* docs/model.md §8, from an independent implementation of the contract. */
 static const check_row CHECKS[] = {
     {"chen2018", 1, 48, {27.9643, 32.5073, 32.5073, 44.1040, 46.7423, 46.7423}, -4.10144e-4},
     {"chen2018", 4, 210, {27.7747, 32.2985, 32.2985, 43.0844, 46.0175, 46.0175}, -4.10144e-4},
@@ -195,7 +195,7 @@ static void mesh_convergence(void **state)
 
 /* ---- the structured solver ---------------------------------------------- */
 
-/* Every MODEL.md §6 extension at once (springs of every kind, a per-chain
+/* Every docs/model.md §6 extension at once (springs of every kind, a per-chain
  * base, masses, stress stiffening, geometry errors, clearances, damping). */
 static const char *const ALL_EFFECTS[] = {
     "effects.actuator_stiffness=2e5", "effects.joint_stiffness=5e7",
