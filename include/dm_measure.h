@@ -51,6 +51,9 @@ int dm_dataset_read(const char *path, dm_dataset *data, dm_error *err);
  * as 0; poses, modes, forces, times and sigma are as in a data file. */
 int dm_dataset_read_template(const char *path, dm_dataset *data, dm_error *err);
 int dm_dataset_write(const dm_dataset *data, FILE *out);
+/* Append one sample (the array grows as needed); DM_ENOMEM names the
+ * dataset. */
+int dm_dataset_push(dm_dataset *d, const dm_sample *s, dm_error *err);
 void dm_dataset_free(dm_dataset *data);
 
 /* Model predictions for every sample (same order), with the robot's mesh

@@ -50,17 +50,17 @@ static void print_ranges(const long *v, long n)
 
 static void print_missing(const dm_sweep_census *tc)
 {
-    long todo = tc->tiles - tc->complete, shown = 0;
-    if (!todo)
+    long left = tc->tiles - tc->complete, shown = 0;
+    if (!left)
         return;
-    printf("missing %ld tile%s (i,j,k):", todo, todo == 1 ? "" : "s");
+    printf("missing %ld tile%s (i,j,k):", left, left == 1 ? "" : "s");
     for (long t = 0; t < tc->tiles && shown < 12; t++)
         if (!tc->done[t]) {
             printf(" %ld,%ld,%ld", t / (tc->nt[1] * tc->nt[2]), (t / tc->nt[2]) % tc->nt[1],
                    t % tc->nt[2]);
             shown++;
         }
-    printf(todo > shown ? " ... and %ld more\n" : "\n", todo - shown);
+    printf(left > shown ? " ... and %ld more\n" : "\n", left - shown);
 }
 
 /* Which shards of a sweep split n ways still have tiles to compute, and

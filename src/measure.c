@@ -51,7 +51,7 @@ int dm_data_kind_parse(const char *name, dm_data_kind *k)
     return -1;
 }
 
-static int push(dm_dataset *d, const dm_sample *s, dm_error *err)
+int dm_dataset_push(dm_dataset *d, const dm_sample *s, dm_error *err)
 {
     if (d->n == d->cap) {
         int cap = d->cap ? 2 * d->cap : 256;
@@ -136,7 +136,7 @@ static int read_row(csv_ctx *c, dm_dataset *d, double *last_t, double last_P[3])
             d->npose++;
         memcpy(last_P, s.P, sizeof s.P);
         s.pose_id = d->npose - 1;
-        return push(d, &s, c->err);
+        return dm_dataset_push(d, &s, c->err);
     }
     if (d->kind == DM_DATA_STATIC) {
         static const char *const names[9] = {"x", "y", "z", "fx", "fy", "fz", "dx", "dy", "dz"};
@@ -155,7 +155,7 @@ static int read_row(csv_ctx *c, dm_dataset *d, double *last_t, double last_P[3])
         for (int k = 0; k < 3; k++) {
             s.comp = k;
             s.value = all[6 + k];
-            if ((rc = push(d, &s, c->err)))
+            if ((rc = dm_dataset_push(d, &s, c->err)))
                 return rc;
         }
         return DM_OK;
@@ -172,7 +172,7 @@ static int read_row(csv_ctx *c, dm_dataset *d, double *last_t, double last_P[3])
     for (int k = 0; k < 3; k++) {
         s.comp = k;
         s.value = v[4 + k] - v[1 + k];
-        if ((rc = push(d, &s, c->err)))
+        if ((rc = dm_dataset_push(d, &s, c->err)))
             return rc;
     }
     return DM_OK;
@@ -516,7 +516,7 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
             s.sigma = o->noise;
             for (int k = 0; k < 3 && !rc; k++) {
                 s.comp = k;
-                rc = push(d, &s, err);
+                rc = dm_dataset_push(d, &s, err);
             }
         }
         dm_traj_free(&tr);
@@ -541,7 +541,7 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
             if (o->kind == DM_DATA_MODAL) {
                 for (int j = 1; j <= (o->modes > 0 ? o->modes : 6) && !rc; j++) {
                     s.mode = j;
-                    rc = push(d, &s, err);
+                    rc = dm_dataset_push(d, &s, err);
                 }
             } else {
                 double u[3] = {dm_rng_normal(&rng), dm_rng_normal(&rng), dm_rng_normal(&rng)};
@@ -550,7 +550,7 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
                     s.force[k] = (o->force_n > 0 ? o->force_n : 50.0) * u[k] / nu;
                 for (int k = 0; k < 3 && !rc; k++) {
                     s.comp = k;
-                    rc = push(d, &s, err);
+                    rc = dm_dataset_push(d, &s, err);
                 }
             }
         }

@@ -427,20 +427,6 @@ static int check_tracker(const model *m, dm_error *err)
 static const double DIRS[7][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1},           {1, 1, 1},
                                   {1, -1, 1}, {-1, 1, 1}, {-1, -1, 1}};
 
-static int push(dm_dataset *d, const dm_sample *s)
-{
-    if (d->n == d->cap) {
-        int cap = d->cap ? 2 * d->cap : 256;
-        dm_sample *g = realloc(d->s, sizeof *g * cap);
-        if (!g)
-            return DM_ENOMEM;
-        d->s = g;
-        d->cap = cap;
-    }
-    d->s[d->n++] = *s;
-    return DM_OK;
-}
-
 /* The samples of one unit: a pose with its modes, or a pose with a force
  * along unit vector u (three components). */
 static int push_unit(dm_dataset *d, const dm_plan_opts *o, const double P[3], const double *u,
@@ -454,7 +440,7 @@ static int push_unit(dm_dataset *d, const dm_plan_opts *o, const double P[3], co
     if (d->kind == DM_DATA_MODAL) {
         for (int j = 1; j <= (o->modes > 0 ? o->modes : 6) && !rc; j++) {
             s.mode = j;
-            rc = push(d, &s);
+            rc = dm_dataset_push(d, &s, NULL);
         }
         return rc;
     }
@@ -463,7 +449,7 @@ static int push_unit(dm_dataset *d, const dm_plan_opts *o, const double P[3], co
         s.force[k] = (o->force_n > 0 ? o->force_n : 50.0) * u[k] / nu;
     for (int k = 0; k < 3 && !rc; k++) {
         s.comp = k;
-        rc = push(d, &s);
+        rc = dm_dataset_push(d, &s, NULL);
     }
     return rc;
 }
@@ -522,7 +508,7 @@ static int path_samples(const dm_robot *rb, const char *spec, int n, double nois
             rc = dm_fail(err, DM_EUNREACHABLE, "%s leaves the workspace at t = %g s", spec, s.t);
         for (int k = 0; k < 3 && !rc; k++) {
             s.comp = k;
-            rc = push(d, &s) ? dm_fail(err, DM_ENOMEM, "out of memory") : DM_OK;
+            rc = dm_dataset_push(d, &s, err);
         }
     }
     dm_traj_free(&tr);
@@ -595,7 +581,7 @@ static int design_of(const dm_dataset *cand, const int *first, int *sel, int n, 
         for (int r = first[sel[i]]; r < first[sel[i] + 1]; r++) {
             dm_sample s = cand->s[r];
             s.pose_id = i;
-            if (push(d, &s))
+            if (dm_dataset_push(d, &s, NULL))
                 return DM_ENOMEM;
         }
     d->npose = n;
