@@ -31,8 +31,13 @@ PKG_CFLAGS = $(shell $(PKG_CONFIG) --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS   = $(shell $(PKG_CONFIG) --libs $(PKGS) 2>/dev/null)
 SUNDIALS_LIBS := -lsundials_cvode -lsundials_nvecserial
 
-LIB_SRC := $(filter-out src/main.c,$(wildcard src/*.c))
+# src/ holds one folder per layer (docs/architecture.md), lowest first; a
+# file may include headers of its own layer and those below, never above
+# (tests/layers.sh, run before the library is archived).
+LAYERS  := base robot model solve responses maps measure cli
+LIB_SRC := $(filter-out src/cli/main.c,$(wildcard $(patsubst %,src/%/*.c,$(LAYERS))))
 LIB_OBJ := $(patsubst src/%.c,$(BUILD)/obj/%.o,$(LIB_SRC)) $(BUILD)/obj/presets.o
+ALL_SRC := $(wildcard $(patsubst %,src/%/*.[ch],$(LAYERS))) $(wildcard include/*.h)
 TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 TEST_BIN:= $(addprefix $(BUILD)/tests/,$(TESTS))
 BIN     := $(BUILD)/deltamap
@@ -52,7 +57,13 @@ deps:
 # -MMD -MP: each object depends on the headers it includes (public and
 # the private ones beside the sources), recorded in its .d file.
 $(BUILD)/obj/%.o: src/%.c | $(BUILD)/obj
+	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) $(PKG_CFLAGS) -MMD -MP -c $< -o $@
+
+# The layering, checked whenever a source or header changes.
+$(BUILD)/layers.ok: $(ALL_SRC) tests/layers.sh | $(BUILD)/obj
+	@tests/layers.sh >/dev/null || tests/layers.sh
+	@touch $@
 
 # The presets are the shipped robots/*.ini, compiled in as strings.
 $(BUILD)/presets.c: $(wildcard robots/*.ini) tools/embed-presets.sh | $(BUILD)/obj
@@ -62,11 +73,11 @@ $(BUILD)/obj/presets.o: $(BUILD)/presets.c
 	$(CC) $(CFLAGS) -c $< -o $@
 
 # Made afresh: a module renamed or removed leaves no stale member behind.
-$(BUILD)/libdeltamap.a: $(LIB_OBJ)
+$(BUILD)/libdeltamap.a: $(LIB_OBJ) $(BUILD)/layers.ok
 	rm -f $@
-	$(AR) rcs $@ $^
+	$(AR) rcs $@ $(LIB_OBJ)
 
-$(BIN): $(BUILD)/obj/main.o $(BUILD)/libdeltamap.a
+$(BIN): $(BUILD)/obj/cli/main.o $(BUILD)/libdeltamap.a
 	$(CC) $(CFLAGS) $^ -o $@ $(PKG_LIBS) $(SUNDIALS_LIBS) $(LDLIBS)
 
 $(BUILD)/tests/%: tests/%.c $(BUILD)/libdeltamap.a | $(BUILD)/tests
@@ -76,7 +87,7 @@ $(BUILD)/tests/%: tests/%.c $(BUILD)/libdeltamap.a | $(BUILD)/tests
 $(BUILD)/obj $(BUILD)/tests:
 	mkdir -p $@
 
--include $(wildcard $(BUILD)/obj/*.d $(BUILD)/tests/*.d)
+-include $(wildcard $(BUILD)/obj/*/*.d $(BUILD)/tests/*.d)
 
 # Tests run single-threaded BLAS inside, OpenMP as the test chooses.
 unit-tests: $(TEST_BIN)
@@ -134,7 +145,7 @@ REPLAY_BIN   := $(addprefix $(BUILD)/fuzz/replay-,$(FUZZ_TARGETS))
 
 $(BUILD)/fuzz/replay-%: tests/fuzz/fuzz_%.c tests/fuzz/replay.c $(FUZZ_SRC) $(FUZZ_HDR) \
         $(BUILD)/libdeltamap.a | $(BUILD)/fuzz
-	$(CC) $(CFLAGS) $(PKG_CFLAGS) -Isrc -Itests/fuzz $< tests/fuzz/replay.c $(FUZZ_SRC) -o $@ \
+	$(CC) $(CFLAGS) $(PKG_CFLAGS) -Isrc/cli -Itests/fuzz $< tests/fuzz/replay.c $(FUZZ_SRC) -o $@ \
 	    $(BUILD)/libdeltamap.a $(PKG_LIBS) $(SUNDIALS_LIBS) $(LDLIBS)
 
 # (the library's messages about the bad inputs are shown only when one fails)
@@ -179,7 +190,8 @@ fuzz-deps:
 fuzz: fuzz-deps
 	@$(MAKE) --no-print-directory $(FUZZ_BIN)
 
-$(FUZZ_DIR)/obj/%.o: src/%.c $(wildcard include/*.h src/*.h) | $(FUZZ_DIR)/obj
+$(FUZZ_DIR)/obj/%.o: src/%.c $(ALL_SRC) | $(FUZZ_DIR)/obj
+	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer-no-link $(PKG_CFLAGS) -c $< -o $@
 
 $(FUZZ_DIR)/obj/presets.o: $(BUILD)/presets.c | $(FUZZ_DIR)/obj
@@ -190,7 +202,7 @@ $(FUZZ_DIR)/libdeltamap.a: $(FUZZ_LIB_OBJ)
 	$(AR) rcs $@ $^
 
 $(FUZZ_DIR)/fuzz-%: tests/fuzz/fuzz_%.c $(FUZZ_SRC) $(FUZZ_HDR) $(FUZZ_DIR)/libdeltamap.a
-	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer $(PKG_CFLAGS) -Isrc -Itests/fuzz $< $(FUZZ_SRC) \
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer $(PKG_CFLAGS) -Isrc/cli -Itests/fuzz $< $(FUZZ_SRC) \
 	    -o $@ $(FUZZ_DIR)/libdeltamap.a $(PKG_LIBS) $(SUNDIALS_LIBS) $(LDLIBS)
 
 # Each target for FUZZ_SECONDS, one after another (FUZZ_TARGETS=... to pick);
