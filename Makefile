@@ -128,7 +128,7 @@ demo: deps
 
 bench: deps
 	@$(MAKE) --no-print-directory $(BUILD)/tests/bench $(BIN)
-	DELTAMAP=$(BIN) $(BUILD)/tests/bench
+	DELTAMAP=$(BIN) $(BUILD)/tests/bench $(BENCH)
 
 $(BUILD)/tests/bench: tests/bench.c $(BUILD)/libdeltamap.a | $(BUILD)/tests
 	$(CC) $(CFLAGS) $(PKG_CFLAGS) -Itests $< -o $@ $(BUILD)/libdeltamap.a \

@@ -82,8 +82,11 @@ typedef struct dm_move_opts {
 void dm_move_opts_default(dm_move_opts *opts);
 
 typedef struct dm_move_result {
-    double peak_m;       /* max over 0 <= t <= tau */
-    double residual_m;   /* max over tau < t <= tau + window */
+    double peak_m;       /* max over 0 <= t <= tau (of the continuous response,
+                            to 1e-9 relative) */
+    double residual_m;   /* max over tau < t <= tau + window (likewise) */
+    double peak_t_s;     /* when the peak occurs (from the move's start) */
+    double residual_t_s; /* when the residual's maximum occurs (after tau) */
     double settling_s;   /* time after tau until within tol for good; INFINITY when
                             undamped or not settled within the window */
 } dm_move_result;
@@ -99,10 +102,12 @@ int dm_standard_move(dm_move_ws *ws, const dm_model *model, const dm_modes *mode
                      const dm_static *statics, const double dir[3],
                      const dm_move_opts *opts, dm_move_result *res, dm_error *err);
 
-/* The same along ndir (1..3) directions: res[d] for dir[d]. A damped
- * robot's ringing is followed only until an envelope bound proves that no
- * later sample can raise the residual or cross the settling band: the
- * results are those of the whole window. */
+/* The same along ndir (1..3) directions: res[d] for dir[d]. Maxima and the
+ * settling time are those of the continuous response (each mode advanced
+ * exactly; bounds on what lies between samples decide where to look
+ * closer). A damped robot's ringing is followed only until its envelope
+ * is below both the residual found and the settling band: the results are
+ * those of the whole window. */
 int dm_standard_moves(dm_move_ws *ws, const dm_model *model, const dm_modes *modes, int k,
                       const dm_static *statics, const double (*dir)[3], int ndir,
                       const dm_move_opts *opts, dm_move_result *res, dm_error *err);

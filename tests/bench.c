@@ -412,48 +412,72 @@ static void shard_throughput(const char *grid_spec, long points)
            points, wall[0], wall[1], points / wall[0], points / wall[1], wall[0] / wall[1]);
 }
 
-int main(void)
+/* `bench` runs every section; `bench 1 3` only those, and in section 1
+ * `bench 1 chen2018` only that preset (to iterate on one figure). */
+static int wanted(int argc, char **argv, const char *what)
+{
+    int any = 0;
+    for (int i = 1; i < argc; i++) {
+        int is_section = argv[i][0] >= '1' && argv[i][0] <= '4' && !argv[i][1];
+        if (is_section == (what[0] >= '1' && what[0] <= '4' && !what[1])) {
+            any = 1;
+            if (!strcmp(argv[i], what))
+                return 1;
+        }
+    }
+    return !any;
+}
+
+int main(int argc, char **argv)
 {
     setvbuf(stdout, NULL, _IOLBF, 0);
     openblas_set_num_threads(1); /* as the serial commands do */
     printf("deltamap bench on %d cores (one BLAS thread per worker)\n\n", omp_get_num_procs());
-    printf("1. per pose, one thread: the sweep's pipeline along a tile's path (10 modes + 4 "
-           "for tracking, 3 moves), parts in us\n");
+    if (wanted(argc, argv, "1"))
+        printf("1. per pose, one thread: the sweep's pipeline along a tile's path (10 modes + 4 "
+               "for tracking, 3 moves), parts in us\n");
     const char *presets[] = {"chen2018", "zheng2017", "han2011"};
     const int meshes[] = {1, 4, 8};
-    for (int m = 0; m < 3; m++)
+    for (int m = 0; m < 3 && wanted(argc, argv, "1"); m++)
         for (int p = 0; p < 3; p++) {
+            if (!wanted(argc, argv, presets[p]))
+                continue;
             pose_costs pc;
             per_pose(presets[p], meshes[m], 10, &pc);
             print_pose_costs(presets[p], meshes[m], &pc);
         }
-    printf("\n2. accuracy against an extended-precision reference (tests/dm_reference.h)\n");
-    for (int m = 1; m < 3; m++)
+    if (wanted(argc, argv, "2"))
+        printf("\n2. accuracy against an extended-precision reference (tests/dm_reference.h)\n");
+    for (int m = 1; m < 3 && wanted(argc, argv, "2"); m++)
         for (int p = 0; p < 3; p++)
             accuracy(presets[p], meshes[m]);
-    printf("\n3. throughput (the serial commands first: a sweep leaves OpenMP at its threads)\n");
-    for (int p = 0; p < 3; p++)
-        trajectory_time(presets[p]);
-    diagnosis_time(1, "p2p:from=-0.03,-0.02,-0.41;to=0.03,0.02,-0.39;duration=0.05;"
-                      "law=bangbang;dwell=0.05");
-    diagnosis_time(4, "circle:centre=0,0,-0.4;radius=0.04;rate=12.566;duration=1");
-    long pts;
-    double r1 = 0;
-    for (int th = 1; th <= 2; th++) {
-        double r = sweep_rate("x=-0.3:0.3:48,y=-0.3:0.3:48,z=-0.5", 4, th, &pts);
-        if (th == 1)
-            r1 = r;
-        printf("   sweep chen2018 mesh 4,4: %ld points, %d thread%s: %7.1f poses/s (1e6 poses: "
-               "%.1f min)\n",
-               pts, th, th > 1 ? "s" : " ", r, 1e6 / r / 60);
-        if (th == 2)
-            printf("   2 threads / 1 thread: %.2f\n", r / r1);
+    if (wanted(argc, argv, "3")) {
+        printf("\n3. throughput (the serial commands first: a sweep leaves OpenMP at its threads)\n");
+        for (int p = 0; p < 3; p++)
+            trajectory_time(presets[p]);
+        diagnosis_time(1, "p2p:from=-0.03,-0.02,-0.41;to=0.03,0.02,-0.39;duration=0.05;"
+                          "law=bangbang;dwell=0.05");
+        diagnosis_time(4, "circle:centre=0,0,-0.4;radius=0.04;rate=12.566;duration=1");
+        long pts;
+        double r1 = 0;
+        for (int th = 1; th <= 2; th++) {
+            double r = sweep_rate("x=-0.3:0.3:48,y=-0.3:0.3:48,z=-0.5", 4, th, &pts);
+            if (th == 1)
+                r1 = r;
+            printf("   sweep chen2018 mesh 4,4: %ld points, %d thread%s: %7.1f poses/s (1e6 poses: "
+                   "%.1f min)\n",
+                   pts, th, th > 1 ? "s" : " ", r, 1e6 / r / 60);
+            if (th == 2)
+                printf("   2 threads / 1 thread: %.2f\n", r / r1);
+        }
+        shard_throughput("x=-0.3:0.3:32,y=-0.3:0.3:32,z=-0.5", 32 * 32);
     }
-    shard_throughput("x=-0.3:0.3:32,y=-0.3:0.3:32,z=-0.5", 32 * 32);
-    printf("\n4. peak memory of a sweep (default mesh, 2 threads)\n");
-    double m1 = sweep_rss_mb("x=-0.3:0.3:16,y=-0.3:0.3:16,z=-0.5");
-    double m2 = sweep_rss_mb("x=-0.3:0.3:51,y=-0.3:0.3:51,z=-0.5");
-    printf("   %5d points: %6.1f MB max RSS\n", 16 * 16, m1);
-    printf("   %5d points: %6.1f MB max RSS   (10x the grid: ratio %.2f)\n", 51 * 51, m2, m2 / m1);
+    if (wanted(argc, argv, "4")) {
+        printf("\n4. peak memory of a sweep (default mesh, 2 threads)\n");
+        double m1 = sweep_rss_mb("x=-0.3:0.3:16,y=-0.3:0.3:16,z=-0.5");
+        double m2 = sweep_rss_mb("x=-0.3:0.3:51,y=-0.3:0.3:51,z=-0.5");
+        printf("   %5d points: %6.1f MB max RSS\n", 16 * 16, m1);
+        printf("   %5d points: %6.1f MB max RSS   (10x the grid: ratio %.2f)\n", 51 * 51, m2, m2 / m1);
+    }
     return 0;
 }

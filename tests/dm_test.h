@@ -10,6 +10,16 @@
 #include <string.h>
 
 #include <cmocka.h>
+#include <stdlib.h>
+
+/* DM_TEST=PATTERN runs only the tests whose names match (cmocka's glob:
+ * * and ?), e.g. DM_TEST='standard_move*' build/tests/test_integrate. */
+__attribute__((constructor)) static void dm_test_filter_from_env(void)
+{
+    const char *pattern = getenv("DM_TEST");
+    if (pattern && *pattern)
+        cmocka_set_test_filter(pattern);
+}
 
 /* |value - expected| <= tol * |expected|, with a description of what is
  * being checked (after gsl_test_rel). */
