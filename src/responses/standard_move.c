@@ -13,6 +13,7 @@
  * retained modes, so a Rayleigh-Ritz on them adds a few modes that carry
  * exactly r in the static limit and the dominant dropped dynamics besides;
  * their static remainder (zero to round-off) is added quasi-statically. */
+#include <assert.h>
 #include <math.h>
 #include <lapacke.h>
 #include <stdlib.h>
@@ -72,7 +73,10 @@ typedef struct {
 
 struct dm_move_ws {
     int n, kmax, nmax;                   /* nmax = kmax + MAXRITZ */
-    double *G, *r, *R, *MR, *t;          /* n; Krylov block n x MAXRITZ and M times it; n */
+    double *G, *r;                       /* n per direction */
+    double *R, *MR, *KR;                 /* per direction a Krylov block, n x MAXRITZ,
+                                            and M, K times it */
+    double *X, *Y;                       /* interleaved blocks for the kernels */
     carried dir[MAXDIR];
     double *pool;
     /* transitions of each level (2 families: the move's halves, the
@@ -97,10 +101,13 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
         w->kmax = kmax;
         w->nmax = (int)nmax;
         w->G = malloc(sizeof(double) * n * MAXDIR);
-        w->r = malloc(sizeof(double) * n);
-        w->t = malloc(sizeof(double) * n);
-        w->R = malloc(sizeof(double) * n * MAXRITZ);
-        w->MR = malloc(sizeof(double) * n * MAXRITZ);
+        size_t blk = (size_t)n * MAXRITZ * MAXDIR;
+        w->r = malloc(sizeof(double) * n * MAXDIR);
+        w->R = malloc(sizeof(double) * blk);
+        w->MR = malloc(sizeof(double) * blk);
+        w->KR = malloc(sizeof(double) * blk);
+        w->X = malloc(sizeof(double) * blk);
+        w->Y = malloc(sizeof(double) * blk);
         w->pool = malloc(sizeof(double) * carried_len(kmax) * MAXDIR);
         w->trans[0] = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 1));
         w->trans[1] = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 1));
@@ -110,7 +117,7 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
         w->scan = malloc(sizeof(double) * 4 * nmax);
         w->blocks = malloc(sizeof(double) * 2 * nmax * (MAX_INTERVALS / 16 + 1));
     }
-    if (!w || !w->G || !w->r || !w->t || !w->R || !w->MR || !w->pool || !w->trans[0] ||
+    if (!w || !w->G || !w->r || !w->R || !w->MR || !w->KR || !w->X || !w->Y || !w->pool || !w->trans[0] ||
         !w->trans[1] || !w->cand || !w->cand_pool || !w->stack || !w->scan || !w->blocks) {
         dm_move_free(w);
         dm_fail(err, DM_ENOMEM, "out of memory for the standard move");
@@ -137,9 +144,11 @@ void dm_move_free(dm_move_ws *w)
         return;
     free(w->G);
     free(w->r);
-    free(w->t);
     free(w->R);
     free(w->MR);
+    free(w->KR);
+    free(w->X);
+    free(w->Y);
     free(w->pool);
     free(w->trans[0]);
     free(w->trans[1]);
@@ -162,103 +171,177 @@ static void add_mode(carried *c, double om, double g, const double phiP[3])
     c->normP[j] = dm_norm3(phiP);
 }
 
-/* M-orthonormalise w->R[:, m] against the retained modes and R[:, 0..m);
- * returns 0 when nothing of it is left (r already in their span). */
-static int orthonormalise(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k, int m)
+/* ---- the carried modes --------------------------------------------------
+ *
+ * The three directions are prepared side by side: every product with M or
+ * K and every solve with K's factor takes the directions' vectors as one
+ * block (the block kernels cost little more for three vectors than for
+ * one). Each direction's arithmetic is its own: the results do not depend
+ * on which directions are prepared together. */
+
+/* Column j of direction d's Krylov block, and M times it. */
+static double *krylov(const dm_move_ws *w, int d, int j)
+{
+    return w->R + ((size_t)d * MAXRITZ + j) * w->n;
+}
+
+static double *m_krylov(const dm_move_ws *w, int d, int j)
+{
+    return w->MR + ((size_t)d * MAXRITZ + j) * w->n;
+}
+
+/* What a block operation does to the q vectors it is given. */
+typedef enum { OP_MULT_M, OP_MULT_K, OP_SOLVE } block_op;
+
+/* out[r] = op(in[r]) for r < q (in place when out[r] == in[r]): gathered
+ * into one interleaved block, one kernel call, scattered back. */
+static void on_block(dm_move_ws *w, const dm_model *md, const dm_static *st, block_op op,
+                     double *const *in, double *const *out, int q)
 {
     int n = w->n;
-    double *x = w->R + (size_t)m * n, *mx = w->MR + (size_t)m * n;
-    /* one pass: the Krylov vectors are orthogonal to the retained modes in
-     * exact arithmetic already (A keeps the complement of an invariant
-     * subspace); the projection removes the round-off of their shapes */
-    for (int pass = 0; pass < 1; pass++) {
-        dm_model_mult_M(md, x, 1, mx);
-        double before = 0;
-        for (int i = 0; i < n; i++)
-            before += x[i] * mx[i];
-        for (int j = 0; j < k; j++) {
-            const double *ph = mo->phi + (size_t)j * n;
-            double c = 0;
-            for (int i = 0; i < n; i++)
-                c += ph[i] * mx[i];
-            for (int i = 0; i < n; i++)
-                x[i] -= c * ph[i];
-        }
-        for (int l = 0; l < m; l++) {
-            const double *y = w->R + (size_t)l * n;
-            double c = 0;
-            for (int i = 0; i < n; i++)
-                c += y[i] * mx[i];
-            for (int i = 0; i < n; i++)
-                x[i] -= c * y[i];
-        }
-        dm_model_mult_M(md, x, 1, mx);
-        double after = 0;
-        for (int i = 0; i < n; i++)
-            after += x[i] * mx[i];
-        if (!(after > 1e-20 * before) || !(after > 0))
-            return 0;
+    assert(q >= 1 && q <= MAXDIR * MAXRITZ);
+    for (int i = 0; i < n; i++)
+        for (int r = 0; r < q; r++)
+            w->X[(size_t)i * q + r] = in[r][i];
+    if (op == OP_SOLVE)
+        dm_arrow_chol_solve(dm_static_chol(st), w->X, q);
+    else
+        (op == OP_MULT_M ? dm_model_mult_M : dm_model_mult_K)(md, w->X, q, w->Y);
+    const double *res = op == OP_SOLVE ? w->X : w->Y;
+    for (int i = 0; i < n; i++)
+        for (int r = 0; r < q; r++)
+            out[r][i] = res[(size_t)i * q + r];
+}
+
+static double dot(const double *a, const double *b, int n)
+{
+    double s = 0;
+    for (int i = 0; i < n; i++)
+        s += a[i] * b[i];
+    return s;
+}
+
+/* x -= (y' mx) y: remove y's part from x, M-orthogonally (y M-normalised) */
+static void project_out(double *x, const double *y, const double *mx, int n)
+{
+    double c = dot(y, mx, n);
+    for (int i = 0; i < n; i++)
+        x[i] -= c * y[i];
+}
+
+/* M-orthonormalise Krylov column m of the directions in dirs[0..q) against
+ * the retained modes and their columns 0..m-1; ok[d] = 0 where nothing is
+ * left (the column already in their span). One pass: the Krylov vectors
+ * are orthogonal to the retained modes in exact arithmetic already (A
+ * keeps the complement of an invariant subspace); the projection removes
+ * the round-off of their shapes. */
+static void orthonormalise(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k, int m,
+                           const int *dirs, int q, int *ok)
+{
+    int n = w->n;
+    double *x[MAXDIR], *mx[MAXDIR], before[MAXDIR];
+    for (int r = 0; r < q; r++)
+        x[r] = krylov(w, dirs[r], m), mx[r] = m_krylov(w, dirs[r], m);
+    on_block(w, md, NULL, OP_MULT_M, x, mx, q);
+    for (int r = 0; r < q; r++) {
+        before[r] = dot(x[r], mx[r], n);
+        for (int j = 0; j < k; j++)
+            project_out(x[r], mo->phi + (size_t)j * n, mx[r], n);
+        for (int l = 0; l < m; l++)
+            project_out(x[r], krylov(w, dirs[r], l), mx[r], n);
+    }
+    on_block(w, md, NULL, OP_MULT_M, x, mx, q);
+    for (int r = 0; r < q; r++) {
+        double after = dot(x[r], mx[r], n);
+        ok[dirs[r]] = after > 1e-20 * before[r] && after > 0;
+        if (!ok[dirs[r]])
+            continue;
         double s = 1 / sqrt(after);
         for (int i = 0; i < n; i++) {
-            x[i] *= s;
-            mx[i] *= s;
+            x[r][i] *= s;
+            mx[r][i] *= s;
         }
     }
-    return 1;
 }
 
-/* The Ritz modes of span(r, A r, ...) for one direction (r in w->r). */
-static void ritz_modes(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
-                       const dm_static *st, const double *G, int nritz, carried *c)
+/* The Krylov blocks span(r, A r, ...) (A = K^-1 M) of the directions,
+ * nritz[d] columns at most (0: none); nkept[d] columns kept. */
+static void krylov_blocks(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
+                          const dm_static *st, int ndir, const int *nritz, int *nkept)
 {
-    int n = w->n, pd = md->platform_dof, m = 0;
-    memcpy(w->R, w->r, sizeof(double) * n);
-    while (m < nritz && orthonormalise(w, md, mo, k, m)) {
-        if (++m < nritz) { /* the next Krylov vector: A times the last */
-            memcpy(w->R + (size_t)m * n, w->MR + (size_t)(m - 1) * n, sizeof(double) * n);
-            dm_static_solve(st, w->R + (size_t)m * n, 1, NULL);
+    int n = w->n, active[MAXDIR], ok[MAXDIR], q = 0;
+    for (int d = 0; d < ndir; d++) {
+        nkept[d] = 0;
+        if (nritz[d] > 0) {
+            memcpy(krylov(w, d, 0), w->r + (size_t)d * n, sizeof(double) * n);
+            active[q++] = d;
         }
     }
-    if (!m)
-        return;
-    double KR[MAXRITZ * MAXRITZ], ev[MAXRITZ], work[64];
-    for (int j = 0; j < m; j++) {
-        dm_model_mult_K(md, w->R + (size_t)j * n, 1, w->t);
-        for (int i = 0; i < m; i++) {
-            double s = 0;
-            for (int l = 0; l < n; l++)
-                s += w->R[(size_t)i * n + l] * w->t[l];
-            KR[j * m + i] = s;
+    for (int m = 0; q > 0; m++) {
+        orthonormalise(w, md, mo, k, m, active, q, ok);
+        int still = 0;
+        double *from[MAXDIR], *to[MAXDIR];
+        for (int r = 0; r < q; r++) {
+            int d = active[r];
+            if (!ok[d])
+                continue;
+            nkept[d] = m + 1;
+            if (m + 1 < nritz[d]) { /* the next Krylov vector: A times this one */
+                from[still] = m_krylov(w, d, m), to[still] = krylov(w, d, m + 1);
+                active[still++] = d;
+            }
         }
-    }
-    for (int j = 0; j < m; j++) /* symmetric */
-        for (int i = 0; i < j; i++)
-            KR[j * m + i] = KR[i * m + j] = 0.5 * (KR[j * m + i] + KR[i * m + j]);
-    if (LAPACKE_dsyev_work(LAPACK_COL_MAJOR, 'V', 'U', m, KR, m, ev, work, 64))
-        return;
-    for (int i = 0; i < m; i++) {
-        if (!(ev[i] > 0))
-            continue;
-        double g = 0, phiP[3] = {0, 0, 0};
-        for (int j = 0; j < m; j++) {
-            const double *x = w->R + (size_t)j * n;
-            double z = KR[i * m + j], xg = 0;
-            for (int l = 0; l < n; l++)
-                xg += x[l] * G[l];
-            g += z * xg;
-            for (int c3 = 0; c3 < 3; c3++)
-                phiP[c3] += z * x[pd + c3];
-        }
-        add_mode(c, sqrt(ev[i]), g, phiP);
+        if ((q = still) > 0)
+            on_block(w, md, st, OP_SOLVE, from, to, q);
     }
 }
 
-/* Load of a unit acceleration along each direction; the modes each
- * carries (retained, then Ritz) with their modal forces and platform
- * shapes; what stays static of the dropped modes' response. */
-static int prepare(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
-                   const dm_static *st, const double (*dir)[3], int ndir,
-                   const dm_move_opts *o, dm_error *err)
+/* The Ritz modes of each direction's Krylov block: Rayleigh-Ritz with K
+ * (the blocks are M-orthonormal). */
+static void ritz_modes(dm_move_ws *w, const dm_model *md, const dm_static *st, int ndir,
+                       const int *nkept)
+{
+    int n = w->n, pd = md->platform_dof, q = 0;
+    double *x[MAXDIR * MAXRITZ], *kx[MAXDIR * MAXRITZ];
+    for (int d = 0; d < ndir; d++)
+        for (int j = 0; j < nkept[d]; j++, q++)
+            x[q] = krylov(w, d, j), kx[q] = w->KR + (size_t)q * n;
+    if (!q)
+        return;
+    on_block(w, md, st, OP_MULT_K, x, kx, q);
+    q = 0;
+    for (int d = 0; d < ndir; d++) {
+        int m = nkept[d];
+        double KR[MAXRITZ * MAXRITZ], ev[MAXRITZ], work[64];
+        const double *G = w->G + (size_t)d * n;
+        for (int j = 0; j < m; j++)
+            for (int i = 0; i < m; i++)
+                KR[j * m + i] = dot(x[q + i], kx[q + j], n);
+        for (int j = 0; j < m; j++) /* symmetric */
+            for (int i = 0; i < j; i++)
+                KR[j * m + i] = KR[i * m + j] = 0.5 * (KR[j * m + i] + KR[i * m + j]);
+        if (m && !LAPACKE_dsyev_work(LAPACK_COL_MAJOR, 'V', 'U', m, KR, m, ev, work, 64)) {
+            for (int i = 0; i < m; i++) {
+                if (!(ev[i] > 0))
+                    continue;
+                double g = 0, phiP[3] = {0, 0, 0};
+                for (int j = 0; j < m; j++) {
+                    double z = KR[i * m + j];
+                    g += z * dot(x[q + j], G, n);
+                    for (int c3 = 0; c3 < 3; c3++)
+                        phiP[c3] += z * x[q + j][pd + c3];
+                }
+                add_mode(&w->dir[d], sqrt(ev[i]), g, phiP);
+            }
+        }
+        q += m;
+    }
+}
+
+/* Load of a unit acceleration along each direction, and the retained
+ * modes' forces and platform shapes. */
+static int direction_loads(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
+                           const double (*dir)[3], int ndir, dm_error *err)
 {
     int n = md->n, pd = md->platform_dof;
     const double v0[3] = {0, 0, 0};
@@ -274,38 +357,53 @@ static int prepare(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
         c->nm = 0;
         for (int j = 0; j < k; j++) {
             const double *ph = mo->phi + (size_t)j * n;
-            double g = 0;
-            for (int i = 0; i < n; i++)
-                g += ph[i] * G[i];
-            add_mode(c, mo->omega_rad_s[j], g, ph + pd);
+            add_mode(c, mo->omega_rad_s[j], dot(ph, G, n), ph + pd);
         }
         memset(c->rP, 0, sizeof c->rP);
-        if (!o->quasi_static)
-            continue;
-        /* r = K^-1 G - sum_j phi_j g_j / omega_j^2 */
-        memcpy(w->r, G, sizeof(double) * n);
-        if ((rc = dm_static_solve(st, w->r, 1, err)))
-            return rc;
+    }
+    return DM_OK;
+}
+
+/* The modes each direction carries (retained, then Ritz) with their modal
+ * forces and platform shapes; what stays static of the dropped modes'
+ * response. */
+static int prepare(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
+                   const dm_static *st, const double (*dir)[3], int ndir,
+                   const dm_move_opts *o, dm_error *err)
+{
+    int n = md->n, pd = md->platform_dof;
+    int rc = direction_loads(w, md, mo, k, dir, ndir, err);
+    if (rc || !o->quasi_static)
+        return rc;
+    /* r = K^-1 G - sum_j phi_j g_j / omega_j^2, all directions in one solve */
+    double *r[MAXDIR], *G[MAXDIR];
+    for (int d = 0; d < MAXDIR; d++)
+        r[d] = w->r + (size_t)d * n, G[d] = w->G + (size_t)d * n;
+    on_block(w, md, st, OP_SOLVE, G, r, ndir);
+    int nritz[MAXDIR], nkept[MAXDIR];
+    for (int d = 0; d < ndir; d++) {
+        carried *c = &w->dir[d];
+        double sr[3] = {0, 0, 0};
         for (int j = 0; j < k; j++) {
             const double *ph = mo->phi + (size_t)j * n;
             double f = c->g[j] / (c->om[j] * c->om[j]);
             for (int i = 0; i < n; i++)
-                w->r[i] -= f * ph[i];
+                r[d][i] -= f * ph[i];
+            sr[0] += c->px[j] * f, sr[1] += c->py[j] * f, sr[2] += c->pz[j] * f;
         }
         for (int c3 = 0; c3 < 3; c3++)
-            c->rP[c3] = w->r[pd + c3];
+            c->rP[c3] = r[d][pd + c3];
         /* Ritz vectors only where the dropped modes matter: their dynamic
          * response cannot exceed ~4 |rP| (a bang-bang reverses its load),
          * so below 5e-4 of the retained modes' static response they would
          * change nothing beyond 0.2 % (han2011: 1e-5..1e-4) */
-        double sr[3] = {0, 0, 0};
-        for (int j = 0; j < k; j++) {
-            double f = c->g[j] / (c->om[j] * c->om[j]);
-            sr[0] += c->px[j] * f, sr[1] += c->py[j] * f, sr[2] += c->pz[j] * f;
-        }
-        int nritz = dm_norm3(c->rP) > 5e-4 * dm_norm3(sr) ? o->ritz_vectors : 0;
-        if (nritz > 0)
-            ritz_modes(w, md, mo, k, st, G, nritz < MAXRITZ ? nritz : MAXRITZ, c);
+        nritz[d] = dm_norm3(c->rP) > 5e-4 * dm_norm3(sr) ? o->ritz_vectors : 0;
+        nritz[d] = nritz[d] < MAXRITZ ? nritz[d] : MAXRITZ;
+    }
+    krylov_blocks(w, md, mo, k, st, ndir, nritz, nkept);
+    ritz_modes(w, md, st, ndir, nkept);
+    for (int d = 0; d < ndir; d++) {
+        carried *c = &w->dir[d];
         for (int j = k; j < c->nm; j++) { /* what the Ritz modes carry statically */
             double s = c->g[j] / (c->om[j] * c->om[j]);
             c->rP[0] -= c->px[j] * s;
