@@ -22,6 +22,11 @@ typedef struct dm_rigid_motion {
  * Velocity (centripetal) terms enter through alpha_dot. */
 void dm_loads_add_inertial(const dm_model *model, const dm_rigid_motion *motion, double *F);
 
+/* The same for q motions (1..8) at once: F holds q columns of length n,
+ * F[:, l] += inertial load of motion[l] (one pass over the elements). */
+void dm_loads_add_inertial_many(const dm_model *model, const dm_rigid_motion *motion, int q,
+                                double *F);
+
 /* F += external force (N) and torque (N*m) at the platform centre P. */
 void dm_loads_add_platform_wrench(const dm_model *model, const double force[3],
                                   const double torque[3], double *F);

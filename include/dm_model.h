@@ -92,6 +92,11 @@ int dm_model_build(dm_model *model, const dm_pose *pose, dm_error *err);
 void dm_model_add_element_load(const dm_model *model, const dm_element *e,
                                const double a12[12], double *F);
 
+/* The same for q loads at once: a12 holds q sets of 12 accelerations, F
+ * q columns of length n (the element's map and mass computed once). */
+void dm_model_add_element_loads(const dm_model *model, const dm_element *e, int q,
+                                const double *a12, double *F);
+
 /* The full n x n matrices, column-major (either may be NULL): the dense
  * oracle for tests, and the input of the dense eigen solvers. */
 void dm_model_dense(const dm_model *model, double *K, double *M);

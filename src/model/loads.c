@@ -1,6 +1,8 @@
 /* Inertial loads of the nominal rigid motion (docs/model.md §3). */
 #include "dm_loads.h"
 
+#include <assert.h>
+
 #include "dm_vec3.h"
 
 /* Acceleration of the elbow of chain i: the arm rotates about t_i through A_i. */
@@ -27,39 +29,64 @@ static void node_acceleration(const dm_element *e, double s, const double aB[3],
         a[k] = e->member == DM_MEMBER_ARM ? s * aB[k] : (1 - s) * aB[k] + s * aP[k];
 }
 
-void dm_loads_add_inertial(const dm_model *md, const dm_rigid_motion *mo, double *F)
+/* The link accelerations of one rigid motion: elbows and the angular
+ * accelerations of arms and rods. */
+typedef struct {
+    double aB[3][3], ang[2][3][3]; /* [chain]; [arm|rod][chain] */
+} link_motion;
+
+static void link_accelerations(const dm_model *md, const dm_rigid_motion *mo, link_motion *lm)
 {
     const dm_pose *p = &md->pose;
-    double aB[3][3], ang[2][3][3]; /* [arm|rod][chain] angular accelerations */
     for (int i = 0; i < 3; i++) {
-        double L[3], da[3];
-        elbow_acceleration(md, i, mo, aB[i]);
-        dm_scale3(mo->alpha_ddot[i], p->t[i], ang[DM_MEMBER_ARM][i]);
+        double L[3], da[3], *rod = lm->ang[DM_MEMBER_ROD][i];
+        elbow_acceleration(md, i, mo, lm->aB[i]);
+        dm_scale3(mo->alpha_ddot[i], p->t[i], lm->ang[DM_MEMBER_ARM][i]);
         /* rod: omega_dot = L x (aC - aB) / |L|^2, L = C - B (no spin) */
         dm_sub3(p->C[i], p->B[i], L);
-        dm_sub3(mo->aP, aB[i], da);
-        dm_cross3(L, da, ang[DM_MEMBER_ROD][i]);
-        dm_scale3(1.0 / dm_dot3(L, L), ang[DM_MEMBER_ROD][i], ang[DM_MEMBER_ROD][i]);
+        dm_sub3(mo->aP, lm->aB[i], da);
+        dm_cross3(L, da, rod);
+        dm_scale3(1.0 / dm_dot3(L, L), rod, rod);
     }
+}
+
+#define MAX_MOTIONS 8
+
+void dm_loads_add_inertial_many(const dm_model *md, const dm_rigid_motion *mo, int q, double *F)
+{
+    assert(q >= 1 && q <= MAX_MOTIONS);
+    link_motion lm[MAX_MOTIONS];
+    for (int l = 0; l < q; l++)
+        link_accelerations(md, &mo[l], &lm[l]);
     for (int k = 0; k < md->nelem; k++) {
         const dm_element *e = &md->elem[k];
-        double a12[12];
-        node_acceleration(e, e->s1, aB[e->chain], mo->aP, a12);
-        node_acceleration(e, e->s2, aB[e->chain], mo->aP, a12 + 6);
-        for (int c = 0; c < 3; c++) {
-            a12[3 + c] = a12[9 + c] = ang[e->member][e->chain][c];
+        double a12[MAX_MOTIONS][12];
+        for (int l = 0; l < q; l++) {
+            double *a = a12[l];
+            node_acceleration(e, e->s1, lm[l].aB[e->chain], mo[l].aP, a);
+            node_acceleration(e, e->s2, lm[l].aB[e->chain], mo[l].aP, a + 6);
+            for (int c = 0; c < 3; c++)
+                a[3 + c] = a[9 + c] = lm[l].ang[e->member][e->chain][c];
+            for (int c = 0; c < 12; c++)
+                a[c] = -a[c]; /* G_e = -M_e a_e */
         }
-        for (int c = 0; c < 12; c++)
-            a12[c] = -a12[c]; /* G_e = -M_e a_e */
-        dm_model_add_element_load(md, e, a12, F);
+        dm_model_add_element_loads(md, e, q, a12[0], F);
     }
-    int pd = md->platform_dof;
-    for (int r = 0; r < 6; r++) /* platform and payload */
-        for (int c = 0; c < 3; c++)
-            F[pd + r] -= md->platform_mass[6 * c + r] * mo->aP[c];
-    for (int i = 0; i < 3; i++) /* elbow point masses */
-        for (int c = 0; c < 3; c++)
-            F[md->elbow_dof[i] + c] -= md->robot->effects.elbow_mass_kg * aB[i][c];
+    int pd = md->platform_dof, n = md->n;
+    for (int l = 0; l < q; l++) {
+        double *Fl = F + (size_t)l * n;
+        for (int r = 0; r < 6; r++) /* platform and payload */
+            for (int c = 0; c < 3; c++)
+                Fl[pd + r] -= md->platform_mass[6 * c + r] * mo[l].aP[c];
+        for (int i = 0; i < 3; i++) /* elbow point masses */
+            for (int c = 0; c < 3; c++)
+                Fl[md->elbow_dof[i] + c] -= md->robot->effects.elbow_mass_kg * lm[l].aB[i][c];
+    }
+}
+
+void dm_loads_add_inertial(const dm_model *md, const dm_rigid_motion *mo, double *F)
+{
+    dm_loads_add_inertial_many(md, mo, 1, F);
 }
 
 void dm_loads_add_platform_wrench(const dm_model *md, const double force[3],

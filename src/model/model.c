@@ -436,32 +436,42 @@ static void scatter(dm_arrow *X, const double Ke[144], double El[12][2 * DM_NODE
     dm_arrow_add_matrix(X, idx, m, E);
 }
 
-void dm_model_add_element_load(const dm_model *md, const dm_element *e, const double a12[12],
-                               double *F)
+void dm_model_add_element_loads(const dm_model *md, const dm_element *e, int q,
+                                const double *a12, double *F)
 {
     double El[12][2 * DM_NODEMAP_MAX], Me[144], aloc[12], f[12];
     int idx[2 * DM_NODEMAP_MAX];
-    int m = element_map(e, El, idx);
+    assert(q >= 1);
+    int m = element_map(e, El, idx), n = md->n;
     dm_beam_mass(&md->props[e->member], e->length_m, Me);
-    for (int blk = 0; blk < 4; blk++)
-        for (int r = 0; r < 3; r++) {
+    for (int l = 0; l < q; l++) { /* the map and M_e once for all q loads */
+        const double *a = a12 + 12 * l;
+        for (int blk = 0; blk < 4; blk++)
+            for (int r = 0; r < 3; r++) {
+                double s = 0;
+                for (int k = 0; k < 3; k++)
+                    s += e->lambda[3 * r + k] * a[3 * blk + k];
+                aloc[3 * blk + r] = s;
+            }
+        for (int r = 0; r < 12; r++) {
             double s = 0;
-            for (int k = 0; k < 3; k++)
-                s += e->lambda[3 * r + k] * a12[3 * blk + k];
-            aloc[3 * blk + r] = s;
+            for (int k = 0; k < 12; k++)
+                s += Me[r * 12 + k] * aloc[k];
+            f[r] = s;
         }
-    for (int r = 0; r < 12; r++) {
-        double s = 0;
-        for (int k = 0; k < 12; k++)
-            s += Me[r * 12 + k] * aloc[k];
-        f[r] = s;
+        for (int j = 0; j < m; j++) {
+            double s = 0;
+            for (int k = 0; k < 12; k++)
+                s += El[k][j] * f[k];
+            F[(size_t)l * n + idx[j]] += s;
+        }
     }
-    for (int j = 0; j < m; j++) {
-        double s = 0;
-        for (int k = 0; k < 12; k++)
-            s += El[k][j] * f[k];
-        F[idx[j]] += s;
-    }
+}
+
+void dm_model_add_element_load(const dm_model *md, const dm_element *e, const double a12[12],
+                               double *F)
+{
+    dm_model_add_element_loads(md, e, 1, a12, F);
 }
 
 /* Rigid platform (mass, inertia about P) plus the payload point mass at

@@ -345,15 +345,18 @@ static int direction_loads(dm_move_ws *w, const dm_model *md, const dm_modes *mo
 {
     int n = md->n, pd = md->platform_dof;
     const double v0[3] = {0, 0, 0};
+    dm_rigid_motion m[MAXDIR];
     for (int d = 0; d < ndir; d++) {
-        carried *c = &w->dir[d];
-        double *G = w->G + (size_t)d * n;
-        dm_rigid_motion m = {{0, 0, 0}, {0, 0, 0}, {dir[d][0], dir[d][1], dir[d][2]}};
-        int rc = dm_kin_accelerations(md->robot, &md->pose, v0, dir[d], m.alpha_ddot, err);
+        m[d] = (dm_rigid_motion){{0, 0, 0}, {0, 0, 0}, {dir[d][0], dir[d][1], dir[d][2]}};
+        int rc = dm_kin_accelerations(md->robot, &md->pose, v0, dir[d], m[d].alpha_ddot, err);
         if (rc)
             return rc;
-        memset(G, 0, sizeof(double) * n);
-        dm_loads_add_inertial(md, &m, G);
+    }
+    memset(w->G, 0, sizeof(double) * n * ndir);
+    dm_loads_add_inertial_many(md, m, ndir, w->G);
+    for (int d = 0; d < ndir; d++) {
+        carried *c = &w->dir[d];
+        const double *G = w->G + (size_t)d * n;
         c->nm = 0;
         for (int j = 0; j < k; j++) {
             const double *ph = mo->phi + (size_t)j * n;
