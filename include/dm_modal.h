@@ -63,6 +63,14 @@ int dm_modal_solve(dm_modal *ws, const dm_model *model, const struct dm_static *
  * not depend on which tile a thread did before). */
 void dm_modal_forget(dm_modal *ws);
 
+/* Poses come along a smooth path at equal steps (a trajectory's time
+ * steps): each warm solve starts from the subspaces of the last three
+ * solutions extrapolated (quadratic in the step) rather than from the
+ * last alone, and needs fewer iterations; the results converge to the
+ * same residuals either way. Calling it again (on or off) starts a new
+ * path: do so where the steps stop being equal (a pause, a jump). */
+void dm_modal_follow_path(dm_modal *ws, int on);
+
 /* Start the next solve from these ncol vectors (n x ncol, column-major)
  * instead of the previous solution (tests: a start that misses a mode must
  * be caught by the Sturm count). */

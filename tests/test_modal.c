@@ -381,6 +381,56 @@ static void warm_and_cold_agree(void **state)
     }
 }
 
+/* Along a path (steps of 6 mm, then a pause and a reversal) each solve
+ * starts from the last three solutions extrapolated: the same modes as a
+ * cold start, to the warm start's tolerance, in fewer applications of
+ * K^-1 M than a start from the last solution alone. */
+static void path_extrapolation_agrees_and_saves(void **state)
+{
+    (void)state;
+    const char *names[] = {"zheng2017", "han2011"};
+    for (int r = 0; r < 2; r++) {
+        dm_robot rb;
+        load_robot(names[r], NULL, &rb);
+        dm_analysis *an[2], *cold = dm_analysis_alloc(&rb, 4, 4, 14, DM_EIGEN_SUBSPACE, NULL);
+        long applications[2] = {0, 0};
+        for (int f = 0; f < 2; f++) {
+            an[f] = dm_analysis_alloc(&rb, 4, 4, 14, DM_EIGEN_SUBSPACE, NULL);
+            dm_modal_follow_path(an[f]->modal, f);
+        }
+        for (int j = 0; j < 40; j++) {
+            /* out 6 mm per step along a curve, a pause (the same pose
+             * twice: a new path), then back */
+            double s = j < 20 ? j : j == 20 ? 19 : 39 - j;
+            double P[3] = {rb.home_m[0] + 6e-3 * s, rb.home_m[1] + 2e-5 * s * s,
+                           rb.home_m[2] - 5e-4 * s};
+            if (j == 20)
+                dm_modal_follow_path(an[1]->modal, 1);
+            dm_pose_result rc, rw[2];
+            dm_modal_forget(cold->modal);
+            assert_int_equal(dm_analysis_run(cold, P, 14, &rc, NULL), 0);
+            for (int f = 0; f < 2; f++) {
+                dm_modal_stats st;
+                assert_int_equal(dm_analysis_run(an[f], P, 14, &rw[f], NULL), 0);
+                dm_modal_last_stats(an[f]->modal, &st);
+                assert_int_equal(st.fallback, 0);
+                if (j > 0)
+                    applications[f] += st.iterations;
+                for (int m = 0; m < 14; m++)
+                    assert_rel(rw[f].modes->freq_hz[m], rc.modes->freq_hz[m], 0.5e-12,
+                               "%s pose %d mode %d %s vs cold", names[r], j, m + 1,
+                               f ? "extrapolated" : "warm");
+            }
+        }
+        print_message("%s: %ld applications from the last solution, %ld extrapolated\n",
+                      names[r], applications[0], applications[1]);
+        assert_true(applications[1] < applications[0]);
+        for (int f = 0; f < 2; f++)
+            dm_analysis_free(an[f]);
+        dm_analysis_free(cold);
+    }
+}
+
 /* A start that lacks a mode converges to the wrong set; the Sturm count
  * finds one eigenvalue more below the shift than the set holds, and the
  * solver falls back to a cold start, which finds it. */
@@ -479,6 +529,7 @@ int main(void)
         cmocka_unit_test(mesh_convergence),
         cmocka_unit_test(subspace_solver_against_extended_precision),
         cmocka_unit_test(warm_and_cold_agree),
+        cmocka_unit_test(path_extrapolation_agrees_and_saves),
         cmocka_unit_test(missed_mode_is_caught),
         cmocka_unit_test(pairs_through_the_centre),
         cmocka_unit_test(seeded_solve_does_not_depend_on_history),

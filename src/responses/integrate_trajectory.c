@@ -78,6 +78,8 @@ static int alloc_ws(run_ws *w, dm_error *err)
     w->k = (o->k <= 0 || o->k > n) ? n : o->k;
     w->ksolve = w->k > o->nfreq ? w->k : (o->nfreq < n ? o->nfreq : n);
     w->modal = dm_modal_alloc(w->md, w->ksolve, DM_EIGEN_PARTIAL, err);
+    if (w->modal) /* the steps' poses: equally spaced in time along the path */
+        dm_modal_follow_path(w->modal, 1);
     w->statics = w->modal ? dm_static_alloc(w->md, err) : NULL;
     w->stepper = w->statics ? dm_stepper_alloc(n, w->k, o->method, o->rtol, o->atol, err) : NULL;
     if (!w->stepper)
@@ -236,6 +238,8 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     int rc = pose_at(w, P, a, &pose, err);
     /* the same pose bit for bit gives the same model, modes and factor */
     int fresh = !w->have_frozen || memcmp(&pose, &w->frozen, sizeof pose);
+    if (!fresh) /* a pause: the steps after it start a new path */
+        dm_modal_follow_path(w->modal, 1);
     if (!rc && fresh) {
         w->have_frozen = 0;
         rc = dm_model_build(w->md, &pose, err);

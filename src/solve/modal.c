@@ -37,6 +37,9 @@ struct dm_modal {
     double *swork;
     lapack_int *siwork, slwork, sliwork;
     dm_arrow_ldl ldl;        /* Sturm counts */
+    int follow;              /* poses along a path: extrapolate the start */
+    int nhist;               /* earlier solutions in hist (0..2) */
+    double *hist[2];         /* the blocks of the last solves but one and two */
     int have_start;
     double warm_error;       /* how far off the last warm start was */
     dm_modal_stats stats;
@@ -157,7 +160,8 @@ static int alloc_dense(dm_modal *ws)
 static int alloc_subspace(dm_modal *ws, const dm_model *md)
 {
     size_t nq = (size_t)ws->n * ws->qmax, qq = (size_t)ws->qmax * ws->qmax;
-    double **nbuf[] = {&ws->X, &ws->MX, &ws->T, &ws->MT, &ws->Y, &ws->XL, &ws->Xs, &ws->Ts, &ws->MXs};
+    double **nbuf[] = {&ws->X,  &ws->MX, &ws->T,   &ws->MT,     &ws->Y,
+                       &ws->XL, &ws->Xs, &ws->Ts, &ws->MXs, &ws->hist[0], &ws->hist[1]};
     for (size_t i = 0; i < sizeof nbuf / sizeof nbuf[0]; i++)
         if (!(*nbuf[i] = malloc(nq * sizeof(double))))
             return DM_ENOMEM;
@@ -223,7 +227,7 @@ void dm_modal_free(dm_modal *ws)
                  ws->isuppz, ws->d, ws->iblock, ws->X, ws->MX,    ws->T,
                  ws->MT, ws->Y,     ws->Kt,  ws->Mt,    ws->theta,  ws->res,
                  ws->scale, ws->phi, ws->swork, ws->siwork, ws->XL, ws->C, ws->Xs, ws->Ts,
-                 ws->MXs, ws->modes.freq_hz,
+                 ws->MXs, ws->hist[0], ws->hist[1], ws->modes.freq_hz,
                  ws->modes.omega_rad_s, ws->modes.platform_share, ws->modes.direction};
     for (size_t i = 0; i < sizeof p / sizeof p[0]; i++)
         free(p[i]);
@@ -234,10 +238,17 @@ void dm_modal_free(dm_modal *ws)
 void dm_modal_forget(dm_modal *ws)
 {
     ws->have_start = 0;
+    ws->nhist = 0;
     ws->warm_error = WARM_ERROR; /* nothing carried over, not even this */
 }
 
 void dm_modal_last_stats(const dm_modal *ws, dm_modal_stats *stats) { *stats = ws->stats; }
+
+void dm_modal_follow_path(dm_modal *ws, int on)
+{
+    ws->follow = on;
+    ws->nhist = 0; /* a new path (or none) */
+}
 
 /* A seed: q, then q Ritz values (double), then the block (float: it is
  * only a start; half the memory of an anchor lattice). */
@@ -275,6 +286,7 @@ void dm_modal_seed_load(dm_modal *ws, const void *seed)
     for (size_t i = 0; i < (size_t)ws->n * q; i++)
         ws->X[i] = X[i];
     ws->have_start = 1;
+    ws->nhist = 0;
     ws->warm_error = WARM_ERROR; /* nothing of the last solve carried over */
 }
 
@@ -291,6 +303,7 @@ int dm_modal_set_start(dm_modal *ws, const double *X, int ncol, dm_error *err)
     for (int j = 0; j < ncol; j++) /* nothing known of the spectrum: no Ritz values */
         ws->theta[j] = 0;
     ws->have_start = 1;
+    ws->nhist = 0;
     return DM_OK;
 }
 
@@ -744,6 +757,47 @@ static int cold_start(dm_modal *ws, const dm_model *md, int k, dm_error *err)
     return DM_OK;
 }
 
+/* P = H (H' M X): the part of X in span(H), M-orthogonally (H's columns
+ * M-orthonormal at a neighbouring pose, which is accurate to first order
+ * in the step: enough for a start). MX = M X given; blocks interleaved. */
+static void project_on(const dm_modal *ws, const double *H, const double *MX, double *P)
+{
+    int n = ws->n, q = ws->q;
+    /* interleaved n x q == column-major q x n */
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, q, q, n, 1.0, H, q, MX, q, 0.0, ws->C, q);
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, q, n, q, 1.0, ws->C, q, H, q, 0.0, P, q);
+}
+
+/* Along a path, the start of the next solve: the subspaces of the last
+ * solves (X_t, X_t-1, X_t-2, equally spaced) extrapolated, linearly or
+ * quadratically: X_t + (X_t - P_t-1 X_t), or 3 X_t - 3 P_t-1 X_t +
+ * P_t-2 X_t, with P_s X_t the part of X_t in span(X_s) (which aligns the
+ * bases: Ritz vectors come with any sign, pairs in any rotation). The
+ * error of the start drops from O(h) to O(h^2) or O(h^3), and the filter
+ * planned from the measured error needs a lower degree. */
+static void extrapolate(dm_modal *ws, const dm_model *md)
+{
+    int n = ws->n, q = ws->q;
+    size_t len = (size_t)n * q;
+    if (ws->nhist > 0) {
+        dm_model_mult_M(md, ws->X, q, ws->MX);
+        project_on(ws, ws->hist[0], ws->MX, ws->T);
+        if (ws->nhist > 1)
+            project_on(ws, ws->hist[1], ws->MX, ws->MT);
+    }
+    double *oldest = ws->hist[1]; /* X_t joins the history, X_t-2 leaves */
+    ws->hist[1] = ws->hist[0];
+    ws->hist[0] = oldest;
+    memcpy(ws->hist[0], ws->X, sizeof(double) * len);
+    if (ws->nhist == 1)
+        for (size_t i = 0; i < len; i++)
+            ws->X[i] = 2 * ws->X[i] - ws->T[i];
+    else if (ws->nhist == 2)
+        for (size_t i = 0; i < len; i++)
+            ws->X[i] = 3 * (ws->X[i] - ws->T[i]) + ws->MT[i];
+    ws->nhist += ws->nhist < 2;
+}
+
 static int solve_subspace(dm_modal *ws, const dm_model *md, const dm_static *factor, int k,
                           dm_error *err)
 {
@@ -752,6 +806,8 @@ static int solve_subspace(dm_modal *ws, const dm_model *md, const dm_static *fac
     ws->stats.warm = ws->have_start;
     int kw = 0, rc = DM_OK;
     if (ws->have_start) {
+        if (ws->follow)
+            extrapolate(ws, md);
         kw = iterate(ws, md, L, k, START_WARM);
         if (kw && !sturm_check(ws, md, kw))
             kw = 0;
@@ -759,6 +815,7 @@ static int solve_subspace(dm_modal *ws, const dm_model *md, const dm_static *fac
     }
     if (!kw) {
         ws->have_start = 0;
+        ws->nhist = 0; /* the subspace may change size */
         if ((rc = cold_start(ws, md, k, err)))
             return rc;
         /* the dense pairs are the lowest: iterate only to converge them */
