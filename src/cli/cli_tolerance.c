@@ -48,7 +48,7 @@ typedef struct {
     dm_tolerance_spec spec;
 } tol_opts;
 
-static int parse_tol(const char *arg, dm_tolerance_spec *sp)
+int dm_cli_parse_tol(const char *arg, dm_tolerance_spec *sp)
 {
     const char *eq = strchr(arg, '=');
     if (!eq)
@@ -105,7 +105,7 @@ static int parse(int argc, char **argv, tol_opts *t)
             break;
         }
         case 't':
-            if (parse_tol(optarg, &t->spec))
+            if (dm_cli_parse_tol(optarg, &t->spec))
                 return dm_cli_usage("tolerance",
                                     "--tol takes NAME=VALUE with NAME arm_length, rod_length, "
                                     "base_radius, platform_radius, theta_deg or alpha0_deg",
