@@ -149,6 +149,7 @@ same = same and dom.attrs['source_names'][int(dom[i, j, k])] == d['dominant_sour
 same = same and 0 < d['p_exceed_spec'] < 1 and d['mean_error_m'] > 0
 sys.exit(0 if same else 1)"; then ok; else bad "tolerance map differs from deltamap tolerance at $AT"; fi
 done
+if $PY tools/plot_maps.py "$TMP/t1" --out "$TMP/tplots" >/dev/null && [ -s "$TMP/tplots/dominant_source.png" ] && [ -s "$TMP/tplots/p_exceed_spec.png" ] && [ -s "$TMP/tplots/error_p95_m.png" ]; then ok; else bad "plot_maps of tolerance maps"; fi
 # the settings are the store's: another sample count (or none) is refused
 $TSW --tolerance-samples 41 --tolerance-seed 5 $TOLMC --out "$TMP/t1" >/dev/null 2>"$TMP/err"
 if [ $? -eq 2 ] && grep -q "tolerance Monte Carlo settings" "$TMP/err"; then ok; else bad "resume with other samples accepted"; cat "$TMP/err"; fi
