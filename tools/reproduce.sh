@@ -54,5 +54,4 @@ MAP=$(mktemp -d)
 $PY tools/plot_maps.py "$MAP/zheng2017-tolerance" --out "$MAP/plots" > /dev/null
 cp "$MAP/plots/error_p95_m.png" docs/img/zheng2017-tolerance-p95.png
 cp "$MAP/plots/p_exceed_spec.png" docs/img/zheng2017-tolerance-exceed.png
-cp "$MAP/plots/dominant_source.png" docs/img/zheng2017-tolerance-dominant.png
 rm -rf "$MAP"
