@@ -57,7 +57,7 @@ typedef struct dm_sweep_opts {
     /* The tolerance Monte Carlo at every computed point (dm_tolerance_pose
      * at the sweep's mesh, flexible model, one thread per point): maps of
      * the mean, P95 and maximum |error|, P(|error| > spec) when
-     * tolerance.spec_m > 0, and the dominant source. Each point's result is
+     * tolerance_spec.spec_m > 0, and the dominant source. Each point's result is
      * that of dm_tolerance_pose at its pose (its own streams,
      * dm_tolerance_pose_seed): the same for any threads, tiles and shards.
      * The spec's samples, seed, spec, bands and law are part of the
