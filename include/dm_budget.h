@@ -60,4 +60,33 @@ int dm_budget_trajectory(const dm_robot *robot, const dm_trajectory *traj,
                          const dm_integ_opts *opts, int flexibility, dm_budget_sink sink,
                          void *user, dm_budget_summary *summary, dm_error *err);
 
+/* ---- the coupling index against the nominal robot along a run ---------
+ * Zheng's index log10 lambda_s depends on the mesh and the DOF units
+ * (dm_coupling.h); its change against the nominal robot (all [effects]
+ * off) at the same commanded pose and mesh is what compares across poses
+ * and designs. A run's step is frozen at the commanded position of its
+ * start, which is the previous sample's (the first sample: its own), so
+ * the tracker fed every sample of a run in order gives
+ *   change = sample.coupling_index_log10 - nominal at that position,
+ * NaN where the sample has no index (a rigid run) or the nominal robot
+ * cannot be built there (outside its workspace), and over the steps the
+ * time mean (each step weighted by its length, as the run's own index),
+ * minimum and maximum of the finite changes. */
+typedef struct dm_coupling_change {
+    struct dm_coupling *nominal;  /* dm_coupling.h's workspace */
+    long samples;
+    double t_prev, P_prev[3];
+    double integral_s, weight_s, min, max;
+} dm_coupling_change;
+
+/* For runs of `robot` at mesh na, nb (0: the robot file's). */
+int dm_coupling_change_init(dm_coupling_change *cc, const dm_robot *robot, int na, int nb,
+                            dm_error *err);
+void dm_coupling_change_free(dm_coupling_change *cc);
+/* The change of the run's next sample (NaN when there is none). */
+double dm_coupling_change_next(dm_coupling_change *cc, const dm_integ_sample *sample);
+/* Time mean, minimum and maximum over the steps so far (NaN: none). */
+void dm_coupling_change_summary(const dm_coupling_change *cc, double *mean, double *min,
+                                double *max);
+
 #endif

@@ -22,6 +22,7 @@
 #include "dm_integrate.h"
 #include "dm_robot.h"
 #include "dm_store.h"
+#include "dm_tolerance.h"
 
 enum dm_point_status {
     DM_POINT_OK = 0,
@@ -53,6 +54,17 @@ typedef struct dm_sweep_opts {
     int force;          /* replace a store of another robot/grid/options */
     int force_long;     /* run even beyond DM_SWEEP_MAX_SECONDS or DM_SWEEP_MAX_FILES */
     int shard, shards;  /* compute only shard `shard` of `shards` (0: all) */
+    /* The tolerance Monte Carlo at every computed point (dm_tolerance_pose
+     * at the sweep's mesh, flexible model, one thread per point): maps of
+     * the mean, P95 and maximum |error|, P(|error| > spec) when
+     * tolerance_spec.spec_m > 0, and the dominant source. Each point's result is
+     * that of dm_tolerance_pose at its pose (its own streams,
+     * dm_tolerance_pose_seed): the same for any threads, tiles and shards.
+     * The spec's samples, seed, spec, bands and law are part of the
+     * store's fingerprint; its na, nb, flexibility and force are the
+     * sweep's (its mesh, 1, force_long). */
+    int tolerance;
+    dm_tolerance_spec tolerance_spec;
     /* progress: called (from one thread at a time) as the anchors and the
      * tiles get done; NULL: none. The caller draws it. */
     void (*progress)(void *user, const struct dm_sweep_progress *p);
@@ -65,8 +77,10 @@ void dm_sweep_opts_default(dm_sweep_opts *opts);
  * points is estimated at more than DM_SWEEP_MAX_SECONDS of wall time on
  * its threads (from the per-point cost measured on this project's
  * development machine, 2.5 ms at 210 DOF with the standard moves, growing
- * as n^2), or whose store would hold more than DM_SWEEP_MAX_FILES chunk
- * files (larger tiles, or several stores, keep a file system usable). */
+ * as n^2, plus the tolerance Monte Carlo's dm_tolerance_estimate_s), or
+ * one point's Monte Carlo beyond DM_TOLERANCE_MAX_SECONDS, or whose store
+ * would hold more than DM_SWEEP_MAX_FILES chunk files (larger tiles, or
+ * several stores, keep a file system usable). */
 #define DM_SWEEP_MAX_SECONDS (24 * 3600.0)
 #define DM_SWEEP_MAX_FILES 2000000L
 

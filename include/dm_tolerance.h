@@ -23,8 +23,10 @@
  * commanded (m), and its norm.
  *
  * Random numbers are counter-based: sample i's draws come from a stream
- * seeded by (seed, i) alone, so results are bit-identical for any number
- * of threads and any order of the samples.
+ * seeded by (dm_tolerance_pose_seed(seed, P), i) alone, so results are
+ * bit-identical for any number of threads and any order of the samples,
+ * and a sweep's point is the same run as the one at its pose (each pose
+ * has its own draws: a map's noise is independent from pose to pose).
  *
  * The linearised model: the error at the mean state (the file's errors,
  * the mean clearance state: axial v/2, the rest 0), and its derivative
@@ -70,6 +72,12 @@ void dm_tolerance_spec_default(dm_tolerance_spec *spec);
  * spec.force. */
 #define DM_TOLERANCE_MAX_SECONDS 3600.0
 double dm_tolerance_estimate_s(const dm_robot *robot, const dm_tolerance_spec *spec);
+
+/* The seed of the sample streams at commanded position P (m): a function
+ * of the seed and of P rounded to 1 nm, so a pose typed with fewer digits
+ * than a grid computed it (0.05 for 0.05000000000000002) draws the same
+ * states. What dm_tolerance_pose and dm_tolerance_samples use. */
+uint64_t dm_tolerance_pose_seed(uint64_t seed, const double P[3]);
 
 /* Check the spec before any work: DM_EINVAL naming the field. */
 int dm_tolerance_check(const dm_robot *robot, const dm_tolerance_spec *spec, dm_error *err);

@@ -153,6 +153,22 @@ r = list(csv.DictReader(open('$TMP/budget.csv')))
 ok = len(r) == 51 and all(abs(float(x['combined_m']) - float(x['error_m'])) <= 1e-12 * float(x['error_m']) for x in r)
 ok = ok and all(abs(float(x['sum_dx_m']) - sum(float(x[s + '_dx_m']) for s in ('geometry', 'clearance', 'flexibility'))) < 1e-12 for x in r)
 sys.exit(0 if ok else 1)"; then ok; else bad "budget CSV columns"; fi
+# the index's change against the nominal robot per step: the CSV column's
+# time mean (each step weighted by its length) is the summary's; a preset
+# without effects has none, in the CSV and the Zarr store alike
+json_true "d['coupling_index_change_log10']['min'] <= d['coupling_index_change_log10']['mean'] <= d['coupling_index_change_log10']['max'] and d['coupling_index_change_log10']['mean'] != 0"
+if python3 -c "
+import csv, json, sys
+r = list(csv.DictReader(open('$TMP/budget.csv')))
+c = json.load(open('$TMP/out'))['coupling_index_change_log10']
+T = float(r[-1]['t_s'])
+m = sum((float(r[i]['t_s']) - float(r[i - 1]['t_s'])) * float(r[i]['coupling_index_change_log10']) for i in range(1, len(r))) / T
+sys.exit(0 if abs(m - c['mean']) <= 1e-9 * abs(c['mean']) else 1)"; then ok; else bad "coupling change: CSV mean != summary"; fi
+if .venv/bin/python -c "
+import xarray as xr, numpy as np, sys
+ds = xr.open_zarr('$TMP/run.zarr', consolidated=False)
+c = np.genfromtxt('$TMP/run.csv', delimiter=',', names=True)
+sys.exit(0 if (c['coupling_index_change_log10'] == 0).all() and (ds.coupling_index_change_log10.values == 0).all() else 1)"; then ok; else bad "coupling change of a robot without effects"; fi
 expect 0 "budget plot" .venv/bin/python tools/plot_trajectory.py "$TMP/budget.csv"
 expect 0 "rigid budget" "$DM" trajectory --robot zheng2017 --path "$SHORT" --rigid --set "$GEO" --json
 json_true "d['budget']['flexibility']['mean_m'] == 0 and d['budget']['clearance']['mean_m'] == 0 and abs(d['budget']['combined']['mean_m'] - d['budget']['geometry']['mean_m']) <= 1e-12 * d['budget']['geometry']['mean_m']"

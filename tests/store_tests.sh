@@ -116,5 +116,65 @@ $DM sweep --robot han2011 --grid "r=0:1.2:7,phi=0:300:6,z=0.9" --mesh 1,1 --mode
 if grep -q "unreachable" "$TMP/cyl.out" && ! grep -q " 0 unreachable" "$TMP/cyl.out"; then ok; else bad "no unreachable points marked"; cat "$TMP/cyl.out"; fi
 if $PY tools/plot_maps.py "$TMP/cyl" --out "$TMP/cylplots" >/dev/null && [ -s "$TMP/cylplots/f1.png" ] && [ -s "$TMP/cylplots/status.png" ]; then ok; else bad "plot_maps"; fi
 
+# ---- tolerance maps (the Monte Carlo of `deltamap tolerance` per point) ----
+TOLSET="--set effects.clearance=1e-5 --set effects.actuator_clearance_radial=2e-5"
+TOLMC="--tol rod_length=5e-5 --tol theta_deg=0.02 --spec 6e-5"
+TSW="$DM sweep --robot zheng2017 --grid x=-0.06:0.06:3,y=-0.06:0.06:3,z=-0.45:-0.35:2 --mesh 1,1 --modes 4 --no-dynamic --tile 2,2,1 --progress none $TOLSET"
+$TSW --tolerance-samples 40 --tolerance-seed 5 $TOLMC --out "$TMP/t1" --threads 1 >/dev/null || bad "tolerance sweep"
+$TSW --tolerance-samples 40 --tolerance-seed 5 $TOLMC --out "$TMP/t2" --threads 2 >/dev/null || bad "tolerance sweep, 2 threads"
+if diff -r "$TMP/t1" "$TMP/t2" >/dev/null; then ok; else bad "tolerance maps: 1 and 2 threads differ"; fi
+for k in 0 1; do
+    $TSW --tolerance-samples 40 --tolerance-seed 5 $TOLMC --out "$TMP/ts" --shard $k/2 --threads 1 >/dev/null || bad "tolerance shard $k"
+done
+if diff -r "$TMP/t1" "$TMP/ts" >/dev/null; then ok; else bad "tolerance maps: shards differ"; fi
+# a point's values are `deltamap tolerance` at its position (17 digits)
+for ijk in "0 2 0" "2 1 1"; do
+    set -- $ijk
+    AT=$($PY -c "
+import zarr
+z = zarr.open_group('$TMP/t2', mode='r')
+print(','.join(repr(float(z[a][int(i)])) for a, i in zip('xyz', '$ijk'.split())))")
+    # shellcheck disable=SC2086
+    "$DM" tolerance --robot zheng2017 --at "$AT" --mesh 1,1 --samples 40 --seed 5 $TOLMC $TOLSET --threads 2 --json >"$TMP/tol.json" || bad "tolerance at $AT"
+    if $PY -c "
+import json, sys, zarr
+z = zarr.open_group('$TMP/t2', mode='r')
+d = json.load(open('$TMP/tol.json'))
+i, j, k = $1, $2, $3
+pairs = [('error_mean_m', 'mean_error_m'), ('error_p95_m', 'p95_error_m'),
+         ('error_max_m', 'max_error_m'), ('p_exceed_spec', 'p_exceed_spec')]
+same = all(float(z[a][i, j, k]) == d[b] for a, b in pairs)
+dom = z['dominant_source']
+same = same and dom.attrs['source_names'][int(dom[i, j, k])] == d['dominant_source']
+same = same and 0 < d['p_exceed_spec'] < 1 and d['mean_error_m'] > 0
+sys.exit(0 if same else 1)"; then ok; else bad "tolerance map differs from deltamap tolerance at $AT"; fi
+done
+if $PY tools/plot_maps.py "$TMP/t1" --out "$TMP/tplots" >/dev/null && [ -s "$TMP/tplots/dominant_source.png" ] && [ -s "$TMP/tplots/p_exceed_spec.png" ] && [ -s "$TMP/tplots/error_p95_m.png" ]; then ok; else bad "plot_maps of tolerance maps"; fi
+# the settings are the store's: another sample count (or none) is refused
+$TSW --tolerance-samples 41 --tolerance-seed 5 $TOLMC --out "$TMP/t1" >/dev/null 2>"$TMP/err"
+if [ $? -eq 2 ] && grep -q "tolerance Monte Carlo settings" "$TMP/err"; then ok; else bad "resume with other samples accepted"; cat "$TMP/err"; fi
+$TSW --out "$TMP/t1" >/dev/null 2>"$TMP/err"
+if [ $? -eq 2 ] && diff -r "$TMP/t1" "$TMP/t2" >/dev/null; then ok; else bad "resume without the Monte Carlo accepted"; fi
+$TSW --tolerance-samples 40 --tolerance-seed 5 $TOLMC --out "$TMP/t1" >"$TMP/out" && grep -q "0 computed" "$TMP/out" && ok || bad "resume of a tolerance sweep"
+# unreachable points stay marked; no spec, no p_exceed_spec
+$DM sweep --robot zheng2017 --grid "x=-0.6:0.6:5,y=0,z=-0.4" --mesh 1,1 --modes 4 --no-dynamic --progress none --tolerance-samples 10 --tol arm_length=1e-4 --out "$TMP/tu" >/dev/null || bad "tolerance sweep with unreachable points"
+if $PY -c "
+import sys, zarr, numpy as np
+z = zarr.open_group('$TMP/tu', mode='r')
+s, e, d = (np.array(z[a]).ravel() for a in ('status', 'error_p95_m', 'dominant_source'))
+sys.exit(0 if (s == 1).any() and np.isnan(e[s == 1]).all() and (d[s == 1] == -1).all()
+         and np.isfinite(e[s == 0]).all() and (d[s == 0] >= 0).all() and 'p_exceed_spec' not in z else 1)"; then ok; else bad "unreachable points in tolerance maps"; fi
+# bad input: clear errors naming the flag, before any work
+for args in "--tolerance-samples 0:2:--tolerance-samples" "--tolerance-samples -5:2:--tolerance-samples" \
+            "--tolerance-samples 5 --spec 0:2:--spec" "--tolerance-samples 5 --spec -1e-4:2:--spec" \
+            "--tolerance-samples 5 --tol rod_length=-1e-5:2:--tol rod_length" \
+            "--spec 1e-4:1:need --tolerance-samples" "--tolerance-samples 5000000 --threads 1:2:hours of work"; do
+    a=${args%%:*}; rest=${args#*:}; want=${rest%%:*}; msg=${rest#*:}
+    # shellcheck disable=SC2086
+    timeout 10 $DM sweep --robot zheng2017 --grid "x=-0.05:0.05:200,y=0,z=-0.4" --progress none $a --out "$TMP/tbad" >/dev/null 2>"$TMP/err"
+    rc=$?
+    if [ $rc -eq "$want" ] && grep -q -- "$msg" "$TMP/err" && [ ! -e "$TMP/tbad" ]; then ok; else bad "sweep $a: exit $rc"; cat "$TMP/err"; fi
+done
+
 echo "store: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]

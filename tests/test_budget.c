@@ -6,6 +6,7 @@
 #include <stdlib.h>
 
 #include "dm_budget.h"
+#include "dm_coupling.h"
 
 #define MAXS 64
 #define PATH "circle:centre=0,0,-0.4;radius=0.05;rate=6.283185307179586;duration=0.04"
@@ -200,6 +201,73 @@ static void kinematic_coupling_is_second_order(void **state)
     assert_rel(cpl[0] / cpl[1], 4.0, 0.01, "kinematic coupling quarters with the errors");
 }
 
+/* The coupling index's change against the nominal robot along a run:
+ * exactly zero for a robot without effects; with errors and clearance its
+ * time mean is the run's mean index minus the nominal robot's, evaluated
+ * here where each step is frozen (the commanded position at its start). */
+typedef struct {
+    dm_coupling_change cc;
+    int n;
+    double change[MAXS];
+} change_rec;
+
+static int track(void *user, const dm_integ_sample *s)
+{
+    change_rec *r = user;
+    if (r->n == MAXS)
+        return 1;
+    r->change[r->n++] = dm_coupling_change_next(&r->cc, s);
+    return 0;
+}
+
+static void coupling_change_against_nominal(void **state)
+{
+    (void)state;
+    static const char *const ERRS[] = {"effects.error_rod_length=1e-4,0,-5e-5",
+                                       "effects.clearance=1e-5", NULL};
+    dm_trajectory tr;
+    dm_integ_opts o;
+    dm_integ_summary sum;
+    dm_error err;
+    opts(&o);
+    for (int with = 0; with < 2; with++) {
+        dm_robot rb;
+        robot_with(with ? ERRS : NULL, &rb);
+        assert_int_equal(dm_traj_make(PATH, &rb, &tr, NULL), 0);
+        change_rec r = {.n = 0};
+        assert_int_equal(dm_coupling_change_init(&r.cc, &rb, o.na, o.nb, &err), 0);
+        assert_int_equal(dm_integrate_trajectory(&rb, &tr, &o, track, &r, &sum, &err), 0);
+        assert_int_equal(r.n, 21);
+        double mean, lo, hi;
+        dm_coupling_change_summary(&r.cc, &mean, &lo, &hi);
+        if (!with) {
+            for (int i = 0; i < r.n; i++)
+                assert_true(r.change[i] == 0.0);
+            assert_true(mean == 0.0 && lo == 0.0 && hi == 0.0);
+        } else {
+            double nominal_mean = 0, T = tr.duration_s;
+            long steps = (long)ceil(T / o.dt_s - 1e-9);
+            for (long j = 0; j < steps; j++) {
+                double t0 = j * o.dt_s, t1 = j + 1 == steps ? T : (j + 1) * o.dt_s, P[3], v[3], a[3];
+                double nominal;
+                dm_traj_eval(&tr, t0, P, v, a);
+                dm_coupling *cw = dm_coupling_alloc(&rb, o.na, o.nb, NULL);
+                assert_non_null(cw);
+                assert_int_equal(dm_coupling_nominal_log10(cw, P, &nominal, NULL), 0);
+                dm_coupling_free(cw);
+                nominal_mean += (t1 - t0) * nominal / T;
+            }
+            assert_abs(mean, sum.coupling_mean_log10 - nominal_mean, 1e-11,
+                       "mean change = mean index - mean nominal index");
+            assert_true(fabs(mean) > 1e-6 && lo <= mean && mean <= hi);
+            for (int i = 0; i < r.n; i++)
+                assert_true(isfinite(r.change[i]));
+        }
+        dm_coupling_change_free(&r.cc);
+        dm_traj_free(&tr);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -207,6 +275,7 @@ int main(void)
         cmocka_unit_test(one_source_alone_is_the_combined_error),
         cmocka_unit_test(coupling_is_first_order_in_the_errors),
         cmocka_unit_test(kinematic_coupling_is_second_order),
+        cmocka_unit_test(coupling_change_against_nominal),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -222,6 +222,34 @@ static void statistics_and_threads(void **state)
     assert_true(r1.p_exceed_spec == (double)over / N && over > 0 && over < N);
 }
 
+/* Each pose has its own streams, keyed by the pose to 1 nm: a pose typed
+ * with fewer digits than a grid computed it, or -0.0 for 0.0, draws the
+ * same states; another pose, or another seed, other ones. */
+static void pose_seeds(void **state)
+{
+    (void)state;
+    const double a[3] = {0.05, 0.0, -0.4}, b[3] = {0.05000000000000002, -0.0, -0.4000000000000001},
+                 c[3] = {0.05, 1e-9, -0.4};
+    assert_true(dm_tolerance_pose_seed(7, a) == dm_tolerance_pose_seed(7, b));
+    assert_true(dm_tolerance_pose_seed(7, a) != dm_tolerance_pose_seed(7, c));
+    assert_true(dm_tolerance_pose_seed(7, a) != dm_tolerance_pose_seed(8, a));
+    dm_robot rb;
+    robot_with(CLEAR, &rb);
+    dm_tolerance_spec sp;
+    spec_small(&sp, 4);
+    double ea[12], eb[12], ec[12];
+    assert_int_equal(dm_tolerance_samples(&rb, &sp, a, 0, 4, ea, NULL), 0);
+    assert_int_equal(dm_tolerance_samples(&rb, &sp, b, 0, 4, eb, NULL), 0);
+    assert_int_equal(dm_tolerance_samples(&rb, &sp, c, 0, 4, ec, NULL), 0);
+    /* the same draws: errors equal to far below the draws' spread (1e-5) */
+    for (int i = 0; i < 12; i++)
+        assert_abs(ea[i], eb[i], 1e-12, "same states at a pose typed two ways");
+    int differ = 0;
+    for (int i = 0; i < 12; i++)
+        differ += fabs(ea[i] - ec[i]) > 1e-7;
+    assert_true(differ > 6);
+}
+
 /* Bad input is refused before any work, naming the field. */
 static void bad_input(void **state)
 {
@@ -261,6 +289,7 @@ int main(void)
         cmocka_unit_test(small_tolerances_follow_the_linearisation),
         cmocka_unit_test(rod_length_sensitivity_is_analytic),
         cmocka_unit_test(statistics_and_threads),
+        cmocka_unit_test(pose_seeds),
         cmocka_unit_test(bad_input),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -6,8 +6,11 @@
 Writes into DIR (default maps/NAME-plots): f1 over the X-Y slice, the
 static gravity error, the smallest stiffness, the standard-move peak error,
 the status mask, and (for grids with several heights) the first
-frequencies against height at the point nearest the Z axis. Every map but
-the status map shows only the points whose status is ok (the title says how
+frequencies against height at the point nearest the Z axis; a sweep with
+--tolerance-samples adds the tolerance maps: mean, P95 and largest |error|,
+P(|error| > spec) when the sweep had a spec, and the dominant source as a
+categorical map named by the store's `source_names`. Every map but the
+status map shows only the points whose status is ok (the title says how
 many were masked), on colour limits from the 1st and 99th percentiles (the
 colour bar's arrows mark values beyond), in the unit that suits the values.
 """
@@ -60,6 +63,7 @@ UNITS = {
     "N/m": [(1e-9, "N/nm"), (1e-6, "N/µm"), (1e-3, "N/mm"), (1.0, "N/m")],
     "Hz": [(1e-3, "kHz"), (1.0, "Hz")],
     "s": [(1.0, "s"), (1e3, "ms")],
+    "%": [(1.0, "%")],
 }
 
 
@@ -90,12 +94,13 @@ def robust_limits(V):
     return lo, hi, extend
 
 
-def draw(X, Y, V, ok, title, quantity, unit, path, cmap="viridis"):
-    """One map: only the points whose status is ok, on robust colour limits,
-    in the unit that suits the values; the title says what was masked."""
+def draw(X, Y, V, ok, title, quantity, unit, path, cmap="viridis", limits=None):
+    """One map: only the points whose status is ok, on robust colour limits
+    (or the given ones), in the unit that suits the values; the title says
+    what was masked."""
     V = np.where(ok, V, np.nan)
     V, uname = scaled(V, unit)
-    lo, hi, extend = robust_limits(V)
+    lo, hi, extend = robust_limits(V) if limits is None else (*limits, "neither")
     masked = int(np.count_nonzero(~ok))
     fig, ax = plt.subplots(figsize=(6.4, 5.4))
     im = mesh(ax, X, Y, V, cmap=cmap, vmin=lo, vmax=hi)
@@ -109,6 +114,53 @@ def draw(X, Y, V, ok, title, quantity, unit, path, cmap="viridis"):
     fig.savefig(path, dpi=110)
     plt.close(fig)
     print(path)
+
+
+def draw_categories(X, Y, codes, ok, names, title, path):
+    """A map of integer codes 0..len(names)-1, one colour each, the colour
+    bar labelled with the names; -1 and points whose status is not ok are
+    left blank."""
+    V = np.where(ok & (codes >= 0), codes, -1).astype(float)
+    V[V < 0] = np.nan
+    n = len(names)
+    colours = plt.get_cmap("tab10" if n <= 10 else "tab20")(np.arange(n))
+    fig, ax = plt.subplots(figsize=(7.2, 5.4))
+    im = mesh(ax, X, Y, V, cmap=matplotlib.colors.ListedColormap(colours), vmin=-0.5,
+              vmax=n - 0.5)
+    cb = fig.colorbar(im, ax=ax, ticks=range(n))
+    cb.ax.set_yticklabels(names, fontsize=8)
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_aspect("equal")
+    blank = int(np.count_nonzero(np.isnan(V)))
+    note = f"{blank} of {V.size} points blank (status not ok or none)" if blank else "all points ok"
+    ax.set_title("\n".join(textwrap.wrap(title, 52)) + "\n" + note, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    print(path)
+
+
+def tolerance_maps(st, X, Y, ok, iz, where, out):
+    """The maps of a sweep with --tolerance-samples (nothing otherwise)."""
+    if "error_mean_m" not in st.arrays:
+        return
+    t = st.attrs["error_mean_m"].get("tolerance", {})
+    how = f"{t.get('samples', '?')} samples, seed {t.get('seed', '?')}"
+    for name, what, cmap in (("error_mean_m", "mean", "magma"), ("error_p95_m", "P95", "magma"),
+                             ("error_max_m", "largest", "magma")):
+        draw(X, Y, slice_xy(st, name, iz), ok,
+             f"tolerance Monte Carlo: {what} platform |error| ({where}; {how})", what, "m",
+             os.path.join(out, name + ".png"), cmap=cmap)
+    if "p_exceed_spec" in st.arrays:
+        spec = 1e6 * float(t.get("spec_m", float("nan")))
+        draw(X, Y, 100 * slice_xy(st, "p_exceed_spec", iz), ok,
+             f"share of robots with |error| > {spec:.4g} µm ({where}; {how})", "P(|e| > spec)",
+             "%", os.path.join(out, "p_exceed_spec.png"), cmap="RdYlGn_r", limits=(0, 100))
+    names = st.attrs["dominant_source"]["source_names"]
+    draw_categories(X, Y, slice_xy(st, "dominant_source", iz), ok, names,
+                    f"dominant source of the error's spread, linearised ({where})",
+                    os.path.join(out, "dominant_source.png"))
 
 
 def main():
@@ -141,6 +193,7 @@ def main():
         draw(X, Y, np.nanmax(peak, axis=-1), ok,
              f"standard move: worst peak error of the X, Y, Z moves ({where})", "peak", "m",
              os.path.join(out, "move_peak.png"), cmap="magma")
+    tolerance_maps(st, X, Y, ok, iz, where, out)
     s = slice_xy(st, "status", iz).astype(float)
     s[s == 255] = np.nan
     fig, ax = plt.subplots(figsize=(6.2, 5))

@@ -43,3 +43,15 @@ echo "== zheng2017 tolerance Monte Carlo at (0.05, 0, -0.4)"
     --tol alpha0_deg=0.02 --spec 0.2e-3 --set effects.clearance=1e-5 \
     --set effects.actuator_clearance_radial=2e-5 --set effects.actuator_clearance_axial=1e-5 \
     > docs/runs/zheng2017-tolerance.txt
+echo "== zheng2017 tolerance map of the workspace at z = -0.4 (the same tolerances)"
+MAP=$(mktemp -d)
+"$DM" sweep --robot zheng2017 --grid "x=-0.2:0.2:17,y=-0.2:0.2:17,z=-0.4" --modes 4 --no-dynamic \
+    --progress none --tolerance-samples 300 --tolerance-seed 1 --tol arm_length=1e-4 \
+    --tol rod_length=1e-4 --tol base_radius=5e-5 --tol platform_radius=5e-5 --tol theta_deg=0.05 \
+    --tol alpha0_deg=0.02 --spec 0.2e-3 --set effects.clearance=1e-5 \
+    --set effects.actuator_clearance_radial=2e-5 --set effects.actuator_clearance_axial=1e-5 \
+    --out "$MAP/zheng2017-tolerance" | sed "s|$MAP/||" > docs/runs/zheng2017-tolerance-map.txt
+$PY tools/plot_maps.py "$MAP/zheng2017-tolerance" --out "$MAP/plots" > /dev/null
+cp "$MAP/plots/error_p95_m.png" docs/img/zheng2017-tolerance-p95.png
+cp "$MAP/plots/p_exceed_spec.png" docs/img/zheng2017-tolerance-exceed.png
+rm -rf "$MAP"

@@ -35,6 +35,11 @@ int dm_cli_add_set(const char *cmd, const char **sets, int *nset, const char *ar
 int dm_cli_load_robot(const char *spec, const char *const *sets, int nset, dm_robot *robot,
                       dm_error *err);
 
+/* One --tol NAME=VALUE of the tolerance Monte Carlo into sp (degrees for
+ * theta_deg and alpha0_deg): -1 when NAME or VALUE is not one. */
+#include "dm_tolerance.h"
+int dm_cli_parse_tol(const char *arg, dm_tolerance_spec *sp);
+
 /* Output files appear whole or not at all: dm_file_out (dm_file.h). */
 #include "dm_file.h"
 

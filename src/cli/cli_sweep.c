@@ -18,6 +18,8 @@ static const char SWEEP_HELP[] =
     "                      [--amax A] [--tau T] [--force] [--force-long]\n"
     "                      [--progress bar|lines|none]\n"
     "                      [--shard K/N|slurm|slurm/N] [--set SECTION.KEY=V]...\n"
+    "                      [--tolerance-samples N [--tolerance-seed S] [--spec M]\n"
+    "                       [--tol NAME=V]... [--tolerance-dist uniform|normal]]\n"
     "\n"
     "Frequencies, static gravity error, stiffness, singularity and the dynamic\n"
     "error of the standard move (docs/model.md §5) on a grid of poses, in parallel,\n"
@@ -45,7 +47,21 @@ static const char SWEEP_HELP[] =
     "  --shard slurm   K and N from a Slurm job array: K = SLURM_ARRAY_TASK_ID -\n"
     "                  SLURM_ARRAY_TASK_MIN, N = SLURM_ARRAY_TASK_COUNT\n"
     "  --shard slurm/N K = SLURM_ARRAY_TASK_ID, N given: for rerunning some tasks of\n"
-    "                  an array indexed 0..N-1 (sbatch --array=3,7)\n";
+    "                  an array indexed 0..N-1 (sbatch --array=3,7)\n"
+    "\n"
+    "Tolerance maps: the Monte Carlo of `deltamap tolerance` at every point, into\n"
+    "error_mean_m, error_p95_m, error_max_m, dominant_source and, with --spec,\n"
+    "p_exceed_spec. A point's values are those of `deltamap tolerance --at` its\n"
+    "position with the same samples, seed, tolerances and --mesh; its settings are\n"
+    "the store's: resuming with others is refused.\n"
+    "  --tolerance-samples N  samples per point (1..1e7); costs about N times one\n"
+    "                  static solve per point, counted in the 24-hour estimate\n"
+    "  --tolerance-seed S  seed (a whole number >= 0, default 1)\n"
+    "  --spec M        accuracy spec in m (> 0): the map P(|error| > spec)\n"
+    "  --tol NAME=V    +- tolerance of a geometry error, as `deltamap tolerance`'s:\n"
+    "                  arm_length, rod_length, base_radius, platform_radius (m),\n"
+    "                  theta_deg, alpha0_deg (deg); repeatable; default 0\n"
+    "  --tolerance-dist D  uniform in +-tol (default) or normal (sigma tol/3)\n";
 
 static volatile sig_atomic_t stop_requested;
 
@@ -61,7 +77,23 @@ typedef struct {
     int nset;
     dm_sweep_opts o;
     int progress;       /* 0 none, 1 bar, 2 periodic lines */
+    int tol_options;    /* --tolerance-seed, --spec, --tol or --tolerance-dist given */
 } sweep_args;
+
+/* --tolerance-samples N: a whole number 1..1e7 (a usage error when not a
+ * number; DM_EINVAL, naming the flag, when out of range). */
+static int parse_samples(const char *arg, long *samples)
+{
+    double v;
+    if (dm_cli_parse_list(arg, &v, 1) || v != floor(v) || fabs(v) > 1e12)
+        return dm_cli_usage("sweep", "--tolerance-samples takes a whole number", arg);
+    if (v < 1 || v > 1e7) {
+        fprintf(stderr, "deltamap sweep: --tolerance-samples: must be 1..1e7, got %s\n", arg);
+        return DM_EINVAL;
+    }
+    *samples = (long)v;
+    return 0;
+}
 
 static int parse_sweep(int argc, char **argv, sweep_args *a)
 {
@@ -70,8 +102,12 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
         {"mesh", 1, 0, 'm'}, {"tile", 1, 0, 't'}, {"threads", 1, 0, 'T'},
         {"no-dynamic", 0, 0, 'D'}, {"amax", 1, 0, 'A'}, {"tau", 1, 0, 'U'}, {"force", 0, 0, 'f'},
         {"progress", 1, 0, 'p'}, {"set", 1, 0, 's'}, {"shard", 1, 0, 'S'}, {"help", 0, 0, 'h'},
-        {"force-long", 0, 0, 'L'},
+        {"force-long", 0, 0, 'L'}, {"tolerance-samples", 1, 0, 'N'},
+        {"tolerance-seed", 1, 0, 'E'}, {"spec", 1, 0, 'P'}, {"tol", 1, 0, 'O'},
+        {"tolerance-dist", 1, 0, 'I'},
         {0, 0, 0, 0}};
+    int rc;
+    dm_tolerance_spec *tol = &a->o.tolerance_spec;
     int c;
     double v[3];
     memset(a, 0, sizeof *a);
@@ -128,6 +164,52 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
             else
                 return dm_cli_usage("sweep", "--progress is bar, lines or none", optarg);
             break;
+        case 'N':
+            if ((rc = parse_samples(optarg, &tol->samples)))
+                return rc;
+            a->o.tolerance = 1;
+            break;
+        case 'E': {
+            char *end;
+            unsigned long long seed = strtoull(optarg, &end, 10);
+            if (end == optarg || *end || optarg[0] == '-')
+                return dm_cli_usage("sweep", "--tolerance-seed takes a whole number >= 0", optarg);
+            tol->seed = seed;
+            a->tol_options = 1;
+            break;
+        }
+        case 'P':
+            if (dm_cli_parse_list(optarg, &tol->spec_m, 1))
+                return dm_cli_usage("sweep", "--spec takes an error in m", optarg);
+            if (!(tol->spec_m > 0)) {
+                fprintf(stderr, "deltamap sweep: --spec: must be > 0 m, got %s\n", optarg);
+                return DM_EINVAL;
+            }
+            a->tol_options = 1;
+            break;
+        case 'O':
+            if (dm_cli_parse_tol(optarg, tol))
+                return dm_cli_usage("sweep",
+                                    "--tol takes NAME=VALUE with NAME arm_length, rod_length, "
+                                    "base_radius, platform_radius, theta_deg or alpha0_deg",
+                                    optarg);
+            for (int k = 0; k < DM_TOL_NGEOM; k++)
+                if (tol->tol[k] < 0) {
+                    fprintf(stderr, "deltamap sweep: --tol %s: must be >= 0, got %s\n",
+                            dm_tolerance_class_name(k), optarg);
+                    return DM_EINVAL;
+                }
+            a->tol_options = 1;
+            break;
+        case 'I':
+            if (!strcmp(optarg, "uniform"))
+                tol->dist = DM_TOL_UNIFORM;
+            else if (!strcmp(optarg, "normal"))
+                tol->dist = DM_TOL_NORMAL;
+            else
+                return dm_cli_usage("sweep", "--tolerance-dist is uniform or normal", optarg);
+            a->tol_options = 1;
+            break;
         case 'h': fputs(SWEEP_HELP, stdout); exit(0);
         default: return dm_cli_usage("sweep", "unknown or incomplete option", argv[optind - 1]);
         }
@@ -136,6 +218,11 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
         return dm_cli_usage("sweep", "unexpected argument", argv[optind]);
     if (!a->robot || !a->grid || !a->out)
         return dm_cli_usage("sweep", "--robot, --grid and --out are required", NULL);
+    if (a->tol_options && !a->o.tolerance)
+        return dm_cli_usage("sweep",
+                            "--tolerance-seed, --spec, --tol and --tolerance-dist need "
+                            "--tolerance-samples",
+                            NULL);
     return 0;
 }
 
@@ -290,6 +377,8 @@ int dm_cli_sweep(int argc, char **argv)
         dm_cli_report(&err);
         if (st.store_refused)
             fprintf(stderr, "deltamap: --force replaces it; --out names another store\n");
+        else if (rc == DM_EINVAL && strstr(err.msg, " hours of work"))
+            fprintf(stderr, "deltamap: --force-long runs it anyway\n");
         return rc;
     }
     printf("sweep   %s on %s: %ld points in %ld tiles", rb.name, a.grid, st.points_total,
@@ -300,6 +389,14 @@ int dm_cli_sweep(int argc, char **argv)
            st.seconds);
     printf("points  computed now: %ld ok, %ld near-singular, %ld unreachable, %ld failed\n",
            st.points_ok, st.points_near_singular, st.points_unreachable, st.points_failed);
+    if (a.o.tolerance) {
+        const dm_tolerance_spec *t = &a.o.tolerance_spec;
+        printf("tolerance %ld samples per point, seed %llu", t->samples,
+               (unsigned long long)t->seed);
+        if (t->spec_m > 0)
+            printf(", spec %g m", t->spec_m);
+        printf("\n");
+    }
     printf("store   %s\n", a.out);
     if (rc)
         return dm_cli_report(&err);

@@ -54,12 +54,15 @@ static const char HELP[] =
     "  --tool X,Y,Z     tool point offset from the platform centre in m (default 0)\n"
     "  --out FILE       per-step CSV: t, pose, six error components, |error|, tool\n"
     "                   error, first three frequencies, coupling index log10 det K\n"
-    "                   (Zheng eq. 33, of the step's frozen K); a name ending in .zarr writes\n"
-    "                   the same as a Zarr v3 group (the map store's format)\n"
+    "                   (Zheng eq. 33, of the step's frozen K) and its change against the\n"
+    "                   nominal robot (every [effects] off) at the same pose and mesh; a\n"
+    "                   name ending in .zarr writes the same as a Zarr v3 group (the map\n"
+    "                   store's format)\n"
     "  --force-long     run even when the estimated work exceeds 4 hours (refused\n"
     "                   before it starts otherwise)\n"
     "  --json           summary as JSON: mean_error_m, peak_error_m, truncation_error,\n"
-    "                   coupling_index_log10 {mean, min, max}, budget\n"
+    "                   coupling_index_log10 and coupling_index_change_log10 {mean, min, max},\n"
+    "                   budget\n"
     "\n"
     "Error budget (Zheng §5): when the robot's [effects] hold geometry errors or\n"
     "clearances, the run also gives the platform error of each source alone\n"
@@ -185,8 +188,17 @@ static int parse(int argc, char **argv, traj_opts *t)
     return 0;
 }
 
+/* What the sinks write to: CSV rows or kept samples, and the coupling
+ * index's change against the nominal robot, tracked over the samples. */
+typedef struct sample_list sample_list;
+typedef struct {
+    FILE *csv;
+    sample_list *kept;
+    dm_coupling_change cc;
+} run_out;
+
 /* The columns every trajectory CSV row has (without the newline). */
-static void csv_base(FILE *f, const dm_integ_sample *s)
+static void csv_base(FILE *f, const dm_integ_sample *s, double change)
 {
     const double *e = s->error;
     fprintf(f, "%.9g,%.9g,%.9g,%.9g", s->t_s, s->P_m[0], s->P_m[1], s->P_m[2]);
@@ -204,14 +216,25 @@ static void csv_base(FILE *f, const dm_integ_sample *s)
         fprintf(f, ",");
     else
         fprintf(f, ",%.12g", s->coupling_index_log10);
+    if (isnan(change))
+        fprintf(f, ",");
+    else
+        fprintf(f, ",%.12g", change);
 }
 
-static int csv_sample(void *user, const dm_integ_sample *s)
+static int keep_sample(sample_list *l, const dm_integ_sample *s, double change);
+
+static int run_sample(void *user, const dm_integ_sample *s)
 {
-    FILE *f = user;
-    csv_base(f, s);
-    fputc('\n', f);
-    return ferror(f) ? 1 : 0;
+    run_out *ro = user;
+    double change = dm_coupling_change_next(&ro->cc, s);
+    if (ro->kept)
+        return keep_sample(ro->kept, s, change);
+    if (!ro->csv)
+        return 0;
+    csv_base(ro->csv, s, change);
+    fputc('\n', ro->csv);
+    return ferror(ro->csv) ? 1 : 0;
 }
 
 static const char BUDGET_COLUMNS[] =
@@ -227,9 +250,9 @@ static void csv_vec(FILE *f, const double v[3])
     fprintf(f, ",%.9e,%.9e,%.9e,%.9e", v[0], v[1], v[2], sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
 }
 
-static int csv_budget_row(FILE *f, const dm_budget_sample *b)
+static int csv_budget_row(FILE *f, const dm_budget_sample *b, double change)
 {
-    csv_base(f, &b->run);
+    csv_base(f, &b->run, change);
     for (int src = 0; src < DM_BUDGET_NSRC; src++)
         csv_vec(f, b->alone_m[src]);
     csv_vec(f, b->sum_m);
@@ -241,22 +264,26 @@ static int csv_budget_row(FILE *f, const dm_budget_sample *b)
 
 /* ---- the map store's format (--out NAME.zarr) ---------------------------- */
 
-typedef struct {
+struct sample_list {
     long n, cap;
     dm_integ_sample *s;
-} sample_list;
+    double *change;     /* per sample: the coupling index's change */
+};
 
-static int keep_sample(void *user, const dm_integ_sample *s)
+static int keep_sample(sample_list *l, const dm_integ_sample *s, double change)
 {
-    sample_list *l = user;
     if (l->n == l->cap) {
         long cap = l->cap ? 2 * l->cap : 1024;
         dm_integ_sample *grown = realloc(l->s, sizeof *grown * cap);
-        if (!grown)
+        if (grown)
+            l->s = grown;
+        double *more = grown ? realloc(l->change, sizeof *more * cap) : NULL;
+        if (!more)
             return 1;
-        l->s = grown;
+        l->change = more;
         l->cap = cap;
     }
+    l->change[l->n] = change;
     l->s[l->n++] = *s;
     return 0;
 }
@@ -275,8 +302,9 @@ static void time_array(dm_store *st, const char *name, const char *dim2, int m, 
                        json_pack("{s:s, s:s}", "units", units, "long_name", long_name));
 }
 
-static double sample_value(const dm_integ_sample *s, int array, int j)
+static double sample_value(const sample_list *l, long i, int array, int j)
 {
+    const dm_integ_sample *s = &l->s[i];
     switch (array) {
     case 0: return s->t_s;
     case 1: return s->P_m[j];
@@ -284,7 +312,8 @@ static double sample_value(const dm_integ_sample *s, int array, int j)
     case 3: return sqrt(s->error[0] * s->error[0] + s->error[1] * s->error[1] + s->error[2] * s->error[2]);
     case 4: return s->tool_error_m[j];
     case 5: return j < s->nfreq ? s->freq_hz[j] : NAN;
-    default: return s->coupling_index_log10;
+    case 6: return s->coupling_index_log10;
+    default: return l->change[i];
     }
 }
 
@@ -328,8 +357,11 @@ static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory 
     time_array(&st, "frequencies_hz", "mode", nfreq, "Hz", "frequencies of the frozen configuration", l->n);
     time_array(&st, "coupling_index_log10", NULL, 1, "1",
                "log10 of Zheng's coupling index (eq. 33), det K of the frozen model", l->n);
-    json_t *names = json_pack("[sssssss]", "time", "position", "error", "error_norm", "tool_error",
-                              "frequencies_hz", "coupling_index_log10");
+    time_array(&st, "coupling_index_change_log10", NULL, 1, "1",
+               "coupling_index_log10 minus the nominal robot's (every effect off) at the same "
+               "pose and mesh", l->n);
+    json_t *names = json_pack("[ssssssss]", "time", "position", "error", "error_norm", "tool_error",
+                              "frequencies_hz", "coupling_index_log10", "coupling_index_change_log10");
     st.group_attributes = json_pack("{s:s, s:{s:s, s:s, s:s, s:o}}", "title",
                                     "deltamap trajectory run", "deltamap", "tool",
                                     "deltamap " DM_VERSION, "robot", rb->name, "path", tr->name,
@@ -343,7 +375,7 @@ static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory 
         for (long c0 = 0; c0 * ch < l->n && !rc; c0++) {
             for (long i = 0; i < ch; i++)
                 for (int j = 0; j < m; j++)
-                    buf[i * m + j] = c0 * ch + i < l->n ? sample_value(&l->s[c0 * ch + i], a, j) : NAN;
+                    buf[i * m + j] = c0 * ch + i < l->n ? sample_value(l, c0 * ch + i, a, j) : NAN;
             const int64_t c[2] = {c0, 0};
             rc = dm_store_write_chunk(&st, a, c, buf, err);
         }
@@ -360,17 +392,13 @@ static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory 
 }
 
 /* A budget run's sink: CSV rows, or the combined run's samples for Zarr. */
-typedef struct {
-    FILE *csv;
-    void *kept;
-} budget_out;
-
 static int budget_sample(void *user, const dm_budget_sample *b)
 {
-    budget_out *bo = user;
-    if (bo->csv)
-        return csv_budget_row(bo->csv, b);
-    return bo->kept ? keep_sample(bo->kept, &b->run) : 0;
+    run_out *ro = user;
+    double change = dm_coupling_change_next(&ro->cc, &b->run);
+    if (ro->csv)
+        return csv_budget_row(ro->csv, b, change);
+    return ro->kept ? keep_sample(ro->kept, &b->run, change) : 0;
 }
 
 static int ends_with(const char *s, const char *tail)
@@ -409,9 +437,14 @@ static void print_budget(const dm_budget_summary *b)
         printf("  (--rigid: kinematic sources only)\n");
 }
 
+static json_t *num_or_null(double v) { return isnan(v) ? json_null() : json_real(v); }
+
 static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_trajectory *tr,
-                          const dm_integ_summary *s, const dm_budget_summary *b)
+                          const dm_integ_summary *s, const dm_budget_summary *b,
+                          const dm_coupling_change *cc)
 {
+    double cmean, cmin, cmax;
+    dm_coupling_change_summary(cc, &cmean, &cmin, &cmax);
     static const char *const methods[] = {"CVODE", "closed form", "full model (CVODE)"};
     if (t->json && b && !b->flexibility) {
         json_t *o = json_pack("{s:s, s:s, s:f, s:o}", "robot", rb->name, "path", tr->name,
@@ -445,6 +478,9 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
         json_object_set_new(o, "coupling_index_log10",
                             json_pack("{s:f, s:f, s:f}", "mean", s->coupling_mean_log10, "min",
                                       s->coupling_min_log10, "max", s->coupling_max_log10));
+        json_object_set_new(o, "coupling_index_change_log10",
+                            json_pack("{s:o, s:o, s:o}", "mean", num_or_null(cmean), "min",
+                                      num_or_null(cmin), "max", num_or_null(cmax)));
         if (b)
             json_object_set_new(o, "budget", budget_json(b));
         if (t->o.naxes) {
@@ -472,6 +508,8 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
     printf("peak error  %.6e m\n", s->peak_error_m);
     printf("coupling    log10 lambda_s (Zheng eq. 33) mean %.10g, min %.10g, max %.10g\n",
            s->coupling_mean_log10, s->coupling_min_log10, s->coupling_max_log10);
+    printf("            change against the nominal robot mean %.6g, min %.6g, max %.6g\n", cmean,
+           cmin, cmax);
     if (!isnan(s->truncation_error) && s->truncation_beta_s > 0)
         printf("truncation  %.3f %% (RMS of Delta_k - Delta_all over RMS of Delta_all, both with "
                "Rayleigh beta = %g s: undamped, the all-modes run is not converged in dt; all %d "
@@ -518,27 +556,30 @@ int dm_cli_trajectory(int argc, char **argv)
     int budget = !t.no_budget && (t.rigid || dm_effects_geometry_errors(&rb.effects));
     if (out.f)
         fprintf(out.f, "t_s,x_m,y_m,z_m,dx_m,dy_m,dz_m,ex_rad,ey_rad,ez_rad,error_m,"
-                       "tool_dx_m,tool_dy_m,tool_dz_m,f1_hz,f2_hz,f3_hz,coupling_index_log10%s\n",
+                       "tool_dx_m,tool_dy_m,tool_dz_m,f1_hz,f2_hz,f3_hz,coupling_index_log10,"
+                       "coupling_index_change_log10%s\n",
                 budget ? BUDGET_COLUMNS : "");
     dm_integ_summary sum;
     dm_budget_summary bsum;
-    if (budget) {
-        budget_out bo = {out.f, zarr ? (void *)&kept : NULL};
-        rc = dm_budget_trajectory(&rb, &tr, &t.o, !t.rigid, budget_sample, &bo, &bsum, &err);
+    run_out ro = {.csv = out.f, .kept = zarr ? &kept : NULL};
+    rc = dm_coupling_change_init(&ro.cc, &rb, t.o.na, t.o.nb, &err);
+    if (!rc && budget) {
+        rc = dm_budget_trajectory(&rb, &tr, &t.o, !t.rigid, budget_sample, &ro, &bsum, &err);
         sum = bsum.run;
-    } else
-        rc = dm_integrate_trajectory(&rb, &tr, &t.o, zarr ? keep_sample : out.f ? csv_sample : NULL,
-                                     zarr ? (void *)&kept : (void *)out.f, &sum, &err);
+    } else if (!rc)
+        rc = dm_integrate_trajectory(&rb, &tr, &t.o, run_sample, &ro, &sum, &err);
     if (!rc && out.f)
         rc = dm_file_out_commit(&out, &err);
     if (!rc && zarr)
         rc = write_zarr(t.out, &rb, &tr, &kept, kept.n ? kept.s[0].nfreq : 0, &err);
     free(kept.s);
+    free(kept.change);
     if (rc) {
         if (out.f)
             dm_file_out_abort(&out);
         if (rc == DM_EINTERRUPT)
             dm_fail(&err, DM_EIO, "%s: write failed", t.out);
+        dm_coupling_change_free(&ro.cc);
         dm_traj_free(&tr);
         return dm_cli_report(&err);
     }
@@ -548,7 +589,8 @@ int dm_cli_trajectory(int argc, char **argv)
                 "s: step-boundary projections can alias into high modes and grow (docs/model.md "
                 "§4). Add damping, keep <= 20 modes, or use --dt 1.25e-4.\n",
                 t.o.dt_s);
-    print_summary(&t, &rb, &tr, &sum, budget ? &bsum : NULL);
+    print_summary(&t, &rb, &tr, &sum, budget ? &bsum : NULL, &ro.cc);
+    dm_coupling_change_free(&ro.cc);
     dm_traj_free(&tr);
     return 0;
 }

@@ -20,6 +20,7 @@ void dm_sweep_opts_default(dm_sweep_opts *o)
     o->k = 10;
     o->dynamic = 1;
     dm_move_opts_default(&o->move);
+    dm_tolerance_spec_default(&o->tolerance_spec);
 }
 
 /* ---- set-up --------------------------------------------------------------- */
@@ -45,7 +46,7 @@ static void worker_free(sweep_worker *w)
     free(w->assign);
     free(w->shapes);
     for (int a = 0; a < N_DATA; a++)
-        free(w->buf[a]);
+        free(w->buf[a]); /* NULL beyond the store's */
 }
 
 static int worker_alloc(const sweep_ctx *c, sweep_worker *w, dm_error *err)
@@ -60,7 +61,7 @@ static int worker_alloc(const sweep_ctx *c, sweep_worker *w, dm_error *err)
     w->assign = malloc(sizeof(int) * c->k);
     w->shapes = malloc(sizeof(double) * c->n * c->k);
     int ok = w->move && w->mac_work && w->mac && w->assign && w->shapes;
-    for (int a = 0; a < N_DATA && ok; a++)
+    for (int a = 0; a < c->ndata && ok; a++)
         ok = (w->buf[a] = malloc(dm_store_chunk_elems(&c->store, a) * dm_dtype_size(dm_sweep_arrays[a].dtype))) != NULL;
     if (!ok) {
         worker_free(w);
@@ -81,11 +82,13 @@ static void point_nan(dm_point_result *r, int status)
     for (int j = 0; j < 6; j++)
         r->static_error[j] = nan;
     r->compliance_max = r->stiffness_min = r->singularity = r->coupling_index_log10 = nan;
+    r->error_mean_m = r->error_p95_m = r->error_max_m = r->p_exceed_spec = nan;
+    r->dominant_source = -1;
     for (int j = 0; j < 3; j++)
         r->compliance_dir[j] = r->move_peak[j] = r->move_residual[j] = r->move_settling[j] = nan;
 }
 
-static void compute_point(const sweep_ctx *c, sweep_worker *w, const double P[3], dm_point_result *r)
+static void analyse_point(const sweep_ctx *c, sweep_worker *w, const double P[3], dm_point_result *r)
 {
     dm_pose_result res;
     point_nan(r, DM_POINT_OK);
@@ -132,6 +135,31 @@ static void compute_point(const sweep_ctx *c, sweep_worker *w, const double P[3]
     }
 }
 
+/* The tolerance Monte Carlo at a point the analysis reached: what
+ * dm_tolerance_pose gives at P. A pose where it fails (a sampled robot's
+ * chains do not close near the workspace's edge, a singular structure)
+ * keeps NaN and -1: the rest of the point stands. */
+static void tolerance_point(const sweep_ctx *c, const double P[3], dm_point_result *r)
+{
+    if (r->status != DM_POINT_OK && r->status != DM_POINT_NEAR_SINGULAR)
+        return;
+    dm_tolerance_result t;
+    if (dm_tolerance_pose(c->rb, &c->tol, P, 1, &t, NULL))
+        return;
+    r->error_mean_m = t.mean_error_m;
+    r->error_p95_m = t.p95_error_m;
+    r->error_max_m = t.max_error_m;
+    r->p_exceed_spec = t.p_exceed_spec;
+    r->dominant_source = t.dominant;
+}
+
+static void compute_point(const sweep_ctx *c, sweep_worker *w, const double P[3], dm_point_result *r)
+{
+    analyse_point(c, w, P, r);
+    if (c->o.tolerance)
+        tolerance_point(c, P, r);
+}
+
 /* ---- tiles ------------------------------------------------------------------ */
 
 static void tile_coords(const sweep_ctx *c, long t, int64_t tc[4])
@@ -148,7 +176,7 @@ static int tile_complete(const sweep_ctx *c, void *scratch, long t)
 {
     int64_t tc[4];
     tile_coords(c, t, tc);
-    for (int a = 0; a < N_DATA; a++) {
+    for (int a = 0; a < c->ndata; a++) {
         int missing;
         if (dm_store_read_chunk(&c->store, a, tc, scratch, &missing, NULL))
             return 0;
@@ -158,10 +186,13 @@ static int tile_complete(const sweep_ctx *c, void *scratch, long t)
 
 static void fill_buffers(const sweep_ctx *c, sweep_worker *w)
 {
-    for (int a = 0; a < N_DATA; a++) {
+    for (int a = 0; a < c->ndata; a++) {
         size_t n = dm_store_chunk_elems(&c->store, a);
         if (dm_sweep_arrays[a].dtype == DM_DTYPE_UINT8)
             memset(w->buf[a], DM_POINT_NOT_COMPUTED, n);
+        else if (dm_sweep_arrays[a].dtype == DM_DTYPE_INT32)
+            for (size_t i = 0; i < n; i++)
+                ((int32_t *)w->buf[a])[i] = -1;
         else
             for (size_t i = 0; i < n; i++)
                 ((double *)w->buf[a])[i] = NAN;
@@ -186,6 +217,15 @@ static void store_point(const sweep_ctx *c, sweep_worker *w, size_t off, const d
     PUT(A_RESID, r->move_residual, 3);
     PUT(A_SETTLE, r->move_settling, 3);
     PUT(A_COUPLING, &r->coupling_index_log10, 1);
+    if (c->ndata > N_CORE) {
+        PUT(A_ERR_MEAN, &r->error_mean_m, 1);
+        PUT(A_ERR_P95, &r->error_p95_m, 1);
+        PUT(A_ERR_MAX, &r->error_max_m, 1);
+        ((int32_t *)w->buf[A_DOMINANT])[off] = r->dominant_source;
+    }
+    if (c->ndata > A_P_EXCEED) {
+        PUT(A_P_EXCEED, &r->p_exceed_spec, 1);
+    }
 #undef PUT
 }
 
@@ -214,7 +254,7 @@ static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts
                 counts[r.status == DM_POINT_NOT_COMPUTED ? 3 : r.status]++;
             }
     /* status last: a reader sees a tile's status only once its data is there */
-    for (int a = N_DATA - 1; a >= 0; a--) {
+    for (int a = c->ndata - 1; a >= 0; a--) {
         dm_store_clean_chunk(&c->store, a, tc); /* what a killed run left of it */
         int rc = dm_store_write_chunk(&c->store, a, tc, w->buf[a], err);
         if (rc)
@@ -241,10 +281,13 @@ static void tile_progress(const sweep_ctx *c, long done, long total, int final)
 static int check_size(const sweep_ctx *c, dm_error *err)
 {
     long tiles = (long)c->ntiles[0] * c->ntiles[1] * c->ntiles[2];
-    double files = (double)tiles * N_ARRAYS, s = c->n / 210.0;
+    double files = (double)tiles * (c->ndata + N_AXES_LABELS), s = c->n / 210.0;
     double points = (double)dm_grid_points(c->grid) / (c->o.shards > 1 ? c->o.shards : 1);
     int threads = c->nthreads;
-    double est = points * 2.5e-3 * s * s * (c->o.dynamic ? 1.0 : 0.6) / threads;
+    double per_point = 2.5e-3 * s * s * (c->o.dynamic ? 1.0 : 0.6);
+    if (c->o.tolerance)
+        per_point += dm_tolerance_estimate_s(c->rb, &c->tol);
+    double est = points * per_point / threads;
     if (c->o.force_long)
         return DM_OK;
     if (files > DM_SWEEP_MAX_FILES)
@@ -254,10 +297,11 @@ static int check_size(const sweep_ctx *c, dm_error *err)
                        tiles, c->tile[0], c->tile[1], c->tile[2], files, DM_SWEEP_MAX_FILES);
     if (est > DM_SWEEP_MAX_SECONDS)
         return dm_fail(err, DM_EINVAL,
-                       "sweep: %.3g points at %d DOF on %d thread%s is about %.3g hours of work "
-                       "(the limit is %g hours): use shards, a coarser grid or mesh, or force it",
-                       points, c->n, threads, threads > 1 ? "s" : "", est / 3600,
-                       DM_SWEEP_MAX_SECONDS / 3600);
+                       "sweep: %.3g points at %d DOF%s on %d thread%s is about %.3g hours of work "
+                       "(the limit is %g hours): use shards, a coarser grid or mesh%s, or force it",
+                       points, c->n, c->o.tolerance ? " with the tolerance Monte Carlo" : "",
+                       threads, threads > 1 ? "s" : "", est / 3600, DM_SWEEP_MAX_SECONDS / 3600,
+                       c->o.tolerance ? ", fewer tolerance samples" : "");
     return DM_OK;
 }
 
@@ -279,6 +323,18 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
                        o->shards);
     c->k = o->k;
     c->kc = c->k + EXTRA_MODES < c->n ? c->k + EXTRA_MODES : c->n;
+    c->ndata = N_CORE;
+    if (o->tolerance) {
+        c->tol = o->tolerance_spec;
+        c->tol.na = c->na;
+        c->tol.nb = c->nb;
+        c->tol.flexibility = 1;
+        c->tol.force = o->force_long;
+        dm_error terr;
+        if (dm_tolerance_check(rb, &c->tol, &terr))
+            return dm_fail(err, terr.code, "sweep: tolerance %s", terr.msg);
+        c->ndata = c->tol.spec_m > 0 ? N_DATA : A_P_EXCEED;
+    }
     auto_tile(g, o->tile, c->tile);
     for (int d = 0; d < 3; d++)
         c->ntiles[d] = (g->axis[d].count + c->tile[d] - 1) / c->tile[d];
@@ -325,7 +381,7 @@ static int plan_tiles(const sweep_ctx *c, tile_plan *p, dm_error *err)
     p->mine = p->present = 0;
     p->pending = calloc((size_t)p->total, 1);
     size_t scratch = 0;
-    for (int a = 0; a < N_DATA; a++) {
+    for (int a = 0; a < c->ndata; a++) {
         size_t b = dm_store_chunk_elems(&c->store, a) * dm_dtype_size(dm_sweep_arrays[a].dtype);
         scratch = b > scratch ? b : scratch;
     }

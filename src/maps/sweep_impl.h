@@ -16,10 +16,18 @@
 
 /* ---- sweep_schema.c: the arrays of a map store ----------------------------- */
 
+/* The data arrays (x, y, z[, extra]). A store holds the first N_CORE,
+ * then the tolerance maps when the sweep runs the Monte Carlo (the last,
+ * p_exceed_spec, only with a spec): its data arrays are the first
+ * c->ndata of this list, so an array's index in the store is its enum
+ * value. After them come the coordinates (c->ndata + 0..2) and the labels
+ * of the extra dimensions (c->ndata + 3..6). */
 enum {
     A_STATUS, A_FREQ, A_TRACKED, A_STATIC, A_CMAX, A_CDIR, A_KMIN, A_COND, A_PEAK, A_RESID,
-    A_SETTLE, A_COUPLING, N_DATA, A_C0 = N_DATA, A_C1, A_C2, A_MODE, A_COMPONENT, A_AXIS, A_MOVE, N_ARRAYS
+    A_SETTLE, A_COUPLING, N_CORE,
+    A_ERR_MEAN = N_CORE, A_ERR_P95, A_ERR_MAX, A_DOMINANT, A_P_EXCEED, N_DATA
 };
+#define N_AXES_LABELS 7 /* coordinate and label arrays */
 
 typedef struct {
     const char *name;
@@ -30,7 +38,7 @@ typedef struct {
 
 enum { X_NONE, X_MODE, X_COMPONENT, X_AXIS, X_MOVE };
 
-/* The data arrays (x, y, z[, extra]), in the order of the enum. */
+/* The data arrays, in the order of the enum. */
 extern const dm_sweep_array dm_sweep_arrays[N_DATA];
 
 /* ---- sweep.c: what one point of the map holds ------------------------------ */
@@ -49,6 +57,9 @@ typedef struct dm_point_result {
     double compliance_max, compliance_dir[3], stiffness_min, singularity;
     double move_peak[3], move_residual[3], move_settling[3];
     double coupling_index_log10;
+    /* the tolerance Monte Carlo (NaN, dominant -1: not run or failed) */
+    double error_mean_m, error_p95_m, error_max_m, p_exceed_spec;
+    int dominant_source;
 } dm_point_result;
 
 /* ---- sweep.c: the run's context and its workers ----------------------------- */
@@ -59,6 +70,8 @@ typedef struct sweep_ctx {
     dm_sweep_opts o;
     int na, nb, n, k, kc;
     int tile[3], ntiles[3];
+    int ndata;          /* data arrays in the store (see the enum) */
+    dm_tolerance_spec tol; /* the Monte Carlo's, at the sweep's mesh (o.tolerance) */
     int nthreads;       /* over tiles */
     dm_store store;
     /* anchors (read-only once built): each point starts its eigen solve

@@ -23,6 +23,12 @@ const dm_sweep_array dm_sweep_arrays[N_DATA] = {
     {"move_residual_m", DM_DTYPE_FLOAT64, X_MOVE, "m", "standard move: residual vibration amplitude after it"},
     {"move_settling_s", DM_DTYPE_FLOAT64, X_MOVE, "s", "standard move: settling time after it (inf: never)"},
     {"coupling_index_log10", DM_DTYPE_FLOAT64, X_NONE, "1", "Zheng's coupling index: log10 det K (depends on mesh and DOF units)"},
+    /* the tolerance Monte Carlo's (only with it) */
+    {"error_mean_m", DM_DTYPE_FLOAT64, X_NONE, "m", "tolerance Monte Carlo: mean platform |error|"},
+    {"error_p95_m", DM_DTYPE_FLOAT64, X_NONE, "m", "tolerance Monte Carlo: 95th percentile of the platform |error|"},
+    {"error_max_m", DM_DTYPE_FLOAT64, X_NONE, "m", "tolerance Monte Carlo: largest platform |error| sampled"},
+    {"dominant_source", DM_DTYPE_INT32, X_NONE, "1", "tolerance contributing most to the error's spread (linearised); -1 none"},
+    {"p_exceed_spec", DM_DTYPE_FLOAT64, X_NONE, "1", "tolerance Monte Carlo: share of samples with |error| > spec"},
 };
 
 static int extra_len(int x, int k)
@@ -34,6 +40,20 @@ static int extra_len(int x, int k)
 static json_t *attrs(const char *units, const char *long_name)
 {
     return json_pack("{s:s, s:s}", "units", units, "long_name", long_name);
+}
+
+/* The Monte Carlo's settings: in the fingerprint and the maps' attributes. */
+static json_t *tolerance_settings(const sweep_ctx *c)
+{
+    const dm_tolerance_spec *t = &c->tol;
+    json_t *bands = json_object();
+    for (int k = 0; k < DM_TOL_NGEOM; k++) /* as --tol takes them: m, and degrees for *_deg */
+        json_object_set_new(bands, dm_tolerance_class_name(k),
+                            json_real(k == DM_TOL_THETA || k == DM_TOL_ALPHA0
+                                          ? t->tol[k] * 180 / M_PI : t->tol[k]));
+    return json_pack("{s:I, s:I, s:f, s:s, s:o}", "samples", (json_int_t)t->samples, "seed",
+                     (json_int_t)t->seed, "spec_m", t->spec_m, "distribution",
+                     t->dist == DM_TOL_UNIFORM ? "uniform" : "normal", "tolerances", bands);
 }
 
 static json_t *fingerprint(const sweep_ctx *c)
@@ -52,6 +72,8 @@ static json_t *fingerprint(const sweep_ctx *c)
                           m->tau_s, "tol_m", m->tol_m, "window_s", m->window_s, "quasi_static",
                           m->quasi_static);
     free(ini);
+    if (c->o.tolerance) /* absent otherwise: stores without the maps keep their fingerprint */
+        json_object_set_new(f, "tolerance", tolerance_settings(c));
     return f;
 }
 
@@ -62,7 +84,7 @@ void dm_sweep_schema_define(sweep_ctx *c, const char *path)
     memset(st, 0, sizeof *st);
     snprintf(st->path, sizeof st->path, "%s", path);
     const char *dims[4] = {g->axis[0].name, g->axis[1].name, g->axis[2].name, ""};
-    for (int a = 0; a < N_DATA; a++) {
+    for (int a = 0; a < c->ndata; a++) {
         const dm_sweep_array *d = &dm_sweep_arrays[a];
         int64_t shape[4];
         int chunk[4], nd = 3 + (d->extra != X_NONE);
@@ -76,6 +98,24 @@ void dm_sweep_schema_define(sweep_ctx *c, const char *path)
         if (a == A_STATUS)
             json_object_set_new(at, "flag_meanings",
                                 json_string("ok unreachable near_singular solver_failure"));
+        if (a >= N_CORE)
+            json_object_set_new(at, "tolerance", tolerance_settings(c));
+        if (a == A_DOMINANT) {
+            /* code -> name: source_names[code] (a JSON list), and the CF
+             * convention's flag_values / flag_meanings, for xarray users */
+            json_t *names = json_array(), *values = json_array();
+            char meanings[512] = "none";
+            json_array_append_new(values, json_integer(-1));
+            for (int k = 0; k < DM_TOL_NCLASS; k++) {
+                json_array_append_new(names, json_string(dm_tolerance_class_name(k)));
+                json_array_append_new(values, json_integer(k));
+                size_t used = strlen(meanings);
+                snprintf(meanings + used, sizeof meanings - used, " %s", dm_tolerance_class_name(k));
+            }
+            json_object_set_new(at, "source_names", names);
+            json_object_set_new(at, "flag_values", values);
+            json_object_set_new(at, "flag_meanings", json_string(meanings));
+        }
         dm_store_add_array(st, d->name, d->dtype, nd, shape, chunk, dims, at);
     }
     static const char *const unit_of[2][3] = {{"m", "m", "m"}, {"m", "degree", "m"}};
@@ -120,14 +160,14 @@ int dm_sweep_schema_write_coordinates(const sweep_ctx *c, dm_error *err)
             return dm_fail(err, DM_ENOMEM, "out of memory");
         for (int j = 0; j < ax->count; j++)
             v[j] = dm_grid_value(ax, j);
-        rc = dm_store_write_chunk(&c->store, A_C0 + i, zero, v, err);
+        rc = dm_store_write_chunk(&c->store, c->ndata + i, zero, v, err);
         free(v);
     }
     int32_t idx[64];
     for (int j = 0; j < 64; j++)
         idx[j] = j;
-    for (int a = A_MODE; a <= A_MOVE && !rc; a++) {
-        if (a == A_MODE)
+    for (int a = c->ndata + 3; a < c->ndata + N_AXES_LABELS && !rc; a++) {
+        if (a == c->ndata + 3) /* modes: 1 = lowest */
             for (int j = 0; j < 64; j++)
                 idx[j] = j + 1;
         rc = dm_store_write_chunk(&c->store, a, zero, idx, err);

@@ -37,6 +37,9 @@ static const char *difference(json_t *ofp, json_t *nfp)
         return "another robot";
     if (!json_equal(json_object_get(ofp, "grid"), json_object_get(nfp, "grid")))
         return "another grid";
+    if (!json_equal(json_object_get(ofp, "tolerance"), json_object_get(nfp, "tolerance")))
+        return "other tolerance Monte Carlo settings (samples, seed, spec, tolerances or "
+               "their law, or none)";
     return "other options (modes, mesh, tile, move or version)";
 }
 
@@ -81,7 +84,7 @@ static void clean_skeleton(const sweep_ctx *c, const char *path)
         snprintf(dir, sizeof dir, "%s/%s", path, c->store.arr[a].name);
         dm_file_remove_stale_temps(dir, "zarr.json");
         snprintf(dir, sizeof dir, "%s/%s/c", path, c->store.arr[a].name);
-        if (a >= N_DATA)
+        if (a >= c->ndata)
             dm_file_remove_stale_temps(dir, "0");
     }
 }
@@ -97,7 +100,7 @@ static int repair_skeleton(sweep_ctx *c, dm_error *err)
     for (int a = 0; a < c->store.narr && whole; a++) {
         snprintf(file, sizeof file, "%s/%s/zarr.json", c->store.path, c->store.arr[a].name);
         whole = stat(file, &sb) == 0;
-        if (whole && a >= N_DATA) {
+        if (whole && a >= c->ndata) {
             dm_store_chunk_path(&c->store, a, zero, file, sizeof file);
             size_t bytes = dm_store_chunk_elems(&c->store, a) * dm_dtype_size(c->store.arr[a].dtype);
             whole = stat(file, &sb) == 0 && (size_t)sb.st_size == bytes + 4;

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dm_coupling.h"
 #include "dm_kinematics.h"
 #include "dm_vec3.h"
 
@@ -185,4 +186,48 @@ int dm_budget_trajectory(const dm_robot *rb, const dm_trajectory *tr, const dm_i
     sum->mean_combined_m /= T;
     sum->mean_coupling_m /= T;
     return DM_OK;
+}
+
+/* ---- the coupling index against the nominal robot ------------------------ */
+
+int dm_coupling_change_init(dm_coupling_change *cc, const dm_robot *rb, int na, int nb,
+                            dm_error *err)
+{
+    memset(cc, 0, sizeof *cc);
+    cc->min = cc->max = NAN;
+    cc->nominal = dm_coupling_alloc(rb, na > 0 ? na : rb->na, nb > 0 ? nb : rb->nb, err);
+    return cc->nominal ? DM_OK : (err ? err->code : DM_ENOMEM);
+}
+
+void dm_coupling_change_free(dm_coupling_change *cc)
+{
+    dm_coupling_free(cc->nominal);
+    cc->nominal = NULL;
+}
+
+double dm_coupling_change_next(dm_coupling_change *cc, const dm_integ_sample *s)
+{
+    /* the step that ends at this sample was frozen where the last one was */
+    const double *P = cc->samples ? cc->P_prev : s->P_m;
+    double nominal, change = NAN, h = cc->samples ? s->t_s - cc->t_prev : 0.0;
+    if (!isnan(s->coupling_index_log10) && !dm_coupling_nominal_log10(cc->nominal, P, &nominal, NULL))
+        change = s->coupling_index_log10 - nominal;
+    if (cc->samples && isfinite(change)) {
+        cc->integral_s += h * change;
+        cc->weight_s += h;
+        cc->min = isnan(cc->min) ? change : fmin(cc->min, change);
+        cc->max = isnan(cc->max) ? change : fmax(cc->max, change);
+    }
+    dm_copy3(s->P_m, cc->P_prev);
+    cc->t_prev = s->t_s;
+    cc->samples++;
+    return change;
+}
+
+void dm_coupling_change_summary(const dm_coupling_change *cc, double *mean, double *min,
+                                double *max)
+{
+    *mean = cc->weight_s > 0 ? cc->integral_s / cc->weight_s : NAN;
+    *min = cc->min;
+    *max = cc->max;
 }

@@ -47,6 +47,19 @@ static void rng_init(rng *r, uint64_t seed, uint64_t i)
     r->s = splitmix64(&a) ^ (splitmix64(&b) * 0xff51afd7ed558ccdULL);
 }
 
+uint64_t dm_tolerance_pose_seed(uint64_t seed, const double P[3])
+{
+    uint64_t h = seed;
+    for (int k = 0; k < 3; k++) {
+        /* whole nanometres: -0.0, 0.0 and any rounding of the last digits
+         * below 0.5 nm agree (beyond 1e9 m, where no chain closes, one key) */
+        double nm = fabs(P[k]) < 1e9 ? round(P[k] * 1e9) : 0.0;
+        uint64_t q = (uint64_t)(int64_t)nm;
+        h = splitmix64(&h) ^ q;
+    }
+    return splitmix64(&h);
+}
+
 static double uniform01(rng *r) /* [0, 1) */
 {
     return (splitmix64(&r->s) >> 11) * 0x1.0p-53;
@@ -178,12 +191,13 @@ static int evaluate(tol_ws *w, const double P[3], const state *s, double out[3],
     return rc;
 }
 
-static void draw(const tol_ws *w, long i, state *s)
+/* Sample i's state from the pose's streams (pose_seed: dm_tolerance_pose_seed). */
+static void draw(const tol_ws *w, uint64_t pose_seed, long i, state *s)
 {
     const dm_tolerance_spec *sp = w->spec;
     const dm_effects *ef = &w->file->effects;
     rng r;
-    rng_init(&r, sp->seed, (uint64_t)i);
+    rng_init(&r, pose_seed, (uint64_t)i);
     for (int c = 0; c < DM_TOL_NGEOM; c++)
         for (int ch = 0; ch < 3; ch++) {
             double x = sp->dist == DM_TOL_UNIFORM ? 2.0 * uniform01(&r) - 1.0 : normal_trunc3(&r) / 3.0;
@@ -279,9 +293,10 @@ int dm_tolerance_samples(const dm_robot *rb, const dm_tolerance_spec *sp, const 
         rc = ws_init(&w, rb, sp, err);
     if (rc)
         return rc;
+    uint64_t pose_seed = dm_tolerance_pose_seed(sp->seed, P);
     for (long i = 0; !rc && i < count; i++) {
         state s;
-        draw(&w, first + i, &s);
+        draw(&w, pose_seed, first + i, &s);
         rc = evaluate(&w, P, &s, e + 3 * i, err);
     }
     ws_free(&w);
@@ -371,6 +386,7 @@ int dm_tolerance_pose(const dm_robot *rb, const dm_tolerance_spec *sp, const dou
     }
     rc = linearise(rb, sp, P, res, err);
     int nt = threads > 0 ? threads : 1;
+    uint64_t pose_seed = dm_tolerance_pose_seed(sp->seed, P);
     long bad = n; /* the first failing sample, whatever the thread count */
     dm_error first_err;
     dm_error_clear(&first_err);
@@ -386,7 +402,7 @@ int dm_tolerance_pose(const dm_robot *rb, const dm_tolerance_spec *sp, const dou
                 if (mrc || i > mybad)
                     continue;
                 state s;
-                draw(&w, i, &s);
+                draw(&w, pose_seed, i, &s);
                 if (evaluate(&w, P, &s, e + 3 * i, &my))
                     mybad = i;
             }
