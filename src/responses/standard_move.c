@@ -86,7 +86,7 @@ struct dm_move_ws {
     candidate *cand;                     /* MAX_INTERVALS + 1 */
     double *cand_pool;
     double *stack;                       /* MAX_LEVEL + 2 levels x 4 states of nmax */
-    double *blocks;                      /* bounds D0, D2 per block of the coarse scan */
+    double *blocks;                      /* bounds per block of the coarse scan (state_bounds) */
     double *scan;                        /* 4 x nmax: two states of the coarse scan */
 };
 
@@ -115,7 +115,7 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
         w->cand_pool = malloc(sizeof(double) * 2 * nmax * (MAX_INTERVALS + 1));
         w->stack = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 2));
         w->scan = malloc(sizeof(double) * 4 * nmax);
-        w->blocks = malloc(sizeof(double) * 2 * nmax * (MAX_INTERVALS / 16 + 1));
+        w->blocks = malloc(sizeof(double) * 2 * (nmax + 1) * (MAX_INTERVALS / 16 + 1));
     }
     if (!w || !w->G || !w->r || !w->R || !w->MR || !w->KR || !w->X || !w->Y || !w->pool || !w->trans[0] ||
         !w->trans[1] || !w->cand || !w->cand_pool || !w->stack || !w->scan || !w->blocks) {
@@ -417,6 +417,20 @@ static int prepare(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
     return DM_OK;
 }
 
+/* Carried modes in ascending frequency (a Ritz mode may lie below a
+ * retained one): the modes slower than any cut-off are then a prefix. */
+static void sort_by_frequency(carried *c)
+{
+    double *arr[] = {c->om, c->g, c->normP, c->px, c->py, c->pz};
+    for (int j = 1; j < c->nm; j++)
+        for (int i = j; i > 0 && c->om[i] < c->om[i - 1]; i--)
+            for (size_t a = 0; a < sizeof arr / sizeof arr[0]; a++) {
+                double t = arr[a][i];
+                arr[a][i] = arr[a][i - 1];
+                arr[a][i - 1] = t;
+            }
+}
+
 /* ---- exact extremes of the platform deviation -----------------------------
  *
  * Over a phase of constant load a the deviation from the static platform
@@ -499,7 +513,7 @@ typedef struct {
     double yp[3];      /* static part of y */
     double tol;        /* settling band (window of a damped robot), else < 0 */
     double L, tL;      /* largest |y| found, and when */
-    const double *d0, *d2; /* the modes' bounds a refinement uses */
+    const double *bounds;  /* those a refinement uses (state_bounds) */
 } phase;
 
 static double step_of(const phase *ph, int level) { return ldexp(ph->base, -level); }
@@ -534,63 +548,67 @@ static void step_modes(const phase *ph, const double *t, const double *q, const 
     }
 }
 
+/* How many modes are slower than wlim (a prefix: sort_by_frequency). */
 static int slow_count(const carried *c, double wlim)
 {
     int n = 0;
-    for (int j = 0; j < c->nm; j++)
-        n += c->om[j] < wlim;
+    while (n < c->nm && c->om[n] < wlim)
+        n++;
     return n;
 }
 
-static void eval_node(const phase *ph, const double *q, const double *v, double wlim, node *nd)
+/* y at a state, and l, l' of its ns slowest modes. */
+static void eval_node(const phase *ph, const double *q, const double *v, int ns, node *nd)
 {
     const carried *c = ph->c;
-    double y0 = 0, y1 = 0, y2 = 0, l0 = 0, l1 = 0, l2 = 0, d0 = 0, d1 = 0, d2 = 0;
-    int ns = 0;
-#pragma omp simd reduction(+ : y0, y1, y2, l0, l1, l2, d0, d1, d2, ns)
-    for (int j = 0; j < c->nm; j++) {
-        int is_slow = c->om[j] < wlim;
-        double slow = is_slow, s = q[j], ds = slow * v[j];
-        ns += is_slow;
-        y0 += c->px[j] * s, y1 += c->py[j] * s, y2 += c->pz[j] * s;
-        s *= slow;
-        l0 += c->px[j] * s, l1 += c->py[j] * s, l2 += c->pz[j] * s;
-        d0 += c->px[j] * ds, d1 += c->py[j] * ds, d2 += c->pz[j] * ds;
+    double l0 = 0, l1 = 0, l2 = 0, d0 = 0, d1 = 0, d2 = 0, f0 = 0, f1 = 0, f2 = 0;
+#pragma omp simd reduction(+ : l0, l1, l2, d0, d1, d2)
+    for (int j = 0; j < ns; j++) {
+        l0 += c->px[j] * q[j], l1 += c->py[j] * q[j], l2 += c->pz[j] * q[j];
+        d0 += c->px[j] * v[j], d1 += c->py[j] * v[j], d2 += c->pz[j] * v[j];
     }
+#pragma omp simd reduction(+ : f0, f1, f2)
+    for (int j = ns; j < c->nm; j++)
+        f0 += c->px[j] * q[j], f1 += c->py[j] * q[j], f2 += c->pz[j] * q[j];
     const double *p = ph->yp;
-    nd->y[0] = p[0] + y0, nd->y[1] = p[1] + y1, nd->y[2] = p[2] + y2;
     nd->l[0] = p[0] + l0, nd->l[1] = p[1] + l1, nd->l[2] = p[2] + l2;
+    nd->y[0] = nd->l[0] + f0, nd->y[1] = nd->l[1] + f1, nd->y[2] = nd->l[2] + f2;
     nd->dl[0] = d0, nd->dl[1] = d1, nd->dl[2] = d2;
     nd->nslow = ns;
 }
 
-/* Each mode's bounds D0, D2 from a state on (valid for all later times). */
-static void state_bounds(const phase *ph, const double *q, const double *v, double *d0, double *d2)
+/* Bounds from a state on (valid for all later times), as sums over the
+ * modes in frequency order: b[j] = sum_{i<j} |p_i| D2_i (what the j
+ * slowest modes can bend) and b[nmax + 1 + j] = sum_{i>=j} |p_i| D0_i
+ * (how far the others can stray). */
+static void state_bounds(const phase *ph, const double *q, const double *v, double *b)
 {
     const carried *c = ph->c;
-    for (int j = 0; j < c->nm; j++)
-        mode_bounds(c->om[j], c->z[j], q[j], v[j], &d0[j], &d2[j]);
+    int nm = c->nm;
+    double *pre2 = b, *suf0 = b + ph->w->nmax + 1;
+    pre2[0] = 0;
+    suf0[nm] = 0;
+    for (int j = 0; j < nm; j++) {
+        double d0, d2;
+        mode_bounds(c->om[j], c->z[j], q[j], v[j], &d0, &d2);
+        pre2[j + 1] = pre2[j] + c->normP[j] * d2;
+        suf0[j] = c->normP[j] * d0; /* summed below, from the fastest */
+    }
+    for (int j = nm - 1; j >= 0; j--)
+        suf0[j] += suf0[j + 1];
 }
 
-/* The bound terms for a cut-off: sum over slow modes of |p| D2, over fast
- * ones of |p| D0, and over all of |p| D0 (how far y can still move from
- * yp). */
+/* The bound terms for the ns slowest modes: sum over them of |p| D2, over
+ * the others of |p| D0, and over all of |p| D0 (how far y can still move
+ * from yp). */
 typedef struct {
     double slow2, fast0, env;
 } slack;
 
-static void slack_of(const phase *ph, const double *d0, const double *d2, double wlim, slack *s)
+static void slack_of(const phase *ph, const double *b, int ns, slack *s)
 {
-    const carried *c = ph->c;
-    double s2 = 0, f0 = 0, e = 0;
-#pragma omp simd reduction(+ : s2, f0, e)
-    for (int j = 0; j < c->nm; j++) {
-        double slow = c->om[j] < wlim, p0 = c->normP[j] * d0[j];
-        s2 += slow * c->normP[j] * d2[j];
-        f0 += (1 - slow) * p0;
-        e += p0;
-    }
-    s->slow2 = s2, s->fast0 = f0, s->env = e;
+    const double *suf0 = b + ph->w->nmax + 1;
+    s->slow2 = b[ns], s->fast0 = suf0[ns], s->env = suf0[0];
 }
 
 static double offset_norm(const double y[3], const double d[3], double h)
@@ -634,20 +652,20 @@ static void split(phase *ph, int level, const double *q, const double *v, const 
     hv->qm = slot, hv->vm = slot + nmax;
     const double *t = level_transitions(ph, level + 1);
     step_modes(ph, t, q, v, hv->qm, hv->vm);
-    double half = step_of(ph, level + 2), wlim = SQRT2 / half;
-    int ns = slow_count(ph->c, wlim);
-    eval_node(ph, hv->qm, hv->vm, wlim, &hv->m);
+    double half = step_of(ph, level + 2);
+    int ns = slow_count(ph->c, SQRT2 / half);
+    eval_node(ph, hv->qm, hv->vm, ns, &hv->m);
     hv->a = *a;
     hv->b = *b;
     if (a->nslow != ns)
-        eval_node(ph, q, v, wlim, &hv->a);
+        eval_node(ph, q, v, ns, &hv->a);
     if (b->nslow != ns) {
         double *qb = slot + 2 * nmax, *vb = slot + 3 * nmax;
         step_modes(ph, t, hv->qm, hv->vm, qb, vb);
-        eval_node(ph, qb, vb, wlim, &hv->b);
+        eval_node(ph, qb, vb, ns, &hv->b);
     }
     slack s;
-    slack_of(ph, ph->d0, ph->d2, wlim, &s);
+    slack_of(ph, ph->bounds, ns, &s);
     hv->bound_left = interval_bound(&hv->a, &hv->m, half, &s);
     hv->bound_right = interval_bound(&hv->m, &hv->b, half, &s);
 }
@@ -700,16 +718,16 @@ static double latest_above(phase *ph, int level, double t, const double *q, cons
 
 /* Coarse level of a phase: the fewest intervals (a power of two, at most
  * MAX_INTERVALS) whose bound slack is within COARSE_SLACK of the size of
- * the response, from the bounds d0, d2 of its start. */
-static int coarse_level(const phase *ph, const double *d0, const double *d2)
+ * the response, from the bounds b of its start. */
+static int coarse_level(const phase *ph, const double *b)
 {
     slack s;
-    slack_of(ph, d0, d2, 0, &s);
+    slack_of(ph, b, 0, &s);
     double size = dm_norm3(ph->yp) + s.env;
     int level = 0;
     for (; (1 << level) < MAX_INTERVALS; level++) {
         double h = step_of(ph, level + 1);
-        slack_of(ph, d0, d2, SQRT2 / h, &s);
+        slack_of(ph, b, slow_count(ph->c, SQRT2 / h), &s);
         if (s.slow2 * h * h / 2 + s.fast0 <= COARSE_SLACK * size)
             break;
     }
@@ -725,7 +743,7 @@ typedef struct {
 #define BLOCK 16
 static double *block_bounds(const phase *ph, int b)
 {
-    return ph->w->blocks + (size_t)2 * ph->w->nmax * b;
+    return ph->w->blocks + (size_t)2 * (ph->w->nmax + 1) * b;
 }
 
 /* The coarse scan of a phase from state (q, v), left at the phase's end
@@ -735,34 +753,35 @@ static int scan_phase(phase *ph, double *q, double *v, scan_result *sr)
 {
     dm_move_ws *w = ph->w;
     int nmax = w->nmax, nm = ph->c->nm;
-    double *d0 = block_bounds(ph, 0);
-    state_bounds(ph, q, v, d0, d0 + nmax);
-    int level = coarse_level(ph, d0, d0 + nmax), N = 1 << level;
-    double H = step_of(ph, level), wlim = SQRT2 / (H / 2);
+    double *bb = block_bounds(ph, 0);
+    state_bounds(ph, q, v, bb);
+    int level = coarse_level(ph, bb), N = 1 << level;
+    double H = step_of(ph, level);
+    int ns = slow_count(ph->c, SQRT2 / (H / 2));
     const double *t = level_transitions(ph, level);
     double *qa = w->scan, *va = qa + nmax, *qb = qa + 2 * nmax, *vb = qa + 3 * nmax;
     memcpy(qa, q, sizeof(double) * nm);
     memcpy(va, v, sizeof(double) * nm);
     node prev, cur;
     slack s = {0, 0, 0};
-    eval_node(ph, qa, va, wlim, &prev);
+    eval_node(ph, qa, va, ns, &prev);
     note_sample(ph, &prev, 0);
     sr->ncand = 0;
     sr->stopped = 0;
     sr->last_above = ph->tol >= 0 && dm_norm3(prev.y) > ph->tol ? 0 : -1;
     for (int i = 1; i <= N; i++) {
         if ((i - 1) % BLOCK == 0) { /* bounds from here on, lowered by damping */
-            d0 = block_bounds(ph, (i - 1) / BLOCK);
+            bb = block_bounds(ph, (i - 1) / BLOCK);
             if (i > 1)
-                state_bounds(ph, qa, va, d0, d0 + nmax);
-            slack_of(ph, d0, d0 + nmax, wlim, &s);
+                state_bounds(ph, qa, va, bb);
+            slack_of(ph, bb, ns, &s);
             if (ph->tol >= 0 && s.env < ph->tol && s.env * (1 + MAX_REL) < ph->L) {
                 sr->stopped = 1; /* y = 0 + what can still move: below both for good */
                 break;
             }
         }
         step_modes(ph, t, qa, va, qb, vb);
-        eval_node(ph, qb, vb, wlim, &cur);
+        eval_node(ph, qb, vb, ns, &cur);
         note_sample(ph, &cur, i * H);
         double bound = interval_bound(&prev, &cur, H / 2, &s);
         int settle = ph->tol >= 0 && bound > ph->tol && i - 1 >= sr->last_above;
@@ -791,8 +810,7 @@ static int scan_phase(phase *ph, double *q, double *v, scan_result *sr)
  * start on). */
 static void use_block(phase *ph, const candidate *cd)
 {
-    ph->d0 = block_bounds(ph, cd->node / BLOCK);
-    ph->d2 = ph->d0 + ph->w->nmax;
+    ph->bounds = block_bounds(ph, cd->node / BLOCK);
 }
 
 /* The phase's maximum of |y| (into ph->L, ph->tL), and, with a band, the
@@ -855,7 +873,7 @@ static void one_move(dm_move_ws *w, carried *c, double alpha, double beta, const
     }
     memset(w->have, 0, sizeof w->have);
     double A = o->amax_ms2;
-    phase ph = {w, c, 0, 0.5 * o->tau_s, 0, {0, 0, 0}, -1, 0, 0, NULL, NULL};
+    phase ph = {w, c, 0, 0.5 * o->tau_s, 0, {0, 0, 0}, -1, 0, 0, NULL};
     start_phase(&ph, c, 0, A);
     extremes(&ph, c->q, c->v);
     ph.t0 = 0.5 * o->tau_s;
@@ -863,7 +881,7 @@ static void one_move(dm_move_ws *w, carried *c, double alpha, double beta, const
     extremes(&ph, c->q, c->v);
     res->peak_m = ph.L;
     res->peak_t_s = ph.tL;
-    phase win = {w, c, 1, o->window_s, 0, {0, 0, 0}, damped ? o->tol_m : -1, 0, 0, NULL, NULL};
+    phase win = {w, c, 1, o->window_s, 0, {0, 0, 0}, damped ? o->tol_m : -1, 0, 0, NULL};
     start_phase(&win, c, -A, 0);
     double settle = extremes(&win, c->q, c->v);
     res->residual_m = win.L;
@@ -880,6 +898,8 @@ int dm_standard_moves(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int
     int rc = prepare(w, md, mo, k, st, dir, ndir, o, err);
     if (rc)
         return rc;
+    for (int d = 0; d < ndir; d++)
+        sort_by_frequency(&w->dir[d]);
     for (int d = 0; d < ndir; d++)
         one_move(w, &w->dir[d], md->robot->rayleigh_alpha, md->robot->rayleigh_beta, o, &res[d]);
     return DM_OK;
