@@ -58,9 +58,34 @@ void dm_dataset_free(dm_dataset *data);
 
 /* Model predictions for every sample (same order), with the robot's mesh
  * (or na, nb when > 0). Unreachable poses and mode ranks beyond the model
- * are errors naming the sample's line. */
+ * are errors naming the sample's line. One run of a dm_predictor made for
+ * it. */
 int dm_predict(const dm_robot *robot, const dm_dataset *data, int na, int nb, double *pred,
                dm_error *err);
+
+/* A prediction workspace: the predictions of one dataset for many robots
+ * (a fit's every evaluation), with the model, eigen and static workspaces
+ * (tracker data: the commanded path) made once and reused. The dataset
+ * must outlive it and not change; the mesh is that of `robot` (or na, nb
+ * when > 0) for every run. One per thread. */
+typedef struct dm_predictor dm_predictor;
+
+dm_predictor *dm_predictor_new(const dm_robot *robot, const dm_dataset *data, int na, int nb,
+                               dm_error *err);
+
+/* Predictions with this robot: bit for bit those of dm_predict (every run
+ * starts the eigen solver cold). The robot may differ from run to run in
+ * any value; when its effects change the model's DOFs (a compliant base,
+ * joint springs) the workspace is made again for the new size. */
+int dm_predictor_run(dm_predictor *p, const dm_robot *robot, double *pred, dm_error *err);
+
+/* Predict only the first n samples (whole poses, or whole tracker times)
+ * from now on; the dataset's n restores all. A tracker run's first part is
+ * predicted as dm_predict predicts a file cut there: along the path
+ * through its own commanded samples. */
+void dm_predictor_window(dm_predictor *p, int n);
+
+void dm_predictor_free(dm_predictor *p);
 
 /* Synthetic data from `robot` (with any effects already applied): npose
  * poses drawn in the workspace around home (modal, static), or the path

@@ -150,10 +150,11 @@ static void out_of_memory(const shared *s)
 }
 
 /* One fit: its effects, the leading `nfixed` of them held at `fixed`, and
- * its own prediction buffer. */
+ * its own prediction workspace and buffer. */
 typedef struct {
     const shared *s;
     dm_dataset view;         /* the data fitted: all, or a tracker run's first part */
+    dm_predictor *predictor; /* made once per fit, run by every evaluation */
     double *pred;
     int ncand, nfixed;
     const dm_candidate *cand[2];
@@ -174,8 +175,10 @@ static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_error *err
     int rc = DM_OK;
     for (int i = 0; i < p->ncand && !rc; i++)
         rc = dm_effect_apply(&rb, p->cand[i]->name, value[i], err);
-    if (!rc)
-        rc = dm_predict(&rb, &p->view, p->s->o->na, p->s->o->nb, p->pred, err);
+    if (!rc) {
+        dm_predictor_window(p->predictor, p->view.n);
+        rc = dm_predictor_run(p->predictor, &rb, p->pred, err);
+    }
     return rc;
 }
 
@@ -526,9 +529,12 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][DM_DIAG_MAXV
     set_window(p, 1.0);
     double *fvec = malloc(sizeof(double) * count_train(p));
     p->pred = malloc(sizeof(double) * p->s->d->n);
-    if (!fvec || !p->pred) {
+    p->predictor = dm_predictor_new(p->s->rb, p->s->d, p->s->o->na, p->s->o->nb, NULL);
+    if (!fvec || !p->pred || !p->predictor) {
         f->held_chi2 = f->score = INFINITY;
         free(fvec), free(p->pred);
+        dm_predictor_free(p->predictor);
+        p->predictor = NULL;
         out_of_memory(p->s);
         return;
     }
@@ -562,6 +568,8 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][DM_DIAG_MAXV
     free(fvec);
     free(p->pred);
     p->pred = NULL;
+    dm_predictor_free(p->predictor);
+    p->predictor = NULL;
 }
 
 /* Best score first; equal scores in candidate-table order, so the ranking
@@ -944,8 +952,10 @@ static int linearise(const shared *s, const dm_fit *f, linearisation *L)
     double *Jt = malloc(sizeof(double) * m * (n ? n : 1)), *U = malloc(sizeof(double) * m * (n ? n : 1));
     L->r = malloc(sizeof(double) * d->n);
     L->J = malloc(sizeof(double) * d->n * (n ? n : 1));
-    int rc = !pred || !p1 || !Jt || !U || !L->r || !L->J ? DM_ENOMEM
-                                                         : predict_scaled(&p, x, n, sc, -1, 0, pred);
+    p.predictor = dm_predictor_new(s->rb, d, s->o->na, s->o->nb, NULL);
+    int rc = !pred || !p1 || !Jt || !U || !L->r || !L->J || !p.predictor
+                 ? DM_ENOMEM
+                 : predict_scaled(&p, x, n, sc, -1, 0, pred);
     for (int i = 0; !rc && i < d->n; i++)
         L->r[i] = (d->s[i].value - pred[i]) * s->w[i];
     /* forward differences of 1e-4 scaled units: far below any uncertainty
@@ -963,6 +973,7 @@ static int linearise(const shared *s, const dm_fit *f, linearisation *L)
         while (L->q < (m < n ? m : n) && L->s[L->q] > 1e-9 * L->s[0])
             L->q++;
     free(pred), free(p1), free(Jt), free(U);
+    dm_predictor_free(p.predictor);
     return rc;
 }
 

@@ -125,12 +125,13 @@ static int robot_at(const model *m, const double *x, int only, dm_robot *rb, dm_
     return DM_OK;
 }
 
-static int predict_at(const model *m, const double *x, int only, const dm_dataset *d,
-                      double *pred, dm_error *err)
+/* Predictions at parameters x with the workspace pw (made for the data). */
+static int predict_at(const model *m, dm_predictor *pw, const double *x, int only, double *pred,
+                      dm_error *err)
 {
     dm_robot rb;
     int rc = robot_at(m, x, only, &rb, err);
-    return rc ? rc : dm_predict(&rb, d, m->o->na, m->o->nb, pred, err);
+    return rc ? rc : dm_predictor_run(pw, &rb, pred, err);
 }
 
 static int thread_count(const dm_plan_opts *o)
@@ -140,26 +141,32 @@ static int thread_count(const dm_plan_opts *o)
 
 /* Sensitivities J (d->n x p, column-major) of the predictions to the
  * scaled parameters at the magnitudes, in units of the noise; pred0: the
- * predictions there. The p + 1 predictions run in parallel. */
+ * predictions there. The p + 1 predictions run in parallel, each thread
+ * with one prediction workspace for all of its predictions. */
 static int sensitivities(const model *m, const dm_dataset *d, double noise, double *pred0,
                          double *J, dm_error *err)
 {
     int p = m->p, rc = DM_OK;
-#pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(m->o))
-    for (int j = -1; j < p; j++) {
-        double x[DM_DIAG_MAXP];
+#pragma omp parallel num_threads(thread_count(m->o))
+    {
         dm_error e;
-        memcpy(x, m->x0, sizeof x);
-        if (j >= 0)
-            x[j] += FD_STEP * m->sc[j];
-        double *out = j < 0 ? pred0 : J + (size_t)j * d->n;
-        int r = predict_at(m, x, -1, d, out, &e);
+        dm_predictor *pw = dm_predictor_new(m->rb, d, m->o->na, m->o->nb, &e);
+#pragma omp for schedule(dynamic, 1)
+        for (int j = -1; j < p; j++) {
+            double x[DM_DIAG_MAXP];
+            memcpy(x, m->x0, sizeof x);
+            if (j >= 0)
+                x[j] += FD_STEP * m->sc[j];
+            double *out = j < 0 ? pred0 : J + (size_t)j * d->n;
+            int r = pw ? predict_at(m, pw, x, -1, out, &e) : DM_ENOMEM;
 #pragma omp critical(dm_plan_error)
-        if (r && !rc) {
-            rc = r;
-            if (err)
-                *err = e;
+            if (r && !rc) {
+                rc = r;
+                if (err)
+                    *err = e;
+            }
         }
+        dm_predictor_free(pw);
     }
     for (int j = 0; !rc && j < p; j++)
         for (int i = 0; i < d->n; i++)
@@ -689,10 +696,10 @@ static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_erro
 
 /* How far (in sigmas, norm over the design) effect e alone at parameters
  * x[e's] moves the predictions from base. */
-static double signature(const model *m, int e, const double *x, const dm_dataset *d,
-                        const double *base, double noise, double *buf)
+static double signature(const model *m, dm_predictor *pw, int e, const double *x,
+                        const dm_dataset *d, const double *base, double noise, double *buf)
 {
-    if (predict_at(m, x, e, d, buf, NULL))
+    if (predict_at(m, pw, x, e, buf, NULL))
         return NAN;
     double q = 0;
     for (int i = 0; i < d->n; i++)
@@ -709,28 +716,28 @@ static int first_param(const model *m, int e)
 }
 
 /* The smallest magnitude seen at DETECT sigma (see dm_plan_result). */
-static double detectable(const model *m, int e, const double *F, const dm_dataset *d,
-                         const double *base, double noise, double *buf)
+static double detectable(const model *m, dm_predictor *pw, int e, const double *F,
+                         const dm_dataset *d, const double *base, double noise, double *buf)
 {
     const dm_candidate *c = m->eff[e].cand;
     int j0 = first_param(m, e);
     double x[DM_DIAG_MAXP];
     memcpy(x, m->x0, sizeof x);
     if (c->nparam == 0)
-        return signature(m, e, x, d, base, noise, buf);
+        return signature(m, pw, e, x, d, base, noise, buf);
     if (!strncmp(c->name, "damping_", 8)) /* a change of the file's damping */
         return F[j0 * m->p + j0] > 0 ? DETECT / sqrt(F[j0 * m->p + j0]) : INFINITY;
     if (c->linear) { /* linear: scale the assumed errors */
-        double s = signature(m, e, x, d, base, noise, buf), big = 0;
+        double s = signature(m, pw, e, x, d, base, noise, buf), big = 0;
         for (int k = 0; k < c->nparam; k++)
             big = fmax(big, fabs(m->eff[e].value[k]));
         return s > 0 ? DETECT / s * big : INFINITY;
     }
     double lo = c->lo - 2, hi = c->hi + 2; /* bisection in log10 on the signature */
     x[j0] = lo;
-    double slo = signature(m, e, x, d, base, noise, buf);
+    double slo = signature(m, pw, e, x, d, base, noise, buf);
     x[j0] = hi;
-    double shi = signature(m, e, x, d, base, noise, buf);
+    double shi = signature(m, pw, e, x, d, base, noise, buf);
     int strong_low = slo > shi; /* springs: soft is strong */
     if ((strong_low ? slo : shi) < DETECT)
         return strong_low ? 0 : INFINITY; /* never seen */
@@ -738,7 +745,7 @@ static double detectable(const model *m, int e, const double *F, const dm_datase
         return pow(10.0, strong_low ? hi : lo); /* seen over the whole range */
     for (int it = 0; it < 30; it++) {
         x[j0] = 0.5 * (lo + hi);
-        double s = signature(m, e, x, d, base, noise, buf);
+        double s = signature(m, pw, e, x, d, base, noise, buf);
         if ((s >= DETECT) == strong_low)
             lo = x[j0];
         else
@@ -804,21 +811,24 @@ static int assess(const model *m, double noise, dm_plan_result *r, dm_error *err
     double *base = malloc(sizeof(double) * nrow), *buf = malloc(sizeof(double) * nrow);
     double *J = malloc(sizeof(double) * nrow * (p ? p : 1)), *pred = malloc(sizeof(double) * nrow);
     double F[DM_DIAG_MAXP * DM_DIAG_MAXP];
-    int first[2] = {0, nrow}, rc = !base || !buf || !J || !pred ? DM_ENOMEM : DM_OK;
+    /* one workspace for the baseline and every bisection step */
+    dm_predictor *pw = dm_predictor_new(m->rb, d, m->o->na, m->o->nb, NULL);
+    int first[2] = {0, nrow}, rc = !base || !buf || !J || !pred || !pw ? DM_ENOMEM : DM_OK;
     if (!rc)
-        rc = dm_predict(m->rb, d, m->o->na, m->o->nb, base, err);
+        rc = dm_predictor_run(pw, m->rb, base, err);
     if (!rc)
         rc = sensitivities(m, d, noise, pred, J, err);
     if (!rc) {
         unit_information(J, nrow, p, first, 1, F);
         for (int e = 0; e < m->neff; e++)
-            r->detect[e] = detectable(m, e, F, d, base, noise, buf);
+            r->detect[e] = detectable(m, pw, e, F, d, base, noise, buf);
         for (int a = 0; a < m->neff; a++)
             for (int b = a + 1; b < m->neff; b++)
                 if (m->eff[a].cand->nparam && m->eff[b].cand->nparam)
                     compare_pair(m, F, a, b, &r->pair[r->npair++]);
     }
     free(base), free(buf), free(J), free(pred);
+    dm_predictor_free(pw);
     return rc == DM_ENOMEM ? dm_fail(err, rc, "out of memory") : rc;
 }
 
