@@ -7,7 +7,8 @@
 
 #include <stdlib.h>
 
-#include "dm_measure.h"
+#include "dm_predict.h"
+#include "dm_synth.h"
 
 /* zheng2017 with one effect set through the typed API (v: 1 or 3 numbers). */
 static void robot_with(dm_robot *rb, const char *section, const char *key, const double *v)

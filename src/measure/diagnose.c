@@ -1,6 +1,8 @@
 /* Diagnosis of model-vs-measurement discrepancies (see dm_diagnose.h). */
 #include "dm_diagnose.h"
 
+#include "dm_predict.h"
+
 #include <cminpack.h>
 #include <lapacke.h>
 #include <math.h>

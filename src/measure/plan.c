@@ -9,6 +9,8 @@
 #include <string.h>
 
 #include "dm_kinematics.h"
+#include "dm_predict.h"
+#include "dm_rng.h"
 #include "dm_sweep.h"
 #include "dm_trajectory.h"
 
