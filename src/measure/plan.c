@@ -11,6 +11,7 @@
 #include "dm_kinematics.h"
 #include "dm_predict.h"
 #include "dm_rng.h"
+#include "dm_synth.h"
 #include "dm_sweep.h"
 #include "dm_trajectory.h"
 
@@ -329,20 +330,6 @@ static int well_placed(const dm_robot *rb, const double P[3])
     return !dm_kin_inverse(rb, P, &pose, NULL) && pose.cond <= rb->singular_cond;
 }
 
-/* A pose drawn uniformly from the default region (synth's box). */
-static int draw_pose(const dm_robot *rb, dm_rng *rng, double P[3])
-{
-    double h = rb->arm_length_m;
-    for (int tries = 0; tries < 1000; tries++) {
-        P[0] = rb->home_m[0] + 0.3 * h * (2 * dm_rng_uniform(rng) - 1);
-        P[1] = rb->home_m[1] + 0.3 * h * (2 * dm_rng_uniform(rng) - 1);
-        P[2] = rb->home_m[2] + 0.15 * h * (2 * dm_rng_uniform(rng) - 1);
-        if (well_placed(rb, P))
-            return DM_OK;
-    }
-    return DM_EUNREACHABLE;
-}
-
 /* Candidate poses: the region's grid points that qualify, or poses drawn. */
 static int candidate_poses(const dm_robot *rb, const dm_plan_opts *o, double **out, int *count,
                            dm_error *err)
@@ -362,7 +349,7 @@ static int candidate_poses(const dm_robot *rb, const dm_plan_opts *o, double **o
     dm_rng rng = {o->seed * 0x2545F4914F6CDD1Dull + 3};
     for (long k = 0; k < total; k++) {
         if (!o->region) {
-            if (draw_pose(rb, &rng, P + 3 * n))
+            if (dm_synth_draw_pose(rb, &rng, P + 3 * n))
                 break;
             n++;
             continue;
@@ -436,33 +423,6 @@ static int check_tracker(const model *m, dm_error *err)
 static const double DIRS[7][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1},           {1, 1, 1},
                                   {1, -1, 1}, {-1, 1, 1}, {-1, -1, 1}};
 
-/* The samples of one unit: a pose with its modes, or a pose with a force
- * along unit vector u (three components). */
-static int push_unit(dm_dataset *d, const dm_plan_opts *o, const double P[3], const double *u,
-                     int pose_id, double noise)
-{
-    dm_sample s = {0};
-    int rc = DM_OK;
-    memcpy(s.P, P, sizeof s.P);
-    s.pose_id = pose_id;
-    s.sigma = noise;
-    if (d->kind == DM_DATA_MODAL) {
-        for (int j = 1; j <= (o->modes > 0 ? o->modes : 6) && !rc; j++) {
-            s.mode = j;
-            rc = dm_dataset_push(d, &s, NULL);
-        }
-        return rc;
-    }
-    double nu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-    for (int k = 0; k < 3; k++)
-        s.force[k] = (o->force_n > 0 ? o->force_n : 50.0) * u[k] / nu;
-    for (int k = 0; k < 3 && !rc; k++) {
-        s.comp = k;
-        rc = dm_dataset_push(d, &s, NULL);
-    }
-    return rc;
-}
-
 /* ---- tracker paths -------------------------------------------------------------- */
 
 /* The family of paths about home lasting n samples at 1 ms, no faster
@@ -506,20 +466,11 @@ static int path_samples(const dm_robot *rb, const char *spec, int n, double nois
         return rc;
     d->kind = DM_DATA_TRACKER;
     snprintf(d->source, sizeof d->source, "%s", spec);
-    for (int i = 0; i < n && !rc; i++) {
-        dm_sample s = {0};
-        double v[3], a[3];
-        s.t = i * 1e-3;
-        dm_traj_eval(&tr, s.t, s.P, v, a);
-        s.pose_id = d->npose++;
-        s.sigma = noise;
-        if (!well_placed(rb, s.P))
-            rc = dm_fail(err, DM_EUNREACHABLE, "%s leaves the workspace at t = %g s", spec, s.t);
-        for (int k = 0; k < 3 && !rc; k++) {
-            s.comp = k;
-            rc = dm_dataset_push(d, &s, err);
-        }
-    }
+    rc = dm_synth_path_samples(&tr, n, noise, d, err);
+    for (int i = 0; i < d->n && !rc; i += 3) /* each time once */
+        if (!well_placed(rb, d->s[i].P))
+            rc = dm_fail(err, DM_EUNREACHABLE, "%s leaves the workspace at t = %g s", spec,
+                         d->s[i].t);
     dm_traj_free(&tr);
     if (rc)
         dm_dataset_free(d);
@@ -567,7 +518,8 @@ static int survey_units(const model *m, double noise, dm_dataset *d, int **first
         for (int k = 0; k < per && !rc; k++, u++) {
             (*first)[u] = d->n;
             int id = per == 1 || share ? c : u;
-            if (push_unit(d, o, P + 3 * c, DIRS[k], id, noise))
+            if (dm_synth_pose_samples(d, P + 3 * c, id, noise, o->modes, o->force_n, DIRS[k],
+                                      NULL))
                 rc = dm_fail(err, DM_ENOMEM, "out of memory");
             d->npose = id + 1;
         }
@@ -917,11 +869,11 @@ int dm_plan_random(const dm_robot *rb, const dm_plan_opts *o, uint64_t seed, dm_
                 P[3 * k + c] = t;
             }
             memcpy(Q, P + 3 * i, sizeof Q);
-        } else if (draw_pose(rb, &rng, Q)) {
+        } else if (dm_synth_draw_pose(rb, &rng, Q)) {
             rc = dm_fail(err, DM_EUNREACHABLE, "no reachable pose found near home");
             break;
         }
-        if (push_unit(d, o, Q, u, i, noise))
+        if (dm_synth_pose_samples(d, Q, i, noise, o->modes, o->force_n, u, NULL))
             rc = dm_fail(err, DM_ENOMEM, "out of memory");
         d->npose = i + 1;
     }

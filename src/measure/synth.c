@@ -1,6 +1,7 @@
 /* Synthetic measured data (see dm_synth.h). */
 #include "dm_synth.h"
 
+#include <assert.h>
 #include <limits.h>
 #include <math.h>
 #include <stdlib.h>
@@ -10,7 +11,7 @@
 #include "dm_predict.h"
 #include "dm_trajectory.h"
 
-static int draw_pose(const dm_robot *rb, dm_rng *rng, double P[3])
+int dm_synth_draw_pose(const dm_robot *rb, dm_rng *rng, double P[3])
 {
     double h = rb->arm_length_m;
     for (int tries = 0; tries < 1000; tries++) {
@@ -22,6 +23,52 @@ static int draw_pose(const dm_robot *rb, dm_rng *rng, double P[3])
             return DM_OK;
     }
     return DM_EUNREACHABLE;
+}
+
+int dm_synth_path_samples(const dm_trajectory *tr, int n, double sigma, dm_dataset *d,
+                          dm_error *err)
+{
+    assert(n >= 0);
+    int rc = DM_OK;
+    for (int i = 0; i < n && !rc; i++) {
+        dm_sample s = {0};
+        double v[3], a[3];
+        s.t = i * 1e-3;
+        dm_traj_eval(tr, s.t, s.P, v, a);
+        s.pose_id = d->npose++;
+        s.sigma = sigma;
+        for (int k = 0; k < 3 && !rc; k++) {
+            s.comp = k;
+            rc = dm_dataset_push(d, &s, err);
+        }
+    }
+    return rc;
+}
+
+int dm_synth_pose_samples(dm_dataset *d, const double P[3], int pose_id, double sigma, int modes,
+                          double force_n, const double *u, dm_error *err)
+{
+    assert(d->kind == DM_DATA_MODAL || u);
+    dm_sample s = {0};
+    int rc = DM_OK;
+    memcpy(s.P, P, sizeof s.P);
+    s.pose_id = pose_id;
+    s.sigma = sigma;
+    if (d->kind == DM_DATA_MODAL) {
+        for (int j = 1; j <= (modes > 0 ? modes : 6) && !rc; j++) {
+            s.mode = j;
+            rc = dm_dataset_push(d, &s, err);
+        }
+        return rc;
+    }
+    double nu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    for (int k = 0; k < 3; k++)
+        s.force[k] = (force_n > 0 ? force_n : 50.0) * u[k] / nu;
+    for (int k = 0; k < 3 && !rc; k++) {
+        s.comp = k;
+        rc = dm_dataset_push(d, &s, err);
+    }
+    return rc;
 }
 
 int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_error *err)
@@ -57,19 +104,7 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
             dm_traj_free(&tr);
             return rc;
         }
-        int m = (int)steps;
-        for (int i = 0; i < m && !rc; i++) {
-            dm_sample s = {0};
-            double v[3], a[3];
-            s.t = i * 1e-3;
-            dm_traj_eval(&tr, s.t, s.P, v, a);
-            s.pose_id = d->npose++;
-            s.sigma = o->noise;
-            for (int k = 0; k < 3 && !rc; k++) {
-                s.comp = k;
-                rc = dm_dataset_push(d, &s, err);
-            }
-        }
+        rc = dm_synth_path_samples(&tr, (int)steps, o->noise, d, err);
         dm_traj_free(&tr);
     } else {
         double np = o->npose > 0 ? o->npose : 16;
@@ -84,26 +119,16 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
             return dm_fail(err, DM_EINVAL, "%s: %.3g samples, at most %d", what, np * per,
                            INT_MAX);
         for (int p = 0; p < (o->npose > 0 ? o->npose : 16) && !rc; p++) {
-            dm_sample s = {0};
-            if (draw_pose(rb, &rng, s.P))
-                return dm_fail(err, DM_EUNREACHABLE, "no reachable pose found near home");
-            s.pose_id = d->npose++;
-            s.sigma = o->noise;
-            if (o->kind == DM_DATA_MODAL) {
-                for (int j = 1; j <= (o->modes > 0 ? o->modes : 6) && !rc; j++) {
-                    s.mode = j;
-                    rc = dm_dataset_push(d, &s, err);
-                }
-            } else {
-                double u[3] = {dm_rng_normal(&rng), dm_rng_normal(&rng), dm_rng_normal(&rng)};
-                double nu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-                for (int k = 0; k < 3; k++)
-                    s.force[k] = (o->force_n > 0 ? o->force_n : 50.0) * u[k] / nu;
-                for (int k = 0; k < 3 && !rc; k++) {
-                    s.comp = k;
-                    rc = dm_dataset_push(d, &s, err);
-                }
+            double P[3], u[3];
+            if (dm_synth_draw_pose(rb, &rng, P)) {
+                rc = dm_fail(err, DM_EUNREACHABLE, "no reachable pose found near home");
+                break;
             }
+            if (o->kind == DM_DATA_STATIC)
+                for (int k = 0; k < 3; k++)
+                    u[k] = dm_rng_normal(&rng);
+            rc = dm_synth_pose_samples(d, P, d->npose++, o->noise, o->modes, o->force_n,
+                                       o->kind == DM_DATA_STATIC ? u : NULL, err);
         }
     }
     double *pred = rc ? NULL : malloc(sizeof(double) * d->n);
