@@ -3,6 +3,7 @@
 
 #include "dm_predict.h"
 
+#include <assert.h>
 #include <cminpack.h>
 #include <lapacke.h>
 #include <math.h>
@@ -79,6 +80,7 @@ static int is_family(const dm_candidate *c) { return c->linear && c->nparam == 3
 
 double dm_candidate_param_scale(const dm_candidate *c, int k)
 {
+    assert(k >= 0 && k < c->nparam);
     if (!c->linear)
         return 1.0 / log(10.0); /* a unit of log10 is ln 10 relative */
     return c == UNION ? CANDIDATES[GEOM_FIRST + k / 3].scale : c->scale;
@@ -86,6 +88,7 @@ double dm_candidate_param_scale(const dm_candidate *c, int k)
 
 void dm_candidate_param_name(const dm_candidate *c, int k, char *buf, size_t n)
 {
+    assert(k >= 0 && (k < c->nparam || k == 0) && n > 0); /* 0: a switch's name */
     if (c == UNION)
         snprintf(buf, n, "%s[%d]", CANDIDATES[GEOM_FIRST + k / 3].name, k % 3);
     else if (c->nparam == 3)
@@ -165,6 +168,7 @@ typedef struct {
 
 static void split_samples(const dm_dataset *d, char *held)
 {
+    assert(d->n > 0);
     double T = d->kind == DM_DATA_TRACKER ? d->s[d->n - 1].t : 0;
     for (int i = 0; i < d->n; i++)
         held[i] = d->kind == DM_DATA_TRACKER ? d->s[i].t > 2.0 * T / 3.0 : d->s[i].pose_id % 3 == 2;
@@ -186,6 +190,7 @@ static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_error *err
 
 static double chi2(const shared *s, const double *pred, int want_held)
 {
+    assert(s->d->n >= 0 && pred);
     double sum = 0;
     for (int i = 0; i < s->d->n; i++)
         if (s->held[i] == want_held) {
@@ -206,6 +211,7 @@ static double from_log(const dm_candidate *c, double x)
  * values of all effects. */
 static void to_values(const problem *p, const double *x, double value[2][DM_DIAG_MAXV])
 {
+    assert(p->ncand >= 1 && p->ncand <= 2 && p->nfixed <= p->ncand);
     for (int i = 0, j = 0; i < p->ncand; i++) {
         const dm_candidate *c = p->cand[i];
         for (int k = 0; k < DM_DIAG_MAXV; k++)
@@ -220,6 +226,7 @@ static void to_values(const problem *p, const double *x, double value[2][DM_DIAG
  * to_values). Returns their count. */
 static int to_params(const problem *p, int first, double value[2][DM_DIAG_MAXV], double *x)
 {
+    assert(first >= 0 && p->ncand <= 2);
     int n = 0;
     for (int i = first; i < p->ncand; i++)
         for (int k = 0; k < p->cand[i]->nparam; k++)
@@ -230,6 +237,7 @@ static int to_params(const problem *p, int first, double value[2][DM_DIAG_MAXV],
 /* Fitted units per scaled unit of the parameters of effects first.. */
 static void param_scales(const problem *p, int first, double *sc)
 {
+    assert(first >= 0 && p->ncand <= 2);
     for (int i = first, j = 0; i < p->ncand; i++)
         for (int k = 0; k < p->cand[i]->nparam; k++)
             sc[j++] = dm_candidate_param_scale(p->cand[i], k);
@@ -238,6 +246,7 @@ static void param_scales(const problem *p, int first, double *sc)
 /* cminpack callback */
 static int residuals(void *user, int m, int n, const double *x, double *fvec, int iflag)
 {
+    assert(m >= 0 && n >= 0 && n <= DM_DIAG_MAXP);
     (void)iflag;
     (void)n;
     problem *p = user;
@@ -290,6 +299,7 @@ static void scan_start(problem *p, double *x, const dm_candidate *c, int m, doub
 static void jacobian(problem *p, const double *x, int n, int m, const double *f0, double *f1,
                      double *J)
 {
+    assert(n >= 0 && n <= DM_DIAG_MAXP && m >= 0);
     double xx[DM_DIAG_MAXP];
     memcpy(xx, x, sizeof(double) * n);
     for (int j = 0; j < n; j++) {
@@ -317,6 +327,7 @@ static double misfit_scale(const shared *s, double c2, int m, int n)
  * m x n column-major A, which is destroyed. */
 static int svd(double *A, int m, int n, double *s, double *U, double *VT)
 {
+    assert(n >= 1 && n <= DM_DIAG_MAXP && m >= 1); /* superb holds min(m, n) - 1 */
     double superb[DM_DIAG_MAXP];
     return LAPACKE_dgesvd(LAPACK_COL_MAJOR, 'S', 'A', m, n, A, m, s, U, m, VT, n, superb);
 }
@@ -327,6 +338,7 @@ static int svd(double *A, int m, int n, double *s, double *U, double *VT)
  * evaluation cap stops a search on a plateau the data cannot see. */
 static void lm_fit(problem *p, double *x, int n, int m, double *sig)
 {
+    assert(n >= 1 && n <= DM_DIAG_MAXP && m >= 0);
     double *fvec = malloc(sizeof(double) * m), *fjac = malloc(sizeof(double) * m * n);
     double *wa4 = malloc(sizeof(double) * m);
     double diag[DM_DIAG_MAXP], qtf[DM_DIAG_MAXP], wa1[DM_DIAG_MAXP], wa2[DM_DIAG_MAXP],
@@ -368,6 +380,7 @@ static void lm_fit(problem *p, double *x, int n, int m, double *sig)
 static void chord_fit(problem *p, double *x, int n, int m, const double *sc, double *sig,
                       int *nseen)
 {
+    assert(n >= 1 && n <= DM_DIAG_MAXP && m >= 0);
     int r = m < n ? m : n;
     double *f = malloc(sizeof(double) * m), *f1 = malloc(sizeof(double) * m);
     double *J = calloc((size_t)m * n, sizeof(double)), *U = malloc(sizeof(double) * m * r);
@@ -859,6 +872,8 @@ static double chi2_upper(double n, double p)
 
 static int group_of(const dm_dataset *d, const dm_sample *s)
 {
+    assert(d->kind == DM_DATA_MODAL ? s->mode >= 1 && s->mode <= DM_DIAG_MAXGROUP
+                                     : s->comp >= 0 && s->comp < 3);
     return d->kind == DM_DATA_MODAL ? s->mode : s->comp;
 }
 
@@ -994,6 +1009,7 @@ static void linearisation_free(linearisation *L)
  * r'r - b'(diag s^2 + Z_h'Z_h)^-1 b with Z_h = J_h V, b = Z_h'r. */
 static double predictive_chi2(const shared *s, const linearisation *L, int group, int *count)
 {
+    assert(L->q >= 0 && L->q <= L->n && L->n <= DM_DIAG_MAXP && group <= DM_DIAG_MAXGROUP);
     const dm_dataset *d = s->d;
     int q = L->q;
     double M[DM_DIAG_MAXP * DM_DIAG_MAXP] = {0}, b[DM_DIAG_MAXP] = {0}, rr = 0;

@@ -2,6 +2,7 @@
  * dm_measure.h). */
 #include "dm_measure.h"
 
+#include <assert.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,7 +17,11 @@ static const char *const COLUMNS[3][10] = {
     {"x", "y", "z", "fx", "fy", "fz", "dx", "dy", "dz", NULL},
     {"t", "x_cmd", "y_cmd", "z_cmd", "x_meas", "y_meas", "z_meas", NULL}};
 
-const char *dm_data_kind_name(dm_data_kind k) { return KIND_NAMES[k]; }
+const char *dm_data_kind_name(dm_data_kind k)
+{
+    assert(k >= DM_DATA_MODAL && k <= DM_DATA_TRACKER);
+    return KIND_NAMES[k];
+}
 
 int dm_data_kind_parse(const char *name, dm_data_kind *k)
 {
@@ -30,6 +35,7 @@ int dm_data_kind_parse(const char *name, dm_data_kind *k)
 
 int dm_dataset_push(dm_dataset *d, const dm_sample *s, dm_error *err)
 {
+    assert(d->n >= 0 && d->n <= d->cap && (d->s || !d->cap));
     if (d->n == d->cap) {
         int cap = d->cap ? 2 * d->cap : 256;
         dm_sample *g = realloc(d->s, sizeof *g * cap);
@@ -89,6 +95,7 @@ static int bad(const csv_ctx *c, const char *name, const char *what)
 
 static int read_row(csv_ctx *c, dm_dataset *d, double *last_t, double last_P[3])
 {
+    assert(d->kind >= DM_DATA_MODAL && d->kind <= DM_DATA_TRACKER);
     dm_sample s = {0};
     double v[8];
     int rc;
@@ -216,6 +223,8 @@ int dm_dataset_read_template(const char *path, dm_dataset *d, dm_error *err)
 
 int dm_dataset_write(const dm_dataset *d, FILE *out)
 {
+    /* static and tracker rows are three samples each */
+    assert(d->n >= 0 && (d->kind == DM_DATA_MODAL || d->n % 3 == 0));
     if (d->robot[0])
         fprintf(out, "# robot: %s\n", d->robot);
     /* the sigma column only when every sample has one (> 0, as the reader

@@ -1,6 +1,7 @@
 /* Experiment design for the diagnosis (see dm_plan.h). */
 #include "dm_plan.h"
 
+#include <assert.h>
 #include <lapacke.h>
 #include <limits.h>
 #include <math.h>
@@ -8,11 +9,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dm_grid.h"
 #include "dm_kinematics.h"
 #include "dm_predict.h"
 #include "dm_rng.h"
 #include "dm_synth.h"
-#include "dm_sweep.h"
 #include "dm_trajectory.h"
 
 #define DETECT 5.0     /* "seen": the effect moves the data by 5 sigma (norm over samples) */
@@ -183,6 +184,7 @@ static int sensitivities(const model *m, const dm_dataset *d, double noise, doub
  * With inv, its inverse too. */
 static double logdet(const double *F, int p, double ridge, double *inv)
 {
+    assert(p >= 0 && p <= DM_DIAG_MAXP);
     double A[DM_DIAG_MAXP * DM_DIAG_MAXP];
     memcpy(A, F, sizeof(double) * p * p);
     for (int j = 0; j < p; j++)
@@ -210,6 +212,7 @@ static double logdet(const double *F, int p, double ridge, double *inv)
 static void unit_information(const double *J, int nrow, int p, const int *first, int nunit,
                              double *info)
 {
+    assert(p >= 0 && p <= DM_DIAG_MAXP && nunit >= 0 && first[nunit] <= nrow);
     for (int u = 0; u < nunit; u++)
         for (int a = 0; a < p; a++)
             for (int b = 0; b < p; b++) {
@@ -222,6 +225,7 @@ static void unit_information(const double *J, int nrow, int p, const int *first,
 
 static void add_unit(double *F, const double *info, int u, int p, double sign)
 {
+    assert(u >= 0 && p >= 0 && p <= DM_DIAG_MAXP);
     for (int q = 0; q < p * p; q++)
         F[q] += sign * info[(size_t)u * p * p + q];
 }
@@ -231,6 +235,7 @@ static void add_unit(double *F, const double *info, int u, int p, double sign)
  * unit order and keeps the first of equals, so it is deterministic. */
 static void choose_units(const double *info, int nunit, int p, int n, int *sel)
 {
+    assert(n >= 0 && n <= nunit && p <= DM_DIAG_MAXP);
     double F[DM_DIAG_MAXP * DM_DIAG_MAXP] = {0}, G[DM_DIAG_MAXP * DM_DIAG_MAXP];
     char *used = calloc(nunit, 1);
     if (!used)
@@ -282,6 +287,7 @@ static void choose_units(const double *info, int nunit, int p, int n, int *sel)
 /* 1-sigma of each scaled parameter for the units sel[0..n-1]; log det. */
 static double design_sigma(const double *info, const int *sel, int n, int p, double *sig)
 {
+    assert(n >= 0 && p >= 0 && p <= DM_DIAG_MAXP);
     double F[DM_DIAG_MAXP * DM_DIAG_MAXP] = {0}, inv[DM_DIAG_MAXP * DM_DIAG_MAXP];
     for (int i = 0; i < n; i++)
         add_unit(F, info, sel[i], p, 1);
@@ -296,6 +302,7 @@ static double design_sigma(const double *info, const int *sel, int n, int p, dou
 static double random_sigma(const double *info, int nunit, int p, int n, uint64_t seed,
                            double *sig)
 {
+    assert(n >= 0 && n <= nunit && p <= DM_DIAG_MAXP);
     dm_rng rng = {seed * 0x9E3779B97F4A7C15ull + 7};
     int *sel = malloc(sizeof(int) * nunit), ok = 0;
     double var[DM_DIAG_MAXP] = {0}, ld = 0;
@@ -433,6 +440,7 @@ static const double DIRS[7][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1},           {1,
 #define AMAX 50.0
 static void path_spec(const dm_robot *rb, int k, int n, char *spec, size_t len)
 {
+    assert(k >= 0 && k < NPATH);
     static const char *const PLANES[3] = {"xy", "xz", "yz"};
     static const double MOVE[5][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}, {1, -1, 0.5}};
     const double *h = rb->home_m, la = rb->arm_length_m, T = (n - 1) * 1e-3;
@@ -534,6 +542,7 @@ static int by_int(const void *a, const void *b) { return *(const int *)a - *(con
 /* The design: the chosen units' samples, each unit its own pose id. */
 static int design_of(const dm_dataset *cand, const int *first, int *sel, int n, dm_dataset *d)
 {
+    assert(n >= 0);
     qsort(sel, n, sizeof *sel, by_int);
     memset(d, 0, sizeof *d);
     d->kind = cand->kind;
@@ -653,6 +662,7 @@ static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_erro
 static double signature(const model *m, dm_predictor *pw, int e, const double *x,
                         const dm_dataset *d, const double *base, double noise, double *buf)
 {
+    assert(e >= 0 && e < m->neff);
     if (predict_at(m, pw, x, e, buf, NULL))
         return NAN;
     double q = 0;
@@ -663,6 +673,7 @@ static double signature(const model *m, dm_predictor *pw, int e, const double *x
 
 static int first_param(const model *m, int e)
 {
+    assert(e >= 0 && e <= m->neff);
     int j = 0;
     for (int k = 0; k < e; k++)
         j += m->eff[k].cand->nparam;
@@ -673,6 +684,7 @@ static int first_param(const model *m, int e)
 static double detectable(const model *m, dm_predictor *pw, int e, const double *F,
                          const dm_dataset *d, const double *base, double noise, double *buf)
 {
+    assert(e >= 0 && e < m->neff);
     const dm_candidate *c = m->eff[e].cand;
     int j0 = first_param(m, e);
     double x[DM_DIAG_MAXP];
@@ -713,6 +725,7 @@ static double detectable(const model *m, dm_predictor *pw, int e, const double *
  * determined joint combination (smallest eigenvalue of their block). */
 static void compare_pair(const model *m, const double *F, int a, int b, dm_plan_pair *pr)
 {
+    assert(a >= 0 && a < b && b < m->neff && m->p <= DM_DIAG_MAXP);
     int ja = first_param(m, a), jb = first_param(m, b), pa = m->eff[a].cand->nparam,
         pb = m->eff[b].cand->nparam, p = m->p, q = pa + pb;
     double Fab[DM_DIAG_MAXP * DM_DIAG_MAXP], La[DM_DIAG_MAXP * DM_DIAG_MAXP],

@@ -145,6 +145,7 @@ static int predict_poses(dm_predictor *p, double *pred, dm_error *err)
 {
     const dm_robot *rb = &p->robot;
     const dm_dataset *d = &p->data;
+    assert(d->kind != DM_DATA_TRACKER && d->n <= p->nall && p->kmax >= 1);
     int kmax = p->kmax, n = dm_model_dofs(rb, p->na, p->nb);
     if (kmax > n)
         return dm_fail(err, DM_EINVAL, "%s: mode %d is beyond the model's %d modes", d->source,
@@ -214,6 +215,7 @@ static int predict_tracker(dm_predictor *p, double *pred, dm_error *err)
 {
     const dm_dataset *d = &p->data;
     int m = d->npose, rc = DM_OK;
+    assert(d->n == 3 * m && d->n <= p->nall); /* three samples a time */
     const double *t = p->t;
     if (p->tr_npose != m) {
         if (p->tr_npose)
@@ -236,6 +238,7 @@ static int predict_tracker(dm_predictor *p, double *pred, dm_error *err)
     o.dt_s = fmin(1e-3, t[m - 1] / (m - 1));
     o.force = 1; /* the work of the whole command is judged before it (dm_check_size) */
     rc = dm_integrate_trajectory(&p->robot, &p->tr, &o, keep, tk, &sum, err);
+    assert(rc || tk->n >= 2); /* the start and every step's end */
     for (int i = 0, j = 0; i < m && !rc; i++) {
         while (j + 2 < tk->n && tk->t[j + 1] < t[i])
             j++;
