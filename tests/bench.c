@@ -7,7 +7,8 @@
  *      dsygvd (all) of the same M and K;
  *   2. eigenvalue error against an extended-precision reference;
  *   3. sweep throughput on 1 and 2 threads and what it implies for 1e6
- *      poses; trajectories; tracker diagnoses;
+ *      poses; trajectories; tracker diagnoses; one fit's evaluations with
+ *      the prediction workspace reused against one made per evaluation;
  *   4. peak memory (max RSS) of two sweeps whose grids differ 10x.
  * Nothing is asserted: timings are not tests. */
 #include <cblas.h>
