@@ -7,7 +7,8 @@
  *      dsygvd (all) of the same M and K;
  *   2. eigenvalue error against an extended-precision reference;
  *   3. sweep throughput on 1 and 2 threads and what it implies for 1e6
- *      poses; trajectories; tracker diagnoses;
+ *      poses; trajectories; tracker diagnoses; one fit's evaluations with
+ *      the prediction workspace reused against one made per evaluation;
  *   4. peak memory (max RSS) of two sweeps whose grids differ 10x.
  * Nothing is asserted: timings are not tests. */
 #include <cblas.h>
@@ -25,7 +26,8 @@
 #include "dm_analysis.h"
 #include "dm_diagnose.h"
 #include "dm_integrate.h"
-#include "dm_measure.h"
+#include "dm_predict.h"
+#include "dm_synth.h"
 #include "dm_reference.h"
 #include "dm_store.h"
 #include "dm_sweep.h"
@@ -331,6 +333,43 @@ static void diagnosis_time(int decimate, const char *path)
     dm_dataset_free(&d);
 }
 
+/* One fit's evaluations on a modal survey (16 poses, 6 modes): the
+ * payload mass stepped through 25 values, as a fit's searches step it,
+ * each predicted with one workspace reused by every evaluation and with
+ * one allocated for it (dm_predict), in evaluations per second. The two
+ * alternate, so that both see the same load on a shared machine. */
+static void fit_evaluation_rate(int mesh)
+{
+    dm_robot rb, at;
+    dm_dataset d;
+    dm_synth_opts so = {.kind = DM_DATA_MODAL, .npose = 16, .modes = 6, .noise = 0.02, .seed = 7,
+                        .na = mesh, .nb = mesh};
+    dm_robot_load("zheng2017", &rb, NULL);
+    if (dm_synthesize(&rb, &so, &d, NULL))
+        return;
+    enum { NEVAL = 25 };
+    double *pred = malloc(sizeof(double) * d.n), t[2] = {0, 0};
+    dm_predictor *p = dm_predictor_new(&rb, &d, mesh, mesh, NULL);
+    int rc = !pred || !p;
+    for (int e = 0; e < NEVAL && !rc; e++) {
+        const double kg = 0.1 * pow(30.0, e / (NEVAL - 1.0));
+        at = rb;
+        rc = dm_effect_apply(&at, "payload_mass", &kg, NULL);
+        for (int reuse = 0; reuse < 2 && !rc; reuse++) {
+            double t0 = now_s();
+            rc = reuse ? dm_predictor_run(p, &at, pred, NULL)
+                       : dm_predict(&at, &d, mesh, mesh, pred, NULL);
+            t[reuse] += now_s() - t0;
+        }
+    }
+    printf("   one fit's evaluations, modal survey of 16 poses, mesh %d,%d: %6.1f/s with the "
+           "workspace reused, %6.1f/s allocated per evaluation (ratio %.2f)%s\n",
+           mesh, mesh, NEVAL / t[1], NEVAL / t[0], t[0] / t[1], rc ? " FAILED" : "");
+    dm_predictor_free(p);
+    free(pred);
+    dm_dataset_free(&d);
+}
+
 /* Max RSS (MB) of the deltamap command running one sweep (fork + exec:
  * forking this OpenMP process and carrying on in the child is not safe). */
 static double sweep_rss_mb(const char *grid_spec)
@@ -458,6 +497,8 @@ int main(int argc, char **argv)
         diagnosis_time(1, "p2p:from=-0.03,-0.02,-0.41;to=0.03,0.02,-0.39;duration=0.05;"
                           "law=bangbang;dwell=0.05");
         diagnosis_time(4, "circle:centre=0,0,-0.4;radius=0.04;rate=12.566;duration=1");
+        fit_evaluation_rate(1);
+        fit_evaluation_rate(4);
         long pts;
         double r1 = 0;
         for (int th = 1; th <= 2; th++) {

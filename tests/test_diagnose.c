@@ -14,6 +14,9 @@
 #include <stdlib.h>
 
 #include "dm_diagnose.h"
+#include "dm_predict.h"
+#include "dm_rng.h"
+#include "dm_synth.h"
 
 typedef struct {
     const char *name;

@@ -28,6 +28,7 @@ void dm_csv_close(dm_csv *c)
 /* Cut the line into cells (blanks around each removed); their count. */
 static int split(char *line, char *cells[DM_CSV_MAXCOL], int *more)
 {
+    assert(line && cells);
     int n = 0;
     char *p = line;
     *more = 0;

@@ -3,6 +3,7 @@
 #define _XOPEN_SOURCE 700 /* nftw */
 #include "dm_file.h"
 
+#include <assert.h>
 #include <dirent.h>
 #include <errno.h>
 #include <ftw.h>
@@ -41,6 +42,7 @@ int dm_file_mkdirs(const char *path, size_t keep, dm_error *err)
 
 static void host_name(char *out, size_t len)
 {
+    assert(len > 0);
     if (gethostname(out, len) || !out[0])
         snprintf(out, len, "localhost");
     out[len - 1] = '\0';

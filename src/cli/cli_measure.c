@@ -11,7 +11,9 @@
 #include "cli_impl.h"
 #include "dm_diagnose.h"
 #include "dm_measure.h"
+#include "dm_predict.h"
 #include "dm_plan.h"
+#include "dm_synth.h"
 
 static const char COMPARE_HELP[] =
     "usage: deltamap compare --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"

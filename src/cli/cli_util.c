@@ -1,6 +1,6 @@
 /* Helpers shared by the deltamap commands. */
 #include "cli_impl.h"
-#include "dm_measure.h"
+#include "dm_predict.h"
 
 #include <cblas.h>
 

@@ -1,6 +1,9 @@
 /* Diagnosis of model-vs-measurement discrepancies (see dm_diagnose.h). */
 #include "dm_diagnose.h"
 
+#include "dm_predict.h"
+
+#include <assert.h>
 #include <cminpack.h>
 #include <lapacke.h>
 #include <math.h>
@@ -77,6 +80,7 @@ static int is_family(const dm_candidate *c) { return c->linear && c->nparam == 3
 
 double dm_candidate_param_scale(const dm_candidate *c, int k)
 {
+    assert(k >= 0 && k < c->nparam);
     if (!c->linear)
         return 1.0 / log(10.0); /* a unit of log10 is ln 10 relative */
     return c == UNION ? CANDIDATES[GEOM_FIRST + k / 3].scale : c->scale;
@@ -84,6 +88,7 @@ double dm_candidate_param_scale(const dm_candidate *c, int k)
 
 void dm_candidate_param_name(const dm_candidate *c, int k, char *buf, size_t n)
 {
+    assert(k >= 0 && (k < c->nparam || k == 0) && n > 0); /* 0: a switch's name */
     if (c == UNION)
         snprintf(buf, n, "%s[%d]", CANDIDATES[GEOM_FIRST + k / 3].name, k % 3);
     else if (c->nparam == 3)
@@ -150,10 +155,11 @@ static void out_of_memory(const shared *s)
 }
 
 /* One fit: its effects, the leading `nfixed` of them held at `fixed`, and
- * its own prediction buffer. */
+ * its own prediction workspace and buffer. */
 typedef struct {
     const shared *s;
     dm_dataset view;         /* the data fitted: all, or a tracker run's first part */
+    dm_predictor *predictor; /* made once per fit, run by every evaluation */
     double *pred;
     int ncand, nfixed;
     const dm_candidate *cand[2];
@@ -162,6 +168,7 @@ typedef struct {
 
 static void split_samples(const dm_dataset *d, char *held)
 {
+    assert(d->n > 0);
     double T = d->kind == DM_DATA_TRACKER ? d->s[d->n - 1].t : 0;
     for (int i = 0; i < d->n; i++)
         held[i] = d->kind == DM_DATA_TRACKER ? d->s[i].t > 2.0 * T / 3.0 : d->s[i].pose_id % 3 == 2;
@@ -174,13 +181,16 @@ static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_error *err
     int rc = DM_OK;
     for (int i = 0; i < p->ncand && !rc; i++)
         rc = dm_effect_apply(&rb, p->cand[i]->name, value[i], err);
-    if (!rc)
-        rc = dm_predict(&rb, &p->view, p->s->o->na, p->s->o->nb, p->pred, err);
+    if (!rc) {
+        dm_predictor_window(p->predictor, p->view.n);
+        rc = dm_predictor_run(p->predictor, &rb, p->pred, err);
+    }
     return rc;
 }
 
 static double chi2(const shared *s, const double *pred, int want_held)
 {
+    assert(s->d->n >= 0 && pred);
     double sum = 0;
     for (int i = 0; i < s->d->n; i++)
         if (s->held[i] == want_held) {
@@ -201,6 +211,7 @@ static double from_log(const dm_candidate *c, double x)
  * values of all effects. */
 static void to_values(const problem *p, const double *x, double value[2][DM_DIAG_MAXV])
 {
+    assert(p->ncand >= 1 && p->ncand <= 2 && p->nfixed <= p->ncand);
     for (int i = 0, j = 0; i < p->ncand; i++) {
         const dm_candidate *c = p->cand[i];
         for (int k = 0; k < DM_DIAG_MAXV; k++)
@@ -215,6 +226,7 @@ static void to_values(const problem *p, const double *x, double value[2][DM_DIAG
  * to_values). Returns their count. */
 static int to_params(const problem *p, int first, double value[2][DM_DIAG_MAXV], double *x)
 {
+    assert(first >= 0 && p->ncand <= 2);
     int n = 0;
     for (int i = first; i < p->ncand; i++)
         for (int k = 0; k < p->cand[i]->nparam; k++)
@@ -225,6 +237,7 @@ static int to_params(const problem *p, int first, double value[2][DM_DIAG_MAXV],
 /* Fitted units per scaled unit of the parameters of effects first.. */
 static void param_scales(const problem *p, int first, double *sc)
 {
+    assert(first >= 0 && p->ncand <= 2);
     for (int i = first, j = 0; i < p->ncand; i++)
         for (int k = 0; k < p->cand[i]->nparam; k++)
             sc[j++] = dm_candidate_param_scale(p->cand[i], k);
@@ -233,6 +246,7 @@ static void param_scales(const problem *p, int first, double *sc)
 /* cminpack callback */
 static int residuals(void *user, int m, int n, const double *x, double *fvec, int iflag)
 {
+    assert(m >= 0 && n >= 0 && n <= DM_DIAG_MAXP);
     (void)iflag;
     (void)n;
     problem *p = user;
@@ -285,6 +299,7 @@ static void scan_start(problem *p, double *x, const dm_candidate *c, int m, doub
 static void jacobian(problem *p, const double *x, int n, int m, const double *f0, double *f1,
                      double *J)
 {
+    assert(n >= 0 && n <= DM_DIAG_MAXP && m >= 0);
     double xx[DM_DIAG_MAXP];
     memcpy(xx, x, sizeof(double) * n);
     for (int j = 0; j < n; j++) {
@@ -312,6 +327,7 @@ static double misfit_scale(const shared *s, double c2, int m, int n)
  * m x n column-major A, which is destroyed. */
 static int svd(double *A, int m, int n, double *s, double *U, double *VT)
 {
+    assert(n >= 1 && n <= DM_DIAG_MAXP && m >= 1); /* superb holds min(m, n) - 1 */
     double superb[DM_DIAG_MAXP];
     return LAPACKE_dgesvd(LAPACK_COL_MAJOR, 'S', 'A', m, n, A, m, s, U, m, VT, n, superb);
 }
@@ -322,6 +338,7 @@ static int svd(double *A, int m, int n, double *s, double *U, double *VT)
  * evaluation cap stops a search on a plateau the data cannot see. */
 static void lm_fit(problem *p, double *x, int n, int m, double *sig)
 {
+    assert(n >= 1 && n <= DM_DIAG_MAXP && m >= 0);
     double *fvec = malloc(sizeof(double) * m), *fjac = malloc(sizeof(double) * m * n);
     double *wa4 = malloc(sizeof(double) * m);
     double diag[DM_DIAG_MAXP], qtf[DM_DIAG_MAXP], wa1[DM_DIAG_MAXP], wa2[DM_DIAG_MAXP],
@@ -363,6 +380,7 @@ static void lm_fit(problem *p, double *x, int n, int m, double *sig)
 static void chord_fit(problem *p, double *x, int n, int m, const double *sc, double *sig,
                       int *nseen)
 {
+    assert(n >= 1 && n <= DM_DIAG_MAXP && m >= 0);
     int r = m < n ? m : n;
     double *f = malloc(sizeof(double) * m), *f1 = malloc(sizeof(double) * m);
     double *J = calloc((size_t)m * n, sizeof(double)), *U = malloc(sizeof(double) * m * r);
@@ -526,9 +544,12 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][DM_DIAG_MAXV
     set_window(p, 1.0);
     double *fvec = malloc(sizeof(double) * count_train(p));
     p->pred = malloc(sizeof(double) * p->s->d->n);
-    if (!fvec || !p->pred) {
+    p->predictor = dm_predictor_new(p->s->rb, p->s->d, p->s->o->na, p->s->o->nb, NULL);
+    if (!fvec || !p->pred || !p->predictor) {
         f->held_chi2 = f->score = INFINITY;
         free(fvec), free(p->pred);
+        dm_predictor_free(p->predictor);
+        p->predictor = NULL;
         out_of_memory(p->s);
         return;
     }
@@ -562,6 +583,8 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][DM_DIAG_MAXV
     free(fvec);
     free(p->pred);
     p->pred = NULL;
+    dm_predictor_free(p->predictor);
+    p->predictor = NULL;
 }
 
 /* Best score first; equal scores in candidate-table order, so the ranking
@@ -849,6 +872,8 @@ static double chi2_upper(double n, double p)
 
 static int group_of(const dm_dataset *d, const dm_sample *s)
 {
+    assert(d->kind == DM_DATA_MODAL ? s->mode >= 1 && s->mode <= DM_DIAG_MAXGROUP
+                                     : s->comp >= 0 && s->comp < 3);
     return d->kind == DM_DATA_MODAL ? s->mode : s->comp;
 }
 
@@ -944,8 +969,10 @@ static int linearise(const shared *s, const dm_fit *f, linearisation *L)
     double *Jt = malloc(sizeof(double) * m * (n ? n : 1)), *U = malloc(sizeof(double) * m * (n ? n : 1));
     L->r = malloc(sizeof(double) * d->n);
     L->J = malloc(sizeof(double) * d->n * (n ? n : 1));
-    int rc = !pred || !p1 || !Jt || !U || !L->r || !L->J ? DM_ENOMEM
-                                                         : predict_scaled(&p, x, n, sc, -1, 0, pred);
+    p.predictor = dm_predictor_new(s->rb, d, s->o->na, s->o->nb, NULL);
+    int rc = !pred || !p1 || !Jt || !U || !L->r || !L->J || !p.predictor
+                 ? DM_ENOMEM
+                 : predict_scaled(&p, x, n, sc, -1, 0, pred);
     for (int i = 0; !rc && i < d->n; i++)
         L->r[i] = (d->s[i].value - pred[i]) * s->w[i];
     /* forward differences of 1e-4 scaled units: far below any uncertainty
@@ -963,6 +990,7 @@ static int linearise(const shared *s, const dm_fit *f, linearisation *L)
         while (L->q < (m < n ? m : n) && L->s[L->q] > 1e-9 * L->s[0])
             L->q++;
     free(pred), free(p1), free(Jt), free(U);
+    dm_predictor_free(p.predictor);
     return rc;
 }
 
@@ -981,6 +1009,7 @@ static void linearisation_free(linearisation *L)
  * r'r - b'(diag s^2 + Z_h'Z_h)^-1 b with Z_h = J_h V, b = Z_h'r. */
 static double predictive_chi2(const shared *s, const linearisation *L, int group, int *count)
 {
+    assert(L->q >= 0 && L->q <= L->n && L->n <= DM_DIAG_MAXP && group <= DM_DIAG_MAXGROUP);
     const dm_dataset *d = s->d;
     int q = L->q;
     double M[DM_DIAG_MAXP * DM_DIAG_MAXP] = {0}, b[DM_DIAG_MAXP] = {0}, rr = 0;

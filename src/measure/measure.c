@@ -1,35 +1,13 @@
-/* Measured data: reading, writing, model predictions, synthetic data. */
+/* Measured data: kinds, reading, validating and writing datasets (see
+ * dm_measure.h). */
 #include "dm_measure.h"
 
-#include <errno.h>
-#include <float.h>
-#include <limits.h>
+#include <assert.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "dm_analysis.h"
 #include "dm_csv.h"
-#include "dm_integrate.h"
-#include "dm_trajectory.h"
-
-/* ---- random numbers ------------------------------------------------------- */
-
-static uint64_t splitmix64(uint64_t *s)
-{
-    uint64_t z = (*s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
-
-double dm_rng_uniform(dm_rng *r) { return (splitmix64(&r->state) >> 11) * 0x1.0p-53; }
-
-double dm_rng_normal(dm_rng *r)
-{
-    double u1 = dm_rng_uniform(r), u2 = dm_rng_uniform(r);
-    return sqrt(-2.0 * log(1.0 - u1)) * cos(2 * M_PI * u2);
-}
 
 /* ---- kinds ---------------------------------------------------------------- */
 
@@ -39,7 +17,11 @@ static const char *const COLUMNS[3][10] = {
     {"x", "y", "z", "fx", "fy", "fz", "dx", "dy", "dz", NULL},
     {"t", "x_cmd", "y_cmd", "z_cmd", "x_meas", "y_meas", "z_meas", NULL}};
 
-const char *dm_data_kind_name(dm_data_kind k) { return KIND_NAMES[k]; }
+const char *dm_data_kind_name(dm_data_kind k)
+{
+    assert(k >= DM_DATA_MODAL && k <= DM_DATA_TRACKER);
+    return KIND_NAMES[k];
+}
 
 int dm_data_kind_parse(const char *name, dm_data_kind *k)
 {
@@ -53,6 +35,7 @@ int dm_data_kind_parse(const char *name, dm_data_kind *k)
 
 int dm_dataset_push(dm_dataset *d, const dm_sample *s, dm_error *err)
 {
+    assert(d->n >= 0 && d->n <= d->cap && (d->s || !d->cap));
     if (d->n == d->cap) {
         int cap = d->cap ? 2 * d->cap : 256;
         dm_sample *g = realloc(d->s, sizeof *g * cap);
@@ -112,6 +95,7 @@ static int bad(const csv_ctx *c, const char *name, const char *what)
 
 static int read_row(csv_ctx *c, dm_dataset *d, double *last_t, double last_P[3])
 {
+    assert(d->kind >= DM_DATA_MODAL && d->kind <= DM_DATA_TRACKER);
     dm_sample s = {0};
     double v[8];
     int rc;
@@ -239,6 +223,8 @@ int dm_dataset_read_template(const char *path, dm_dataset *d, dm_error *err)
 
 int dm_dataset_write(const dm_dataset *d, FILE *out)
 {
+    /* static and tracker rows are three samples each */
+    assert(d->n >= 0 && (d->kind == DM_DATA_MODAL || d->n % 3 == 0));
     if (d->robot[0])
         fprintf(out, "# robot: %s\n", d->robot);
     /* the sigma column only when every sample has one (> 0, as the reader
@@ -276,294 +262,4 @@ int dm_dataset_write(const dm_dataset *d, FILE *out)
         }
     }
     return ferror(out) ? DM_EIO : DM_OK;
-}
-
-/* ---- predictions ------------------------------------------------------------ */
-
-static int max_mode(const dm_dataset *d)
-{
-    int m = 1;
-    for (int i = 0; i < d->n; i++)
-        if (d->s[i].mode > m)
-            m = d->s[i].mode;
-    return m;
-}
-
-static int predict_poses(const dm_robot *rb, const dm_dataset *d, int na, int nb, double *pred,
-                         dm_error *err)
-{
-    int kmax = d->kind == DM_DATA_MODAL ? max_mode(d) : 1;
-    int n = dm_model_dofs(rb, na, nb);
-    if (kmax > n)
-        return dm_fail(err, DM_EINVAL, "%s: mode %d is beyond the model's %d modes", d->source,
-                       kmax, n);
-    dm_error aerr; /* err may be NULL */
-    dm_analysis *an = dm_analysis_alloc(rb, na, nb, kmax, DM_EIGEN_PARTIAL, &aerr);
-    if (!an)
-        return dm_fail(err, aerr.code, "%s", aerr.msg);
-    dm_pose_result res;
-    dm_pose loaded;
-    int rc = DM_OK, last = -1;
-    int clearance = d->kind == DM_DATA_STATIC && dm_effects_clearance(&rb->effects);
-    for (int i = 0; i < d->n && !rc; i++) {
-        const dm_sample *s = &d->s[i];
-        if (s->pose_id != last) {
-            dm_error perr;
-            rc = dm_analysis_run(an, s->P, kmax, &res, &perr);
-            if (!rc && clearance) { /* the added force may open clearances the other way */
-                double W[3];
-                dm_kin_platform_force(rb, NULL, s->force, W);
-                rc = dm_kin_pose_loaded(rb, s->P, W, &loaded, &perr);
-            }
-            if (rc)
-                rc = dm_fail(err, rc, "%s:%d: %s", d->source, s->line, perr.msg);
-            last = s->pose_id;
-        }
-        if (rc)
-            break;
-        if (d->kind == DM_DATA_MODAL) {
-            pred[i] = res.modes->freq_hz[s->mode - 1];
-        } else {
-            double v = 0;
-            for (int j = 0; j < 3; j++)
-                v += res.compliance[6 * j + s->comp] * s->force[j];
-            if (clearance)
-                v += loaded.offset[s->comp] - res.pose.offset[s->comp];
-            pred[i] = v;
-        }
-    }
-    dm_analysis_free(an);
-    return rc;
-}
-
-typedef struct {
-    int n, cap;
-    double *t, *e; /* e: 3 per sample */
-} track;
-
-static int keep(void *user, const dm_integ_sample *s)
-{
-    track *tk = user;
-    if (tk->n == tk->cap) {
-        int cap = tk->cap ? 2 * tk->cap : 1024;
-        double *t = realloc(tk->t, sizeof(double) * cap), *e;
-        if (t)
-            tk->t = t;
-        e = t ? realloc(tk->e, 3 * sizeof(double) * cap) : NULL;
-        if (!e)
-            return 1;
-        tk->e = e;
-        tk->cap = cap;
-    }
-    tk->t[tk->n] = s->t_s;
-    memcpy(tk->e + 3 * tk->n, s->error, 3 * sizeof(double));
-    tk->n++;
-    return 0;
-}
-
-/* Tracker: the elastic error (static + dynamic) along the commanded path,
- * 10 modes with the quasi-static correction, linear between steps. */
-static int predict_tracker(const dm_robot *rb, const dm_dataset *d, int na, int nb, double *pred,
-                           dm_error *err)
-{
-    int m = d->npose;
-    double *t = malloc(sizeof(double) * m), *xyz = malloc(3 * sizeof(double) * m);
-    dm_trajectory tr;
-    track tk = {0};
-    int rc = (!t || !xyz) ? dm_fail(err, DM_ENOMEM, "out of memory") : DM_OK;
-    for (int i = 0; i < m && !rc; i++) {
-        t[i] = d->s[3 * i].t;
-        memcpy(xyz + 3 * i, d->s[3 * i].P, 3 * sizeof(double));
-    }
-    if (!rc)
-        rc = dm_traj_from_samples(t, xyz, m, d->source, &tr, err);
-    if (!rc) {
-        dm_integ_opts o;
-        dm_integ_summary sum;
-        dm_integ_opts_default(&o);
-        o.method = DM_ODE_CLOSED_FORM;
-        o.quasi_static = 1;
-        o.reference = 0;
-        o.na = na;
-        o.nb = nb;
-        o.dt_s = fmin(1e-3, t[m - 1] / (m - 1));
-        o.force = 1; /* the work of the whole command is judged before it (dm_check_size) */
-        rc = dm_integrate_trajectory(rb, &tr, &o, keep, &tk, &sum, err);
-        dm_traj_free(&tr);
-    }
-    for (int i = 0, j = 0; i < m && !rc; i++) {
-        while (j + 2 < tk.n && tk.t[j + 1] < t[i])
-            j++;
-        double w = tk.n > 1 ? (t[i] - tk.t[j]) / (tk.t[j + 1] - tk.t[j]) : 0;
-        w = fmin(1, fmax(0, w));
-        for (int k = 0; k < 3; k++)
-            pred[3 * i + k] = (1 - w) * tk.e[3 * j + k] + w * tk.e[3 * (j + 1) + k];
-    }
-    free(t);
-    free(xyz);
-    free(tk.t);
-    free(tk.e);
-    return rc;
-}
-
-double dm_predict_cost_s(const dm_robot *rb, dm_data_kind kind, double count, int na, int nb)
-{
-    double s = dm_model_dofs(rb, na > 0 ? na : rb->na, nb > 0 ? nb : rb->nb) / 210.0;
-    double per = (kind == DM_DATA_STATIC ? 5e-3 : 2.5e-3) * (0.15 + 0.85 * s * s);
-    return count * per;
-}
-
-double dm_predict_estimate_s(const dm_robot *rb, const dm_dataset *d, int na, int nb,
-                             double *bytes)
-{
-    double count = d->npose, per_count = 0;
-    if (d->kind == DM_DATA_TRACKER && d->n > 0) { /* dm_predict's step: at most 1 ms */
-        double T = d->s[d->n - 1].t - d->s[0].t;
-        count = fmax(T / 1e-3, d->npose);
-        per_count = 4 * sizeof(double); /* the integrated error kept per step */
-    }
-    if (bytes)
-        *bytes = count * per_count + (double)d->n * 2 * sizeof(double);
-    return dm_predict_cost_s(rb, d->kind, count, na, nb);
-}
-
-int dm_check_size(const char *what, double est_s, double bytes, const char *hint, int force,
-                  dm_error *err)
-{
-    int slow = !(est_s <= DM_MAX_WORK_S), big = !(bytes <= DM_MAX_BYTES);
-    if (force || (!slow && !big))
-        return DM_OK;
-    char t[96] = "", m[96] = "";
-    if (slow)
-        snprintf(t, sizeof t, "about %.3g hours of work (the limit is %g)", est_s / 3600,
-                 DM_MAX_WORK_S / 3600);
-    if (big)
-        snprintf(m, sizeof m, "%s%.3g GB of memory (the limit is %g)", slow ? " and " : "about ",
-                 bytes / 1e9, DM_MAX_BYTES / 1e9);
-    return dm_fail(err, DM_EINVAL, "%s: %s%s: %s, or force it", what, t, m, hint);
-}
-
-int dm_size_refused(const dm_error *err)
-{
-    return err->code == DM_EINVAL && (strstr(err->msg, " hours of work (the limit is ") ||
-                                      strstr(err->msg, " GB of memory (the limit is "));
-}
-
-int dm_predict(const dm_robot *rb, const dm_dataset *d, int na, int nb, double *pred, dm_error *err)
-{
-    na = na > 0 ? na : rb->na;
-    nb = nb > 0 ? nb : rb->nb;
-    return d->kind == DM_DATA_TRACKER ? predict_tracker(rb, d, na, nb, pred, err)
-                                      : predict_poses(rb, d, na, nb, pred, err);
-}
-
-/* ---- synthetic data ---------------------------------------------------------- */
-
-static int draw_pose(const dm_robot *rb, dm_rng *rng, double P[3])
-{
-    double h = rb->arm_length_m;
-    for (int tries = 0; tries < 1000; tries++) {
-        dm_pose pose;
-        P[0] = rb->home_m[0] + 0.3 * h * (2 * dm_rng_uniform(rng) - 1);
-        P[1] = rb->home_m[1] + 0.3 * h * (2 * dm_rng_uniform(rng) - 1);
-        P[2] = rb->home_m[2] + 0.15 * h * (2 * dm_rng_uniform(rng) - 1);
-        if (!dm_kin_inverse(rb, P, &pose, NULL) && pose.cond <= rb->singular_cond)
-            return DM_OK;
-    }
-    return DM_EUNREACHABLE;
-}
-
-int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_error *err)
-{
-    dm_rng rng = {o->seed * 0x2545F4914F6CDD1Dull + 1};
-    memset(d, 0, sizeof *d);
-    d->kind = o->kind;
-    snprintf(d->source, sizeof d->source, "synthetic %s data", dm_data_kind_name(o->kind));
-    snprintf(d->robot, sizeof d->robot, "%s", rb->name);
-    int rc = DM_OK;
-    if (o->kind == DM_DATA_TRACKER) {
-        char spec[256];
-        dm_trajectory tr;
-        const double *h = rb->home_m;
-        if (o->path)
-            snprintf(spec, sizeof spec, "%s", o->path);
-        else
-            snprintf(spec, sizeof spec, "circle:centre=%.9g,%.9g,%.9g;radius=%.9g;rate=%.9g;duration=0.5",
-                     h[0], h[1], h[2], 0.2 * rb->arm_length_m, 4 * M_PI);
-        if ((rc = dm_traj_make(spec, rb, &tr, err)))
-            return rc;
-        double steps = floor(tr.duration_s / 1e-3 + 1e-9) + 1;
-        char what[320];
-        snprintf(what, sizeof what, "synth: %s: %.4g s sampled every 1 ms", tr.name,
-                 tr.duration_s);
-        rc = dm_check_size(what, dm_predict_cost_s(rb, o->kind, steps, o->na, o->nb),
-                           steps * (3 * (sizeof(dm_sample) + sizeof(double)) + 4 * sizeof(double)),
-                           "a shorter path", o->force_long, err);
-        if (!rc && steps > INT_MAX / 3) /* the samples are counted in int */
-            rc = dm_fail(err, DM_EINVAL, "%s: %.3g samples, at most %d", what, 3 * steps,
-                         INT_MAX);
-        if (rc) {
-            dm_traj_free(&tr);
-            return rc;
-        }
-        int m = (int)steps;
-        for (int i = 0; i < m && !rc; i++) {
-            dm_sample s = {0};
-            double v[3], a[3];
-            s.t = i * 1e-3;
-            dm_traj_eval(&tr, s.t, s.P, v, a);
-            s.pose_id = d->npose++;
-            s.sigma = o->noise;
-            for (int k = 0; k < 3 && !rc; k++) {
-                s.comp = k;
-                rc = dm_dataset_push(d, &s, err);
-            }
-        }
-        dm_traj_free(&tr);
-    } else {
-        double np = o->npose > 0 ? o->npose : 16;
-        double per = o->kind == DM_DATA_MODAL ? (o->modes > 0 ? o->modes : 6) : 3;
-        char what[96];
-        snprintf(what, sizeof what, "synth: %.0f poses", np);
-        if ((rc = dm_check_size(what, dm_predict_cost_s(rb, o->kind, np, o->na, o->nb),
-                                np * per * (sizeof(dm_sample) + sizeof(double)),
-                                "fewer poses", o->force_long, err)))
-            return rc;
-        if (np * per > INT_MAX) /* the samples are counted in int */
-            return dm_fail(err, DM_EINVAL, "%s: %.3g samples, at most %d", what, np * per,
-                           INT_MAX);
-        for (int p = 0; p < (o->npose > 0 ? o->npose : 16) && !rc; p++) {
-            dm_sample s = {0};
-            if (draw_pose(rb, &rng, s.P))
-                return dm_fail(err, DM_EUNREACHABLE, "no reachable pose found near home");
-            s.pose_id = d->npose++;
-            s.sigma = o->noise;
-            if (o->kind == DM_DATA_MODAL) {
-                for (int j = 1; j <= (o->modes > 0 ? o->modes : 6) && !rc; j++) {
-                    s.mode = j;
-                    rc = dm_dataset_push(d, &s, err);
-                }
-            } else {
-                double u[3] = {dm_rng_normal(&rng), dm_rng_normal(&rng), dm_rng_normal(&rng)};
-                double nu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-                for (int k = 0; k < 3; k++)
-                    s.force[k] = (o->force_n > 0 ? o->force_n : 50.0) * u[k] / nu;
-                for (int k = 0; k < 3 && !rc; k++) {
-                    s.comp = k;
-                    rc = dm_dataset_push(d, &s, err);
-                }
-            }
-        }
-    }
-    double *pred = rc ? NULL : malloc(sizeof(double) * d->n);
-    if (!rc && !pred)
-        rc = dm_fail(err, DM_ENOMEM, "out of memory");
-    if (!rc)
-        rc = dm_predict(rb, d, o->na, o->nb, pred, err);
-    for (int i = 0; i < d->n && !rc; i++)
-        d->s[i].value = pred[i] + o->noise * dm_rng_normal(&rng);
-    free(pred);
-    if (rc)
-        dm_dataset_free(d);
-    return rc;
 }

@@ -1,6 +1,7 @@
 /* Experiment design for the diagnosis (see dm_plan.h). */
 #include "dm_plan.h"
 
+#include <assert.h>
 #include <lapacke.h>
 #include <limits.h>
 #include <math.h>
@@ -8,8 +9,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dm_grid.h"
 #include "dm_kinematics.h"
-#include "dm_sweep.h"
+#include "dm_predict.h"
+#include "dm_rng.h"
+#include "dm_synth.h"
 #include "dm_trajectory.h"
 
 #define DETECT 5.0     /* "seen": the effect moves the data by 5 sigma (norm over samples) */
@@ -125,12 +129,13 @@ static int robot_at(const model *m, const double *x, int only, dm_robot *rb, dm_
     return DM_OK;
 }
 
-static int predict_at(const model *m, const double *x, int only, const dm_dataset *d,
-                      double *pred, dm_error *err)
+/* Predictions at parameters x with the workspace pw (made for the data). */
+static int predict_at(const model *m, dm_predictor *pw, const double *x, int only, double *pred,
+                      dm_error *err)
 {
     dm_robot rb;
     int rc = robot_at(m, x, only, &rb, err);
-    return rc ? rc : dm_predict(&rb, d, m->o->na, m->o->nb, pred, err);
+    return rc ? rc : dm_predictor_run(pw, &rb, pred, err);
 }
 
 static int thread_count(const dm_plan_opts *o)
@@ -140,26 +145,32 @@ static int thread_count(const dm_plan_opts *o)
 
 /* Sensitivities J (d->n x p, column-major) of the predictions to the
  * scaled parameters at the magnitudes, in units of the noise; pred0: the
- * predictions there. The p + 1 predictions run in parallel. */
+ * predictions there. The p + 1 predictions run in parallel, each thread
+ * with one prediction workspace for all of its predictions. */
 static int sensitivities(const model *m, const dm_dataset *d, double noise, double *pred0,
                          double *J, dm_error *err)
 {
     int p = m->p, rc = DM_OK;
-#pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(m->o))
-    for (int j = -1; j < p; j++) {
-        double x[DM_DIAG_MAXP];
+#pragma omp parallel num_threads(thread_count(m->o))
+    {
         dm_error e;
-        memcpy(x, m->x0, sizeof x);
-        if (j >= 0)
-            x[j] += FD_STEP * m->sc[j];
-        double *out = j < 0 ? pred0 : J + (size_t)j * d->n;
-        int r = predict_at(m, x, -1, d, out, &e);
+        dm_predictor *pw = dm_predictor_new(m->rb, d, m->o->na, m->o->nb, &e);
+#pragma omp for schedule(dynamic, 1)
+        for (int j = -1; j < p; j++) {
+            double x[DM_DIAG_MAXP];
+            memcpy(x, m->x0, sizeof x);
+            if (j >= 0)
+                x[j] += FD_STEP * m->sc[j];
+            double *out = j < 0 ? pred0 : J + (size_t)j * d->n;
+            int r = pw ? predict_at(m, pw, x, -1, out, &e) : DM_ENOMEM;
 #pragma omp critical(dm_plan_error)
-        if (r && !rc) {
-            rc = r;
-            if (err)
-                *err = e;
+            if (r && !rc) {
+                rc = r;
+                if (err)
+                    *err = e;
+            }
         }
+        dm_predictor_free(pw);
     }
     for (int j = 0; !rc && j < p; j++)
         for (int i = 0; i < d->n; i++)
@@ -173,6 +184,7 @@ static int sensitivities(const model *m, const dm_dataset *d, double noise, doub
  * With inv, its inverse too. */
 static double logdet(const double *F, int p, double ridge, double *inv)
 {
+    assert(p >= 0 && p <= DM_DIAG_MAXP);
     double A[DM_DIAG_MAXP * DM_DIAG_MAXP];
     memcpy(A, F, sizeof(double) * p * p);
     for (int j = 0; j < p; j++)
@@ -200,6 +212,7 @@ static double logdet(const double *F, int p, double ridge, double *inv)
 static void unit_information(const double *J, int nrow, int p, const int *first, int nunit,
                              double *info)
 {
+    assert(p >= 0 && p <= DM_DIAG_MAXP && nunit >= 0 && first[nunit] <= nrow);
     for (int u = 0; u < nunit; u++)
         for (int a = 0; a < p; a++)
             for (int b = 0; b < p; b++) {
@@ -212,6 +225,7 @@ static void unit_information(const double *J, int nrow, int p, const int *first,
 
 static void add_unit(double *F, const double *info, int u, int p, double sign)
 {
+    assert(u >= 0 && p >= 0 && p <= DM_DIAG_MAXP);
     for (int q = 0; q < p * p; q++)
         F[q] += sign * info[(size_t)u * p * p + q];
 }
@@ -221,6 +235,7 @@ static void add_unit(double *F, const double *info, int u, int p, double sign)
  * unit order and keeps the first of equals, so it is deterministic. */
 static void choose_units(const double *info, int nunit, int p, int n, int *sel)
 {
+    assert(n >= 0 && n <= nunit && p <= DM_DIAG_MAXP);
     double F[DM_DIAG_MAXP * DM_DIAG_MAXP] = {0}, G[DM_DIAG_MAXP * DM_DIAG_MAXP];
     char *used = calloc(nunit, 1);
     if (!used)
@@ -272,6 +287,7 @@ static void choose_units(const double *info, int nunit, int p, int n, int *sel)
 /* 1-sigma of each scaled parameter for the units sel[0..n-1]; log det. */
 static double design_sigma(const double *info, const int *sel, int n, int p, double *sig)
 {
+    assert(n >= 0 && p >= 0 && p <= DM_DIAG_MAXP);
     double F[DM_DIAG_MAXP * DM_DIAG_MAXP] = {0}, inv[DM_DIAG_MAXP * DM_DIAG_MAXP];
     for (int i = 0; i < n; i++)
         add_unit(F, info, sel[i], p, 1);
@@ -286,6 +302,7 @@ static double design_sigma(const double *info, const int *sel, int n, int p, dou
 static double random_sigma(const double *info, int nunit, int p, int n, uint64_t seed,
                            double *sig)
 {
+    assert(n >= 0 && n <= nunit && p <= DM_DIAG_MAXP);
     dm_rng rng = {seed * 0x9E3779B97F4A7C15ull + 7};
     int *sel = malloc(sizeof(int) * nunit), ok = 0;
     double var[DM_DIAG_MAXP] = {0}, ld = 0;
@@ -320,20 +337,6 @@ static int well_placed(const dm_robot *rb, const double P[3])
     return !dm_kin_inverse(rb, P, &pose, NULL) && pose.cond <= rb->singular_cond;
 }
 
-/* A pose drawn uniformly from the default region (synth's box). */
-static int draw_pose(const dm_robot *rb, dm_rng *rng, double P[3])
-{
-    double h = rb->arm_length_m;
-    for (int tries = 0; tries < 1000; tries++) {
-        P[0] = rb->home_m[0] + 0.3 * h * (2 * dm_rng_uniform(rng) - 1);
-        P[1] = rb->home_m[1] + 0.3 * h * (2 * dm_rng_uniform(rng) - 1);
-        P[2] = rb->home_m[2] + 0.15 * h * (2 * dm_rng_uniform(rng) - 1);
-        if (well_placed(rb, P))
-            return DM_OK;
-    }
-    return DM_EUNREACHABLE;
-}
-
 /* Candidate poses: the region's grid points that qualify, or poses drawn. */
 static int candidate_poses(const dm_robot *rb, const dm_plan_opts *o, double **out, int *count,
                            dm_error *err)
@@ -353,7 +356,7 @@ static int candidate_poses(const dm_robot *rb, const dm_plan_opts *o, double **o
     dm_rng rng = {o->seed * 0x2545F4914F6CDD1Dull + 3};
     for (long k = 0; k < total; k++) {
         if (!o->region) {
-            if (draw_pose(rb, &rng, P + 3 * n))
+            if (dm_synth_draw_pose(rb, &rng, P + 3 * n))
                 break;
             n++;
             continue;
@@ -427,33 +430,6 @@ static int check_tracker(const model *m, dm_error *err)
 static const double DIRS[7][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1},           {1, 1, 1},
                                   {1, -1, 1}, {-1, 1, 1}, {-1, -1, 1}};
 
-/* The samples of one unit: a pose with its modes, or a pose with a force
- * along unit vector u (three components). */
-static int push_unit(dm_dataset *d, const dm_plan_opts *o, const double P[3], const double *u,
-                     int pose_id, double noise)
-{
-    dm_sample s = {0};
-    int rc = DM_OK;
-    memcpy(s.P, P, sizeof s.P);
-    s.pose_id = pose_id;
-    s.sigma = noise;
-    if (d->kind == DM_DATA_MODAL) {
-        for (int j = 1; j <= (o->modes > 0 ? o->modes : 6) && !rc; j++) {
-            s.mode = j;
-            rc = dm_dataset_push(d, &s, NULL);
-        }
-        return rc;
-    }
-    double nu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-    for (int k = 0; k < 3; k++)
-        s.force[k] = (o->force_n > 0 ? o->force_n : 50.0) * u[k] / nu;
-    for (int k = 0; k < 3 && !rc; k++) {
-        s.comp = k;
-        rc = dm_dataset_push(d, &s, NULL);
-    }
-    return rc;
-}
-
 /* ---- tracker paths -------------------------------------------------------------- */
 
 /* The family of paths about home lasting n samples at 1 ms, no faster
@@ -464,6 +440,7 @@ static int push_unit(dm_dataset *d, const dm_plan_opts *o, const double P[3], co
 #define AMAX 50.0
 static void path_spec(const dm_robot *rb, int k, int n, char *spec, size_t len)
 {
+    assert(k >= 0 && k < NPATH);
     static const char *const PLANES[3] = {"xy", "xz", "yz"};
     static const double MOVE[5][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}, {1, -1, 0.5}};
     const double *h = rb->home_m, la = rb->arm_length_m, T = (n - 1) * 1e-3;
@@ -497,20 +474,11 @@ static int path_samples(const dm_robot *rb, const char *spec, int n, double nois
         return rc;
     d->kind = DM_DATA_TRACKER;
     snprintf(d->source, sizeof d->source, "%s", spec);
-    for (int i = 0; i < n && !rc; i++) {
-        dm_sample s = {0};
-        double v[3], a[3];
-        s.t = i * 1e-3;
-        dm_traj_eval(&tr, s.t, s.P, v, a);
-        s.pose_id = d->npose++;
-        s.sigma = noise;
-        if (!well_placed(rb, s.P))
-            rc = dm_fail(err, DM_EUNREACHABLE, "%s leaves the workspace at t = %g s", spec, s.t);
-        for (int k = 0; k < 3 && !rc; k++) {
-            s.comp = k;
-            rc = dm_dataset_push(d, &s, err);
-        }
-    }
+    rc = dm_synth_path_samples(&tr, n, noise, d, err);
+    for (int i = 0; i < d->n && !rc; i += 3) /* each time once */
+        if (!well_placed(rb, d->s[i].P))
+            rc = dm_fail(err, DM_EUNREACHABLE, "%s leaves the workspace at t = %g s", spec,
+                         d->s[i].t);
     dm_traj_free(&tr);
     if (rc)
         dm_dataset_free(d);
@@ -558,7 +526,8 @@ static int survey_units(const model *m, double noise, dm_dataset *d, int **first
         for (int k = 0; k < per && !rc; k++, u++) {
             (*first)[u] = d->n;
             int id = per == 1 || share ? c : u;
-            if (push_unit(d, o, P + 3 * c, DIRS[k], id, noise))
+            if (dm_synth_pose_samples(d, P + 3 * c, id, noise, o->modes, o->force_n, DIRS[k],
+                                      NULL))
                 rc = dm_fail(err, DM_ENOMEM, "out of memory");
             d->npose = id + 1;
         }
@@ -573,6 +542,7 @@ static int by_int(const void *a, const void *b) { return *(const int *)a - *(con
 /* The design: the chosen units' samples, each unit its own pose id. */
 static int design_of(const dm_dataset *cand, const int *first, int *sel, int n, dm_dataset *d)
 {
+    assert(n >= 0);
     qsort(sel, n, sizeof *sel, by_int);
     memset(d, 0, sizeof *d);
     d->kind = cand->kind;
@@ -689,10 +659,11 @@ static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_erro
 
 /* How far (in sigmas, norm over the design) effect e alone at parameters
  * x[e's] moves the predictions from base. */
-static double signature(const model *m, int e, const double *x, const dm_dataset *d,
-                        const double *base, double noise, double *buf)
+static double signature(const model *m, dm_predictor *pw, int e, const double *x,
+                        const dm_dataset *d, const double *base, double noise, double *buf)
 {
-    if (predict_at(m, x, e, d, buf, NULL))
+    assert(e >= 0 && e < m->neff);
+    if (predict_at(m, pw, x, e, buf, NULL))
         return NAN;
     double q = 0;
     for (int i = 0; i < d->n; i++)
@@ -702,6 +673,7 @@ static double signature(const model *m, int e, const double *x, const dm_dataset
 
 static int first_param(const model *m, int e)
 {
+    assert(e >= 0 && e <= m->neff);
     int j = 0;
     for (int k = 0; k < e; k++)
         j += m->eff[k].cand->nparam;
@@ -709,28 +681,29 @@ static int first_param(const model *m, int e)
 }
 
 /* The smallest magnitude seen at DETECT sigma (see dm_plan_result). */
-static double detectable(const model *m, int e, const double *F, const dm_dataset *d,
-                         const double *base, double noise, double *buf)
+static double detectable(const model *m, dm_predictor *pw, int e, const double *F,
+                         const dm_dataset *d, const double *base, double noise, double *buf)
 {
+    assert(e >= 0 && e < m->neff);
     const dm_candidate *c = m->eff[e].cand;
     int j0 = first_param(m, e);
     double x[DM_DIAG_MAXP];
     memcpy(x, m->x0, sizeof x);
     if (c->nparam == 0)
-        return signature(m, e, x, d, base, noise, buf);
+        return signature(m, pw, e, x, d, base, noise, buf);
     if (!strncmp(c->name, "damping_", 8)) /* a change of the file's damping */
         return F[j0 * m->p + j0] > 0 ? DETECT / sqrt(F[j0 * m->p + j0]) : INFINITY;
     if (c->linear) { /* linear: scale the assumed errors */
-        double s = signature(m, e, x, d, base, noise, buf), big = 0;
+        double s = signature(m, pw, e, x, d, base, noise, buf), big = 0;
         for (int k = 0; k < c->nparam; k++)
             big = fmax(big, fabs(m->eff[e].value[k]));
         return s > 0 ? DETECT / s * big : INFINITY;
     }
     double lo = c->lo - 2, hi = c->hi + 2; /* bisection in log10 on the signature */
     x[j0] = lo;
-    double slo = signature(m, e, x, d, base, noise, buf);
+    double slo = signature(m, pw, e, x, d, base, noise, buf);
     x[j0] = hi;
-    double shi = signature(m, e, x, d, base, noise, buf);
+    double shi = signature(m, pw, e, x, d, base, noise, buf);
     int strong_low = slo > shi; /* springs: soft is strong */
     if ((strong_low ? slo : shi) < DETECT)
         return strong_low ? 0 : INFINITY; /* never seen */
@@ -738,7 +711,7 @@ static double detectable(const model *m, int e, const double *F, const dm_datase
         return pow(10.0, strong_low ? hi : lo); /* seen over the whole range */
     for (int it = 0; it < 30; it++) {
         x[j0] = 0.5 * (lo + hi);
-        double s = signature(m, e, x, d, base, noise, buf);
+        double s = signature(m, pw, e, x, d, base, noise, buf);
         if ((s >= DETECT) == strong_low)
             lo = x[j0];
         else
@@ -752,6 +725,7 @@ static double detectable(const model *m, int e, const double *F, const dm_datase
  * determined joint combination (smallest eigenvalue of their block). */
 static void compare_pair(const model *m, const double *F, int a, int b, dm_plan_pair *pr)
 {
+    assert(a >= 0 && a < b && b < m->neff && m->p <= DM_DIAG_MAXP);
     int ja = first_param(m, a), jb = first_param(m, b), pa = m->eff[a].cand->nparam,
         pb = m->eff[b].cand->nparam, p = m->p, q = pa + pb;
     double Fab[DM_DIAG_MAXP * DM_DIAG_MAXP], La[DM_DIAG_MAXP * DM_DIAG_MAXP],
@@ -804,21 +778,24 @@ static int assess(const model *m, double noise, dm_plan_result *r, dm_error *err
     double *base = malloc(sizeof(double) * nrow), *buf = malloc(sizeof(double) * nrow);
     double *J = malloc(sizeof(double) * nrow * (p ? p : 1)), *pred = malloc(sizeof(double) * nrow);
     double F[DM_DIAG_MAXP * DM_DIAG_MAXP];
-    int first[2] = {0, nrow}, rc = !base || !buf || !J || !pred ? DM_ENOMEM : DM_OK;
+    /* one workspace for the baseline and every bisection step */
+    dm_predictor *pw = dm_predictor_new(m->rb, d, m->o->na, m->o->nb, NULL);
+    int first[2] = {0, nrow}, rc = !base || !buf || !J || !pred || !pw ? DM_ENOMEM : DM_OK;
     if (!rc)
-        rc = dm_predict(m->rb, d, m->o->na, m->o->nb, base, err);
+        rc = dm_predictor_run(pw, m->rb, base, err);
     if (!rc)
         rc = sensitivities(m, d, noise, pred, J, err);
     if (!rc) {
         unit_information(J, nrow, p, first, 1, F);
         for (int e = 0; e < m->neff; e++)
-            r->detect[e] = detectable(m, e, F, d, base, noise, buf);
+            r->detect[e] = detectable(m, pw, e, F, d, base, noise, buf);
         for (int a = 0; a < m->neff; a++)
             for (int b = a + 1; b < m->neff; b++)
                 if (m->eff[a].cand->nparam && m->eff[b].cand->nparam)
                     compare_pair(m, F, a, b, &r->pair[r->npair++]);
     }
     free(base), free(buf), free(J), free(pred);
+    dm_predictor_free(pw);
     return rc == DM_ENOMEM ? dm_fail(err, rc, "out of memory") : rc;
 }
 
@@ -905,11 +882,11 @@ int dm_plan_random(const dm_robot *rb, const dm_plan_opts *o, uint64_t seed, dm_
                 P[3 * k + c] = t;
             }
             memcpy(Q, P + 3 * i, sizeof Q);
-        } else if (draw_pose(rb, &rng, Q)) {
+        } else if (dm_synth_draw_pose(rb, &rng, Q)) {
             rc = dm_fail(err, DM_EUNREACHABLE, "no reachable pose found near home");
             break;
         }
-        if (push_unit(d, o, Q, u, i, noise))
+        if (dm_synth_pose_samples(d, Q, i, noise, o->modes, o->force_n, u, NULL))
             rc = dm_fail(err, DM_ENOMEM, "out of memory");
         d->npose = i + 1;
     }

@@ -2,6 +2,7 @@
  * measure of the Delta robot (docs/model.md §1). */
 #include "dm_kinematics.h"
 
+#include <assert.h>
 #include <lapacke.h>
 #include <math.h>
 #include <string.h>
@@ -15,6 +16,7 @@ typedef struct {
 
 static void chain_geometry(const dm_robot *rb, int i, int real, chain_geom *g)
 {
+    assert(i >= 0 && i < 3);
     const dm_effects *e = &rb->effects;
     g->R = rb->base_radius_m + (real ? e->err_base_radius_m[i] : 0);
     g->r = rb->platform_radius_m + (real ? e->err_platform_radius_m[i] : 0);
@@ -43,6 +45,7 @@ static void elbow_at(const chain_geom *g, const double A[3], const double e[3], 
  * turns about t_i through A_i; from the pose alone, for any geometry. */
 static void elbow_derivatives(const dm_pose *p, int i, double b1[3], double b2[3])
 {
+    assert(i >= 0 && i < 3);
     double r[3];
     dm_sub3(p->B[i], p->A[i], r);
     dm_cross3(p->t[i], r, b1);

@@ -7,6 +7,7 @@
  * file, line and key. */
 #include "dm_robot.h"
 
+#include <assert.h>
 #include <errno.h>
 #include <float.h>
 #include <stdarg.h>
@@ -166,8 +167,17 @@ static int key_error(parse_state *st, int line, const char *section,
     return 0;
 }
 
+static int is_vec3(key_kind k)
+{
+    return k == KEY_VEC3 || k == KEY_VEC3_NONNEG || k == KEY_VEC3_DEG;
+}
+
 static int store_value(parse_state *st, const key_spec *ks, const char *value)
 {
+    assert(ks->offset + (ks->kind == KEY_NAME ? DM_NAME_LEN
+                         : is_vec3(ks->kind)   ? 3 * sizeof(double)
+                                               : sizeof(double)) <=
+           sizeof *st->robot);
     char *dst = (char *)st->robot + ks->offset;
     double v = 0, v3[3];
     switch (ks->kind) {
@@ -285,6 +295,7 @@ typedef struct {
 
 static char *read_line(char *buf, int size, void *stream)
 {
+    assert(size > 1);
     line_reader *rd = stream;
     if (!*rd->pos)
         return NULL;
@@ -384,6 +395,7 @@ int dm_effects_clearance(const dm_effects *e)
 
 int dm_effects_base_compliant(const dm_effects *e, int i)
 {
+    assert(i >= 0 && i < 3);
     for (int k = 0; k < 3; k++)
         if (e->base_stiffness_n_per_m[i][k] > 0)
             return 1;
@@ -789,11 +801,6 @@ static int settable(const key_spec *ks)
     return !strcmp(ks->section, "effects") || !strcmp(ks->section, "damping");
 }
 
-static int is_vec3(key_kind k)
-{
-    return k == KEY_VEC3 || k == KEY_VEC3_NONNEG || k == KEY_VEC3_DEG;
-}
-
 /* What the robot file's reader requires of the key's numbers. */
 static const char *value_problem(const key_spec *ks, const double *v, int n)
 {
@@ -830,6 +837,7 @@ int dm_robot_set_number(dm_robot *robot, const char *section, const char *key, c
                        key, problem, v[0]);
     dm_robot changed = *robot; /* a copy, unchanged on error */
     double scale = ks->kind == KEY_VEC3_DEG || ks->kind == KEY_DEGREES ? M_PI / 180.0 : 1.0;
+    assert(ks->offset + n * sizeof(double) <= sizeof changed);
     char *dst = (char *)&changed + ks->offset;
     if (!strcmp(key, "base_stiffness")) /* the global value: every chain's */
         for (int i = 0; i < 3; i++)

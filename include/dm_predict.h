@@ -1,0 +1,72 @@
+/* dm_predict — what the model predicts for measured data (docs/
+ * measured-data.md), a workspace that predicts one dataset for many robots
+ * (the fits' every evaluation), and what predictions cost, judged before
+ * any work (dm_check_size: the measurement commands' limit on work, beside
+ * the costs it judges). */
+#ifndef DM_PREDICT_H
+#define DM_PREDICT_H
+
+#include "dm_error.h"
+#include "dm_measure.h"
+#include "dm_robot.h"
+
+/* Model predictions for every sample (same order), with the robot's mesh
+ * (or na, nb when > 0). Unreachable poses and mode ranks beyond the model
+ * are errors naming the sample's line. One run of a dm_predictor made for
+ * it. */
+int dm_predict(const dm_robot *robot, const dm_dataset *data, int na, int nb, double *pred,
+               dm_error *err);
+
+/* A prediction workspace: the predictions of one dataset for many robots
+ * (a fit's every evaluation), with the model, eigen and static workspaces
+ * (tracker data: the commanded path) made once and reused. The dataset
+ * must outlive it and not change; the mesh is that of `robot` (or na, nb
+ * when > 0) for every run. One per thread. */
+typedef struct dm_predictor dm_predictor;
+
+dm_predictor *dm_predictor_new(const dm_robot *robot, const dm_dataset *data, int na, int nb,
+                               dm_error *err);
+
+/* Predictions with this robot: bit for bit those of dm_predict (every run
+ * starts the eigen solver cold). The robot may differ from run to run in
+ * any value; when its effects change the model's DOFs (a compliant base,
+ * joint springs) the workspace is made again for the new size. */
+int dm_predictor_run(dm_predictor *p, const dm_robot *robot, double *pred, dm_error *err);
+
+/* Predict only the first n samples (whole poses, or whole tracker times)
+ * from now on; the dataset's n restores all. A tracker run's first part is
+ * predicted as dm_predict predicts a file cut there: along the path
+ * through its own commanded samples. */
+void dm_predictor_window(dm_predictor *p, int n);
+
+void dm_predictor_free(dm_predictor *p);
+
+/* What a command implies, judged before any work: refused beyond
+ * DM_MAX_WORK_S of estimated wall time or DM_MAX_BYTES of memory unless
+ * forced (the CLI's --force-long). Estimates come from the costs measured
+ * on this project's development machine (2 cores, x86-64): a modal pose or
+ * a tracker step about 2.5 ms and a static pose (with and without the
+ * force) 5 ms at 210 DOF, 15 % of it fixed and the rest growing as n^2
+ * (0.4 ms per tracker step at 48 DOF). */
+#define DM_MAX_WORK_S (4 * 3600.0)
+#define DM_MAX_BYTES 2e9
+
+/* Seconds on one thread of predicting `count` poses (tracker: integration
+ * steps) of data of this kind with this mesh (0: the robot's). */
+double dm_predict_cost_s(const dm_robot *robot, dm_data_kind kind, double count, int na, int nb);
+
+/* The same for one dm_predict of `data` (tracker: its duration at the
+ * step dm_predict takes), and the bytes that prediction holds. */
+double dm_predict_estimate_s(const dm_robot *robot, const dm_dataset *data, int na, int nb,
+                             double *bytes);
+
+/* DM_EINVAL "WHAT: about H hours of work [and G GB of memory] (the limit
+ * is ...): HINT, or force it" when est_s or bytes exceed the limits and
+ * !force; DM_OK otherwise. */
+int dm_check_size(const char *what, double est_s, double bytes, const char *hint, int force,
+                  dm_error *err);
+
+/* Is err such a refusal? (The CLI then names its option that forces.) */
+int dm_size_refused(const dm_error *err);
+
+#endif

@@ -1,0 +1,313 @@
+/* What the model predicts for measured data, the workspace that does it
+ * for many robots, and what predictions cost (see dm_predict.h). */
+#include "dm_predict.h"
+
+#include <assert.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dm_analysis.h"
+#include "dm_integrate.h"
+#include "dm_trajectory.h"
+
+/* ---- the prediction workspace ------------------------------------------------ */
+
+/* What the model's workspaces are sized by, beyond the mesh: the DOF
+ * layout (arm-root, rod-end DOFs), the factor geometric stiffness keeps,
+ * the members' sections, and which entries of M and K the assembly adds
+ * to (recorded once, at the first build). Runs whose robots agree on
+ * these share one analysis workspace. */
+typedef struct {
+    int root[3], joint_springs, actuator_spring, geometric_stiffness, elbow_masses;
+    dm_member arm, rod;
+} layout_key;
+
+static void key_of(const dm_robot *rb, layout_key *k)
+{
+    const dm_effects *fx = &rb->effects;
+    memset(k, 0, sizeof *k); /* padding too: keys are compared with memcmp */
+    for (int i = 0; i < 3; i++)
+        k->root[i] = dm_effects_base_compliant(fx, i);
+    k->joint_springs = fx->joint_stiffness_n_per_m > 0;
+    k->actuator_spring = fx->actuator_stiffness_nm_per_rad > 0;
+    k->geometric_stiffness = fx->geometric_stiffness != 0;
+    k->elbow_masses = fx->elbow_mass_kg > 0;
+    k->arm = rb->arm;
+    k->rod = rb->rod;
+}
+
+typedef struct {
+    int n, cap;
+    double *t, *e; /* e: 3 per sample */
+} track;
+
+struct dm_predictor {
+    dm_dataset data;   /* the caller's samples (borrowed); n: those predicted */
+    int nall;          /* samples in the dataset */
+    int na, nb, kmax;
+    /* the robot of the current run: the analysis points to this copy, so
+     * a run may pass any robot and the workspace still reads the right one */
+    dm_robot robot;
+    dm_analysis *an;   /* modal/static data: sized for `key` (NULL: not yet) */
+    layout_key key;
+    /* tracker data: the commanded times and positions of all samples, the
+     * path through those predicted (tr_npose of them; 0: none yet) and the
+     * integrated error */
+    double *t, *xyz;
+    dm_trajectory tr;
+    int tr_npose;
+    track tk;
+};
+
+static int max_mode(const dm_dataset *d)
+{
+    int m = 1;
+    for (int i = 0; i < d->n; i++)
+        if (d->s[i].mode > m)
+            m = d->s[i].mode;
+    return m;
+}
+
+dm_predictor *dm_predictor_new(const dm_robot *rb, const dm_dataset *d, int na, int nb,
+                               dm_error *err)
+{
+    dm_predictor *p = calloc(1, sizeof *p);
+    if (!p) {
+        dm_fail(err, DM_ENOMEM, "out of memory");
+        return NULL;
+    }
+    p->data = *d;
+    p->nall = d->n;
+    p->na = na > 0 ? na : rb->na;
+    p->nb = nb > 0 ? nb : rb->nb;
+    p->kmax = d->kind == DM_DATA_MODAL ? max_mode(d) : 1;
+    if (d->kind == DM_DATA_TRACKER) {
+        int m = d->npose;
+        p->t = malloc(sizeof(double) * (m ? m : 1));
+        p->xyz = malloc(3 * sizeof(double) * (m ? m : 1));
+        if (!p->t || !p->xyz) {
+            dm_predictor_free(p);
+            dm_fail(err, DM_ENOMEM, "out of memory");
+            return NULL;
+        }
+        for (int i = 0; i < m; i++) {
+            p->t[i] = d->s[3 * i].t;
+            memcpy(p->xyz + 3 * i, d->s[3 * i].P, 3 * sizeof(double));
+        }
+    }
+    return p;
+}
+
+void dm_predictor_free(dm_predictor *p)
+{
+    if (!p)
+        return;
+    dm_analysis_free(p->an);
+    if (p->tr_npose)
+        dm_traj_free(&p->tr);
+    free(p->t);
+    free(p->xyz);
+    free(p->tk.t);
+    free(p->tk.e);
+    free(p);
+}
+
+void dm_predictor_window(dm_predictor *p, int n)
+{
+    assert(n >= 0 && n <= p->nall);
+    p->data.n = n;
+    p->data.npose = n > 0 ? p->data.s[n - 1].pose_id + 1 : 0;
+}
+
+/* The analysis workspace for the current robot: kept while the layout is
+ * the same, allocated afresh when an effect changes it. */
+static int pose_workspace(dm_predictor *p, dm_error *err)
+{
+    layout_key key;
+    key_of(&p->robot, &key);
+    if (p->an && !memcmp(&key, &p->key, sizeof key)) {
+        /* cold, as a fresh workspace would start: a run's results must not
+         * depend on the runs before it */
+        dm_modal_forget(p->an->modal);
+        return DM_OK;
+    }
+    dm_analysis_free(p->an);
+    dm_error aerr; /* err may be NULL */
+    p->an = dm_analysis_alloc(&p->robot, p->na, p->nb, p->kmax, DM_EIGEN_PARTIAL, &aerr);
+    if (!p->an)
+        return dm_fail(err, aerr.code, "%s", aerr.msg);
+    p->key = key;
+    return DM_OK;
+}
+
+static int predict_poses(dm_predictor *p, double *pred, dm_error *err)
+{
+    const dm_robot *rb = &p->robot;
+    const dm_dataset *d = &p->data;
+    assert(d->kind != DM_DATA_TRACKER && d->n <= p->nall && p->kmax >= 1);
+    int kmax = p->kmax, n = dm_model_dofs(rb, p->na, p->nb);
+    if (kmax > n)
+        return dm_fail(err, DM_EINVAL, "%s: mode %d is beyond the model's %d modes", d->source,
+                       kmax, n);
+    int rc = pose_workspace(p, err);
+    if (rc)
+        return rc;
+    dm_pose_result res;
+    dm_pose loaded;
+    int last = -1;
+    int clearance = d->kind == DM_DATA_STATIC && dm_effects_clearance(&rb->effects);
+    for (int i = 0; i < d->n && !rc; i++) {
+        const dm_sample *s = &d->s[i];
+        if (s->pose_id != last) {
+            dm_error perr;
+            rc = dm_analysis_run(p->an, s->P, kmax, &res, &perr);
+            if (!rc && clearance) { /* the added force may open clearances the other way */
+                double W[3];
+                dm_kin_platform_force(rb, NULL, s->force, W);
+                rc = dm_kin_pose_loaded(rb, s->P, W, &loaded, &perr);
+            }
+            if (rc)
+                rc = dm_fail(err, rc, "%s:%d: %s", d->source, s->line, perr.msg);
+            last = s->pose_id;
+        }
+        if (rc)
+            break;
+        if (d->kind == DM_DATA_MODAL) {
+            pred[i] = res.modes->freq_hz[s->mode - 1];
+        } else {
+            double v = 0;
+            for (int j = 0; j < 3; j++)
+                v += res.compliance[6 * j + s->comp] * s->force[j];
+            if (clearance)
+                v += loaded.offset[s->comp] - res.pose.offset[s->comp];
+            pred[i] = v;
+        }
+    }
+    return rc;
+}
+
+static int keep(void *user, const dm_integ_sample *s)
+{
+    track *tk = user;
+    if (tk->n == tk->cap) {
+        int cap = tk->cap ? 2 * tk->cap : 1024;
+        double *t = realloc(tk->t, sizeof(double) * cap), *e;
+        if (t)
+            tk->t = t;
+        e = t ? realloc(tk->e, 3 * sizeof(double) * cap) : NULL;
+        if (!e)
+            return 1;
+        tk->e = e;
+        tk->cap = cap;
+    }
+    tk->t[tk->n] = s->t_s;
+    memcpy(tk->e + 3 * tk->n, s->error, 3 * sizeof(double));
+    tk->n++;
+    return 0;
+}
+
+/* Tracker: the elastic error (static + dynamic) along the commanded path,
+ * 10 modes with the quasi-static correction, linear between steps. The
+ * path is the spline through the samples predicted, made once per window;
+ * the integrator sizes its own workspace for each run. */
+static int predict_tracker(dm_predictor *p, double *pred, dm_error *err)
+{
+    const dm_dataset *d = &p->data;
+    int m = d->npose, rc = DM_OK;
+    assert(d->n == 3 * m && d->n <= p->nall); /* three samples a time */
+    const double *t = p->t;
+    if (p->tr_npose != m) {
+        if (p->tr_npose)
+            dm_traj_free(&p->tr);
+        p->tr_npose = 0;
+        if ((rc = dm_traj_from_samples(t, p->xyz, m, d->source, &p->tr, err)))
+            return rc;
+        p->tr_npose = m;
+    }
+    track *tk = &p->tk;
+    tk->n = 0;
+    dm_integ_opts o;
+    dm_integ_summary sum;
+    dm_integ_opts_default(&o);
+    o.method = DM_ODE_CLOSED_FORM;
+    o.quasi_static = 1;
+    o.reference = 0;
+    o.na = p->na;
+    o.nb = p->nb;
+    o.dt_s = fmin(1e-3, t[m - 1] / (m - 1));
+    o.force = 1; /* the work of the whole command is judged before it (dm_check_size) */
+    rc = dm_integrate_trajectory(&p->robot, &p->tr, &o, keep, tk, &sum, err);
+    assert(rc || tk->n >= 2); /* the start and every step's end */
+    for (int i = 0, j = 0; i < m && !rc; i++) {
+        while (j + 2 < tk->n && tk->t[j + 1] < t[i])
+            j++;
+        double w = tk->n > 1 ? (t[i] - tk->t[j]) / (tk->t[j + 1] - tk->t[j]) : 0;
+        w = fmin(1, fmax(0, w));
+        for (int k = 0; k < 3; k++)
+            pred[3 * i + k] = (1 - w) * tk->e[3 * j + k] + w * tk->e[3 * (j + 1) + k];
+    }
+    return rc;
+}
+
+int dm_predictor_run(dm_predictor *p, const dm_robot *robot, double *pred, dm_error *err)
+{
+    p->robot = *robot;
+    return p->data.kind == DM_DATA_TRACKER ? predict_tracker(p, pred, err)
+                                           : predict_poses(p, pred, err);
+}
+
+int dm_predict(const dm_robot *rb, const dm_dataset *d, int na, int nb, double *pred, dm_error *err)
+{
+    dm_predictor *p = dm_predictor_new(rb, d, na, nb, err);
+    if (!p)
+        return DM_ENOMEM;
+    int rc = dm_predictor_run(p, rb, pred, err);
+    dm_predictor_free(p);
+    return rc;
+}
+
+/* ---- what predictions cost -------------------------------------------------- */
+
+double dm_predict_cost_s(const dm_robot *rb, dm_data_kind kind, double count, int na, int nb)
+{
+    double s = dm_model_dofs(rb, na > 0 ? na : rb->na, nb > 0 ? nb : rb->nb) / 210.0;
+    double per = (kind == DM_DATA_STATIC ? 5e-3 : 2.5e-3) * (0.15 + 0.85 * s * s);
+    return count * per;
+}
+
+double dm_predict_estimate_s(const dm_robot *rb, const dm_dataset *d, int na, int nb,
+                             double *bytes)
+{
+    double count = d->npose, per_count = 0;
+    if (d->kind == DM_DATA_TRACKER && d->n > 0) { /* dm_predict's step: at most 1 ms */
+        double T = d->s[d->n - 1].t - d->s[0].t;
+        count = fmax(T / 1e-3, d->npose);
+        per_count = 4 * sizeof(double); /* the integrated error kept per step */
+    }
+    if (bytes)
+        *bytes = count * per_count + (double)d->n * 2 * sizeof(double);
+    return dm_predict_cost_s(rb, d->kind, count, na, nb);
+}
+
+int dm_check_size(const char *what, double est_s, double bytes, const char *hint, int force,
+                  dm_error *err)
+{
+    int slow = !(est_s <= DM_MAX_WORK_S), big = !(bytes <= DM_MAX_BYTES);
+    if (force || (!slow && !big))
+        return DM_OK;
+    char t[96] = "", m[96] = "";
+    if (slow)
+        snprintf(t, sizeof t, "about %.3g hours of work (the limit is %g)", est_s / 3600,
+                 DM_MAX_WORK_S / 3600);
+    if (big)
+        snprintf(m, sizeof m, "%s%.3g GB of memory (the limit is %g)", slow ? " and " : "about ",
+                 bytes / 1e9, DM_MAX_BYTES / 1e9);
+    return dm_fail(err, DM_EINVAL, "%s: %s%s: %s, or force it", what, t, m, hint);
+}
+
+int dm_size_refused(const dm_error *err)
+{
+    return err->code == DM_EINVAL && (strstr(err->msg, " hours of work (the limit is ") ||
+                                      strstr(err->msg, " GB of memory (the limit is "));
+}

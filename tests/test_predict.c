@@ -1,0 +1,151 @@
+/* Predictions: a prediction workspace reused for many robots gives bit
+ * for bit what a fresh dm_predict gives for each, whether the robots'
+ * effects keep the model's size or change it (a compliant base adds DOFs),
+ * and a window predicts a tracker run's first part as the cut file would
+ * be predicted. */
+#include "dm_test.h"
+
+#include <stdlib.h>
+
+#include "dm_predict.h"
+#include "dm_synth.h"
+
+/* zheng2017 with one effect set through the typed API (v: 1 or 3 numbers). */
+static void robot_with(dm_robot *rb, const char *section, const char *key, const double *v)
+{
+    assert_int_equal(dm_robot_load("zheng2017", rb, NULL), 0);
+    if (key)
+        assert_int_equal(dm_robot_set_number(rb, section, key, v, NULL), 0);
+}
+
+/* Runs of one workspace over robots[0..n-1] against fresh predictions,
+ * compared to the bit. */
+static void assert_reuse_is_fresh(const dm_dataset *d, const dm_robot *robots, int n, int na,
+                                  int nb)
+{
+    double *fresh = malloc(sizeof(double) * d->n), *reused = malloc(sizeof(double) * d->n);
+    dm_predictor *p = dm_predictor_new(&robots[0], d, na, nb, NULL);
+    assert_non_null(p);
+    for (int r = 0; r < n; r++) {
+        assert_int_equal(dm_predict(&robots[r], d, na, nb, fresh, NULL), 0);
+        assert_int_equal(dm_predictor_run(p, &robots[r], reused, NULL), 0);
+        if (memcmp(fresh, reused, sizeof(double) * d->n))
+            print_error("robot %d of %d: the reused workspace differs\n", r, n);
+        assert_memory_equal(fresh, reused, sizeof(double) * d->n);
+    }
+    dm_predictor_free(p);
+    free(fresh);
+    free(reused);
+}
+
+/* Modal data at mesh 2,2 (102 DOF: the subspace solver, which warm-starts
+ * within a run), robots whose effects keep and change the DOF count. */
+static void reuse_equals_fresh_on_modal_data(void **state)
+{
+    (void)state;
+    dm_robot rb[5];
+    const double payload = 0.8, base3[3] = {3e6, 3e6, 3e6}, actuator = 4e4;
+    robot_with(&rb[0], NULL, NULL, NULL);
+    robot_with(&rb[1], "effects", "payload_mass", &payload);
+    robot_with(&rb[2], "effects", "base_stiffness_1", base3);    /* + 3 DOF */
+    robot_with(&rb[3], "effects", "actuator_stiffness", &actuator); /* + 1 a chain */
+    rb[4] = rb[0];                                                /* back to the first size */
+    dm_synth_opts o = {.kind = DM_DATA_MODAL, .npose = 4, .modes = 6, .seed = 5, .na = 2, .nb = 2};
+    dm_dataset d;
+    assert_int_equal(dm_synthesize(&rb[0], &o, &d, NULL), 0);
+    assert_reuse_is_fresh(&d, rb, 5, 2, 2);
+    dm_dataset_free(&d);
+}
+
+/* Static data with and without clearance (a loaded pose per sample). */
+static void reuse_equals_fresh_on_static_data(void **state)
+{
+    (void)state;
+    dm_robot rb[3];
+    const double clearance = 2e-5, joint = 5e6;
+    robot_with(&rb[0], NULL, NULL, NULL);
+    robot_with(&rb[1], "effects", "clearance", &clearance);
+    robot_with(&rb[2], "effects", "joint_stiffness", &joint); /* rod ends get DOFs */
+    dm_synth_opts o = {.kind = DM_DATA_STATIC, .npose = 4, .seed = 6, .na = 1, .nb = 1};
+    dm_dataset d;
+    assert_int_equal(dm_synthesize(&rb[0], &o, &d, NULL), 0);
+    assert_reuse_is_fresh(&d, rb, 3, 1, 1);
+    dm_dataset_free(&d);
+}
+
+/* Tracker data: whole runs, and a window on the first part predicted as
+ * that part alone would be. */
+static void tracker_runs_and_windows(void **state)
+{
+    (void)state;
+    dm_robot rb[2];
+    const double beta = 1e-3;
+    robot_with(&rb[0], NULL, NULL, NULL);
+    robot_with(&rb[1], "damping", "beta", &beta);
+    dm_synth_opts o = {.kind = DM_DATA_TRACKER, .seed = 2, .na = 1, .nb = 1,
+                       .path = "circle:centre=0,0,-0.4;radius=0.03;rate=6.283;duration=0.04"};
+    dm_dataset d;
+    assert_int_equal(dm_synthesize(&rb[0], &o, &d, NULL), 0);
+    assert_int_equal(d.npose, 41);
+    assert_reuse_is_fresh(&d, rb, 2, 1, 1);
+
+    dm_dataset part = d; /* the first 20 times, as a file cut there */
+    part.n = 3 * 20;
+    part.npose = 20;
+    double *fresh = malloc(sizeof(double) * d.n), *reused = malloc(sizeof(double) * d.n);
+    dm_predictor *p = dm_predictor_new(&rb[0], &d, 1, 1, NULL);
+    assert_non_null(p);
+    for (int r = 0; r < 2; r++) {
+        dm_predictor_window(p, part.n);
+        assert_int_equal(dm_predict(&rb[r], &part, 1, 1, fresh, NULL), 0);
+        assert_int_equal(dm_predictor_run(p, &rb[r], reused, NULL), 0);
+        assert_memory_equal(fresh, reused, sizeof(double) * part.n);
+        dm_predictor_window(p, d.n); /* and all of it again */
+        assert_int_equal(dm_predict(&rb[r], &d, 1, 1, fresh, NULL), 0);
+        assert_int_equal(dm_predictor_run(p, &rb[r], reused, NULL), 0);
+        assert_memory_equal(fresh, reused, sizeof(double) * d.n);
+    }
+    dm_predictor_free(p);
+    free(fresh);
+    free(reused);
+    dm_dataset_free(&d);
+}
+
+/* A failed run (a mode beyond the model) names the file and leaves the
+ * workspace usable. */
+static void errors_leave_the_workspace_usable(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    robot_with(&rb, NULL, NULL, NULL);
+    dm_synth_opts o = {.kind = DM_DATA_MODAL, .npose = 2, .modes = 2, .seed = 1, .na = 1, .nb = 1};
+    dm_dataset d;
+    assert_int_equal(dm_synthesize(&rb, &o, &d, NULL), 0);
+    double pred[4], again[4];
+    dm_predictor *p = dm_predictor_new(&rb, &d, 1, 1, NULL);
+    assert_non_null(p);
+    assert_int_equal(dm_predictor_run(p, &rb, pred, NULL), 0);
+    dm_robot far = rb; /* every pose out of reach: arms far too short */
+    far.arm_length_m = 0.01;
+    far.rod_length_m = 0.01;
+    dm_error err;
+    assert_int_equal(dm_predictor_run(p, &far, again, &err), DM_EUNREACHABLE);
+    assert_non_null(strstr(err.msg, "synthetic modal data:"));
+    assert_int_equal(dm_predictor_run(p, &rb, again, NULL), 0);
+    assert_memory_equal(pred, again, sizeof pred);
+    dm_predictor_free(p);
+    dm_dataset_free(&d);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc > 1)
+        cmocka_set_test_filter(argv[1]);
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(reuse_equals_fresh_on_modal_data),
+        cmocka_unit_test(reuse_equals_fresh_on_static_data),
+        cmocka_unit_test(tracker_runs_and_windows),
+        cmocka_unit_test(errors_leave_the_workspace_usable),
+    };
+    return cmocka_run_group_tests_name("predict", tests, NULL, NULL);
+}
