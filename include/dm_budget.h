@@ -83,8 +83,12 @@ typedef struct dm_coupling_change {
 int dm_coupling_change_init(dm_coupling_change *cc, const dm_robot *robot, int na, int nb,
                             dm_error *err);
 void dm_coupling_change_free(dm_coupling_change *cc);
-/* The change of the run's next sample (NaN when there is none). */
-double dm_coupling_change_next(dm_coupling_change *cc, const dm_integ_sample *sample);
+/* The change of the run's next sample into *change (NaN when there is
+ * none: a rigid run, a position outside the nominal robot's workspace or
+ * singular for it). Other failures of the nominal model (out of memory)
+ * are returned. */
+int dm_coupling_change_next(dm_coupling_change *cc, const dm_integ_sample *sample,
+                            double *change, dm_error *err);
 /* Time mean, minimum and maximum over the steps so far (NaN: none). */
 void dm_coupling_change_summary(const dm_coupling_change *cc, double *mean, double *min,
                                 double *max);

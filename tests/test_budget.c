@@ -216,7 +216,9 @@ static int track(void *user, const dm_integ_sample *s)
     change_rec *r = user;
     if (r->n == MAXS)
         return 1;
-    r->change[r->n++] = dm_coupling_change_next(&r->cc, s);
+    if (dm_coupling_change_next(&r->cc, s, &r->change[r->n], NULL))
+        return 1;
+    r->n++;
     return 0;
 }
 

@@ -94,6 +94,18 @@ def robust_limits(V):
     return lo, hi, extend
 
 
+def finish(fig, ax, title, note, path):
+    """Axes in mm, the title wrapped with its note, the figure saved."""
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_aspect("equal")
+    ax.set_title("\n".join(textwrap.wrap(title, 52)) + "\n" + note, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    print(path)
+
+
 def draw(X, Y, V, ok, title, quantity, unit, path, cmap="viridis", limits=None):
     """One map: only the points whose status is ok, on robust colour limits
     (or the given ones), in the unit that suits the values; the title says
@@ -105,15 +117,8 @@ def draw(X, Y, V, ok, title, quantity, unit, path, cmap="viridis", limits=None):
     fig, ax = plt.subplots(figsize=(6.4, 5.4))
     im = mesh(ax, X, Y, V, cmap=cmap, vmin=lo, vmax=hi)
     fig.colorbar(im, ax=ax, label=f"{quantity} ({uname})", extend=extend)
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("y (mm)")
-    ax.set_aspect("equal")
     note = f"{masked} of {ok.size} points masked (status not ok)" if masked else "all points ok"
-    ax.set_title("\n".join(textwrap.wrap(title, 52)) + "\n" + note, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    print(path)
+    finish(fig, ax, title, note, path)
 
 
 def draw_categories(X, Y, codes, ok, names, title, path):
@@ -129,16 +134,9 @@ def draw_categories(X, Y, codes, ok, names, title, path):
               vmax=n - 0.5)
     cb = fig.colorbar(im, ax=ax, ticks=range(n))
     cb.ax.set_yticklabels(names, fontsize=8)
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("y (mm)")
-    ax.set_aspect("equal")
     blank = int(np.count_nonzero(np.isnan(V)))
     note = f"{blank} of {V.size} points blank (status not ok or none)" if blank else "all points ok"
-    ax.set_title("\n".join(textwrap.wrap(title, 52)) + "\n" + note, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    print(path)
+    finish(fig, ax, title, note, path)
 
 
 def tolerance_maps(st, X, Y, ok, iz, where, out):

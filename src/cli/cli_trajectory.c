@@ -195,7 +195,17 @@ typedef struct {
     FILE *csv;
     sample_list *kept;
     dm_coupling_change cc;
+    int failed;   /* the coupling change's error (in err) stopped the run */
+    dm_error err;
 } run_out;
+
+/* The next sample's coupling change; on failure the run stops (the sink
+ * returns non-zero) and the error is kept. */
+static int next_change(run_out *ro, const dm_integ_sample *s, double *change)
+{
+    ro->failed = dm_coupling_change_next(&ro->cc, s, change, &ro->err);
+    return ro->failed;
+}
 
 /* The columns every trajectory CSV row has (without the newline). */
 static void csv_base(FILE *f, const dm_integ_sample *s, double change)
@@ -227,7 +237,9 @@ static int keep_sample(sample_list *l, const dm_integ_sample *s, double change);
 static int run_sample(void *user, const dm_integ_sample *s)
 {
     run_out *ro = user;
-    double change = dm_coupling_change_next(&ro->cc, s);
+    double change;
+    if (next_change(ro, s, &change))
+        return 1;
     if (ro->kept)
         return keep_sample(ro->kept, s, change);
     if (!ro->csv)
@@ -395,7 +407,9 @@ static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory 
 static int budget_sample(void *user, const dm_budget_sample *b)
 {
     run_out *ro = user;
-    double change = dm_coupling_change_next(&ro->cc, &b->run);
+    double change;
+    if (next_change(ro, &b->run, &change))
+        return 1;
     if (ro->csv)
         return csv_budget_row(ro->csv, b, change);
     return ro->kept ? keep_sample(ro->kept, &b->run, change) : 0;
@@ -577,7 +591,9 @@ int dm_cli_trajectory(int argc, char **argv)
     if (rc) {
         if (out.f)
             dm_file_out_abort(&out);
-        if (rc == DM_EINTERRUPT)
+        if (rc == DM_EINTERRUPT && ro.failed)
+            err = ro.err;
+        else if (rc == DM_EINTERRUPT)
             dm_fail(&err, DM_EIO, "%s: write failed", t.out);
         dm_coupling_change_free(&ro.cc);
         dm_traj_free(&tr);

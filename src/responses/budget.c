@@ -205,13 +205,24 @@ void dm_coupling_change_free(dm_coupling_change *cc)
     cc->nominal = NULL;
 }
 
-double dm_coupling_change_next(dm_coupling_change *cc, const dm_integ_sample *s)
+int dm_coupling_change_next(dm_coupling_change *cc, const dm_integ_sample *s, double *out,
+                            dm_error *err)
 {
     /* the step that ends at this sample was frozen where the last one was */
     const double *P = cc->samples ? cc->P_prev : s->P_m;
     double nominal, change = NAN, h = cc->samples ? s->t_s - cc->t_prev : 0.0;
-    if (!isnan(s->coupling_index_log10) && !dm_coupling_nominal_log10(cc->nominal, P, &nominal, NULL))
-        change = s->coupling_index_log10 - nominal;
+    if (!isnan(s->coupling_index_log10)) {
+        dm_error e;
+        int rc = dm_coupling_nominal_log10(cc->nominal, P, &nominal, &e);
+        if (!rc)
+            change = s->coupling_index_log10 - nominal;
+        else if (rc != DM_EUNREACHABLE && rc != DM_ENUMERIC) { /* no pose of its own: NaN */
+            if (err)
+                *err = e;
+            return rc;
+        }
+    }
+    *out = change;
     if (cc->samples && isfinite(change)) {
         cc->integral_s += h * change;
         cc->weight_s += h;
@@ -221,7 +232,7 @@ double dm_coupling_change_next(dm_coupling_change *cc, const dm_integ_sample *s)
     dm_copy3(s->P_m, cc->P_prev);
     cc->t_prev = s->t_s;
     cc->samples++;
-    return change;
+    return DM_OK;
 }
 
 void dm_coupling_change_summary(const dm_coupling_change *cc, double *mean, double *min,
