@@ -97,6 +97,18 @@ if $PY -c "
 import zarr, sys
 v = float(zarr.open_group('$TMP/ref', mode='r')['coupling_index_log10'][0, 0, 0])
 sys.exit(0 if abs(v - $C) <= 1e-15 * abs(v) and abs(v) > 100 else 1)"; then ok; else bad "coupling index map differs from modes ($C)"; fi
+# its change against the nominal robot: 0 without effects; with a geometry
+# error and a compliant actuator, modes' value at the pose (17 digits)
+if $PY -c "
+import zarr, sys
+sys.exit(0 if float(zarr.open_group('$TMP/ref', mode='r')['coupling_index_change_log10'][0, 0, 0]) == 0 else 1)"; then ok; else bad "coupling change without effects is not 0"; fi
+EFX="--set effects.error_rod_length=1e-4,0,-5e-5 --set effects.actuator_stiffness=2e4"
+$DM sweep --robot chen2018 --grid "x=-0.02:0.02:2,y=0,z=-0.5" --mesh 1,1 --modes 4 --no-dynamic $EFX --out "$TMP/cchange" --progress none >/dev/null || bad "sweep with effects"
+CC=$($DM modes --robot chen2018 --at 0.02,0,-0.5 --mesh 1,1 --modes 4 $EFX --json | $PY -c "import json, sys; print(repr(json.load(sys.stdin)['coupling_index_change_log10']))")
+if $PY -c "
+import zarr, sys
+v = float(zarr.open_group('$TMP/cchange', mode='r')['coupling_index_change_log10'][1, 0, 0])
+sys.exit(0 if abs(v - $CC) <= 1e-12 * max(abs(v), 1) and v != 0 else 1)"; then ok; else bad "coupling change map differs from modes ($CC)"; fi
 
 # a sweep that implies days of work, or millions of files, is refused at once
 $DM sweep --robot chen2018 --grid "x=-0.3:0.3:10000,y=-0.3:0.3:10000,z=-0.5" --tile 64,64,1 --threads 2 --out "$TMP/huge" 2>"$TMP/err"

@@ -10,6 +10,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "dm_coupling.h"
 #include "dm_shard.h"
 #include "dm_threads.h"
 
@@ -40,6 +41,7 @@ static void auto_tile(const dm_grid *g, const int req[3], int tile[3])
 static void worker_free(sweep_worker *w)
 {
     dm_analysis_free(w->an);
+    dm_coupling_free(w->nominal);
     dm_move_free(w->move);
     free(w->mac_work);
     free(w->mac);
@@ -55,6 +57,14 @@ static int worker_alloc(const sweep_ctx *c, sweep_worker *w, dm_error *err)
     w->an = dm_analysis_alloc(c->rb, c->na, c->nb, c->kc, DM_EIGEN_PARTIAL, err);
     if (!w->an)
         return err ? err->code : DM_ENOMEM;
+    dm_effects none;
+    memset(&none, 0, sizeof none);
+    if (memcmp(&c->rb->effects, &none, sizeof none) && /* else the change is 0 */
+        !(w->nominal = dm_coupling_alloc(c->rb, c->na, c->nb, err))) {
+        worker_free(w);
+        memset(w, 0, sizeof *w);
+        return err ? err->code : DM_ENOMEM;
+    }
     w->move = dm_move_alloc(c->n, c->k, err);
     w->mac_work = malloc(sizeof(double) * (2 * (size_t)c->n * c->k + (size_t)c->k * c->kc));
     w->mac = malloc(sizeof(double) * c->k);
@@ -82,6 +92,7 @@ static void point_nan(dm_point_result *r, int status)
     for (int j = 0; j < 6; j++)
         r->static_error[j] = nan;
     r->compliance_max = r->stiffness_min = r->singularity = r->coupling_index_log10 = nan;
+    r->coupling_change_log10 = nan;
     r->error_mean_m = r->error_p95_m = r->error_max_m = r->p_exceed_spec = nan;
     r->dominant_source = -1;
     for (int j = 0; j < 3; j++)
@@ -113,6 +124,12 @@ static void analyse_point(const sweep_ctx *c, sweep_worker *w, const double P[3]
     r->stiffness_min = res.stiffness_min_n_per_m;
     r->singularity = res.pose.cond;
     r->coupling_index_log10 = res.coupling_index_log10;
+    r->coupling_change_log10 = 0;
+    double nominal;
+    if (w->nominal) /* NaN where the nominal robot fails there */
+        r->coupling_change_log10 = dm_coupling_nominal_log10(w->nominal, P, &nominal, NULL)
+                                       ? NAN
+                                       : res.coupling_index_log10 - nominal;
     /* families: matched against the nearest anchor's */
     if (an >= 0) {
         dm_sweep_anchors_track(c, w, c->anchor_phi + (size_t)an * c->n * c->k, res.modes, w->shapes);
@@ -217,6 +234,7 @@ static void store_point(const sweep_ctx *c, sweep_worker *w, size_t off, const d
     PUT(A_RESID, r->move_residual, 3);
     PUT(A_SETTLE, r->move_settling, 3);
     PUT(A_COUPLING, &r->coupling_index_log10, 1);
+    PUT(A_COUPLING_CHANGE, &r->coupling_change_log10, 1);
     if (c->ndata > N_CORE) {
         PUT(A_ERR_MEAN, &r->error_mean_m, 1);
         PUT(A_ERR_P95, &r->error_p95_m, 1);

@@ -24,7 +24,7 @@
  * of the extra dimensions (c->ndata + 3..6). */
 enum {
     A_STATUS, A_FREQ, A_TRACKED, A_STATIC, A_CMAX, A_CDIR, A_KMIN, A_COND, A_PEAK, A_RESID,
-    A_SETTLE, A_COUPLING, N_CORE,
+    A_SETTLE, A_COUPLING, A_COUPLING_CHANGE, N_CORE,
     A_ERR_MEAN = N_CORE, A_ERR_P95, A_ERR_MAX, A_DOMINANT, A_P_EXCEED, N_DATA
 };
 #define N_AXES_LABELS 7 /* coordinate and label arrays */
@@ -56,7 +56,7 @@ typedef struct dm_point_result {
     double static_error[6];
     double compliance_max, compliance_dir[3], stiffness_min, singularity;
     double move_peak[3], move_residual[3], move_settling[3];
-    double coupling_index_log10;
+    double coupling_index_log10, coupling_change_log10;
     /* the tolerance Monte Carlo (NaN, dominant -1: not run or failed) */
     double error_mean_m, error_p95_m, error_max_m, p_exceed_spec;
     int dominant_source;
@@ -93,6 +93,7 @@ typedef struct sweep_worker {
     double *mac_work, *mac;
     int *assign;
     double *shapes;     /* families' shapes at the point (n x k) */
+    struct dm_coupling *nominal; /* the robot without effects (NULL: it has none) */
     void *buf[N_DATA];
 } sweep_worker;
 

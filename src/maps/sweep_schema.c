@@ -23,6 +23,7 @@ const dm_sweep_array dm_sweep_arrays[N_DATA] = {
     {"move_residual_m", DM_DTYPE_FLOAT64, X_MOVE, "m", "standard move: residual vibration amplitude after it"},
     {"move_settling_s", DM_DTYPE_FLOAT64, X_MOVE, "s", "standard move: settling time after it (inf: never)"},
     {"coupling_index_log10", DM_DTYPE_FLOAT64, X_NONE, "1", "Zheng's coupling index: log10 det K (depends on mesh and DOF units)"},
+    {"coupling_index_change_log10", DM_DTYPE_FLOAT64, X_NONE, "1", "coupling index minus the nominal robot's (no effects) at the same pose and mesh; 0 without effects"},
     /* the tolerance Monte Carlo's (only with it) */
     {"error_mean_m", DM_DTYPE_FLOAT64, X_NONE, "m", "tolerance Monte Carlo: mean platform |error|"},
     {"error_p95_m", DM_DTYPE_FLOAT64, X_NONE, "m", "tolerance Monte Carlo: 95th percentile of the platform |error|"},
