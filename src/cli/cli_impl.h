@@ -40,6 +40,17 @@ int dm_cli_load_robot(const char *spec, const char *const *sets, int nset, dm_ro
 #include "dm_tolerance.h"
 int dm_cli_parse_tol(const char *arg, dm_tolerance_spec *sp);
 
+/* The Monte Carlo's options, for `tolerance` and `sweep` alike (cmd and
+ * flag name them in messages): --tol NAME=V (>= 0), --spec M (> 0), the
+ * seed (a whole number >= 0) and the distribution (uniform or normal).
+ * 0, a usage error, or DM_EINVAL naming the flag. */
+int dm_cli_tolerance_tol(const char *cmd, const char *arg, dm_tolerance_spec *sp);
+int dm_cli_tolerance_spec(const char *cmd, const char *arg, dm_tolerance_spec *sp);
+int dm_cli_tolerance_seed(const char *cmd, const char *flag, const char *arg,
+                          dm_tolerance_spec *sp);
+int dm_cli_tolerance_dist(const char *cmd, const char *flag, const char *arg,
+                          dm_tolerance_spec *sp);
+
 /* Output files appear whole or not at all: dm_file_out (dm_file.h). */
 #include "dm_file.h"
 

@@ -169,45 +169,16 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
                 return rc;
             a->o.tolerance = 1;
             break;
-        case 'E': {
-            char *end;
-            unsigned long long seed = strtoull(optarg, &end, 10);
-            if (end == optarg || *end || optarg[0] == '-')
-                return dm_cli_usage("sweep", "--tolerance-seed takes a whole number >= 0", optarg);
-            tol->seed = seed;
-            a->tol_options = 1;
-            break;
-        }
+        case 'E': /* the Monte Carlo's settings, parsed as `tolerance` parses them */
         case 'P':
-            if (dm_cli_parse_list(optarg, &tol->spec_m, 1))
-                return dm_cli_usage("sweep", "--spec takes an error in m", optarg);
-            if (!(tol->spec_m > 0)) {
-                fprintf(stderr, "deltamap sweep: --spec: must be > 0 m, got %s\n", optarg);
-                return DM_EINVAL;
-            }
-            a->tol_options = 1;
-            break;
         case 'O':
-            if (dm_cli_parse_tol(optarg, tol))
-                return dm_cli_usage("sweep",
-                                    "--tol takes NAME=VALUE with NAME arm_length, rod_length, "
-                                    "base_radius, platform_radius, theta_deg or alpha0_deg",
-                                    optarg);
-            for (int k = 0; k < DM_TOL_NGEOM; k++)
-                if (tol->tol[k] < 0) {
-                    fprintf(stderr, "deltamap sweep: --tol %s: must be >= 0, got %s\n",
-                            dm_tolerance_class_name(k), optarg);
-                    return DM_EINVAL;
-                }
-            a->tol_options = 1;
-            break;
         case 'I':
-            if (!strcmp(optarg, "uniform"))
-                tol->dist = DM_TOL_UNIFORM;
-            else if (!strcmp(optarg, "normal"))
-                tol->dist = DM_TOL_NORMAL;
-            else
-                return dm_cli_usage("sweep", "--tolerance-dist is uniform or normal", optarg);
+            rc = c == 'E'   ? dm_cli_tolerance_seed("sweep", "--tolerance-seed", optarg, tol)
+                 : c == 'P' ? dm_cli_tolerance_spec("sweep", optarg, tol)
+                 : c == 'O' ? dm_cli_tolerance_tol("sweep", optarg, tol)
+                            : dm_cli_tolerance_dist("sweep", "--tolerance-dist", optarg, tol);
+            if (rc)
+                return rc;
             a->tol_options = 1;
             break;
         case 'h': fputs(SWEEP_HELP, stdout); exit(0);

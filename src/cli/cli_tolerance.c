@@ -68,6 +68,61 @@ int dm_cli_parse_tol(const char *arg, dm_tolerance_spec *sp)
     return -1;
 }
 
+int dm_cli_tolerance_tol(const char *cmd, const char *arg, dm_tolerance_spec *sp)
+{
+    if (dm_cli_parse_tol(arg, sp))
+        return dm_cli_usage(cmd,
+                            "--tol takes NAME=VALUE with NAME arm_length, rod_length, "
+                            "base_radius, platform_radius, theta_deg or alpha0_deg",
+                            arg);
+    for (int k = 0; k < DM_TOL_NGEOM; k++)
+        if (sp->tol[k] < 0) {
+            fprintf(stderr, "deltamap %s: --tol %s: must be >= 0, got %s\n", cmd,
+                    dm_tolerance_class_name(k), arg);
+            return DM_EINVAL;
+        }
+    return 0;
+}
+
+int dm_cli_tolerance_spec(const char *cmd, const char *arg, dm_tolerance_spec *sp)
+{
+    if (dm_cli_parse_list(arg, &sp->spec_m, 1))
+        return dm_cli_usage(cmd, "--spec takes an error in m", arg);
+    if (!(sp->spec_m > 0)) {
+        fprintf(stderr, "deltamap %s: --spec: must be > 0 m, got %s\n", cmd, arg);
+        return DM_EINVAL;
+    }
+    return 0;
+}
+
+int dm_cli_tolerance_seed(const char *cmd, const char *flag, const char *arg,
+                          dm_tolerance_spec *sp)
+{
+    char *end, msg[64];
+    unsigned long long v = strtoull(arg, &end, 10);
+    if (end == arg || *end || arg[0] == '-') {
+        snprintf(msg, sizeof msg, "%s takes a whole number >= 0", flag);
+        return dm_cli_usage(cmd, msg, arg);
+    }
+    sp->seed = v;
+    return 0;
+}
+
+int dm_cli_tolerance_dist(const char *cmd, const char *flag, const char *arg,
+                          dm_tolerance_spec *sp)
+{
+    char msg[64];
+    if (!strcmp(arg, "uniform"))
+        sp->dist = DM_TOL_UNIFORM;
+    else if (!strcmp(arg, "normal"))
+        sp->dist = DM_TOL_NORMAL;
+    else {
+        snprintf(msg, sizeof msg, "%s is uniform or normal", flag);
+        return dm_cli_usage(cmd, msg, arg);
+    }
+    return 0;
+}
+
 static int parse(int argc, char **argv, tol_opts *t)
 {
     static const struct option lo[] = {
@@ -75,13 +130,12 @@ static int parse(int argc, char **argv, tol_opts *t)
         {"tol", 1, 0, 't'}, {"dist", 1, 0, 'd'}, {"spec", 1, 0, 'p'}, {"rigid", 0, 0, 'G'},
         {"mesh", 1, 0, 'm'}, {"threads", 1, 0, 'T'}, {"set", 1, 0, 's'}, {"force", 0, 0, 'f'},
         {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
-    int c;
+    int c, rc;
     memset(t, 0, sizeof *t);
     dm_tolerance_spec_default(&t->spec);
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
-        char *end;
         switch (c) {
         case 'r': t->robot = optarg; break;
         case 'a':
@@ -98,36 +152,22 @@ static int parse(int argc, char **argv, tol_opts *t)
             t->have_samples = 1;
             break;
         }
-        case 'S': {
-            unsigned long long v = strtoull(optarg, &end, 10);
-            if (end == optarg || *end || optarg[0] == '-')
-                return dm_cli_usage("tolerance", "--seed takes a whole number >= 0", optarg);
-            t->spec.seed = v;
+        case 'S':
+            if ((rc = dm_cli_tolerance_seed("tolerance", "--seed", optarg, &t->spec)))
+                return rc;
             t->have_seed = 1;
             break;
-        }
         case 't':
-            if (dm_cli_parse_tol(optarg, &t->spec))
-                return dm_cli_usage("tolerance",
-                                    "--tol takes NAME=VALUE with NAME arm_length, rod_length, "
-                                    "base_radius, platform_radius, theta_deg or alpha0_deg",
-                                    optarg);
+            if ((rc = dm_cli_tolerance_tol("tolerance", optarg, &t->spec)))
+                return rc;
             break;
         case 'd':
-            if (!strcmp(optarg, "uniform"))
-                t->spec.dist = DM_TOL_UNIFORM;
-            else if (!strcmp(optarg, "normal"))
-                t->spec.dist = DM_TOL_NORMAL;
-            else
-                return dm_cli_usage("tolerance", "--dist is uniform or normal", optarg);
+            if ((rc = dm_cli_tolerance_dist("tolerance", "--dist", optarg, &t->spec)))
+                return rc;
             break;
         case 'p':
-            if (dm_cli_parse_list(optarg, &t->spec.spec_m, 1))
-                return dm_cli_usage("tolerance", "--spec takes an error in m", optarg);
-            if (!(t->spec.spec_m > 0)) {
-                fprintf(stderr, "deltamap tolerance: --spec: must be > 0 m, got %s\n", optarg);
-                return DM_EINVAL;
-            }
+            if ((rc = dm_cli_tolerance_spec("tolerance", optarg, &t->spec)))
+                return rc;
             break;
         case 'G': t->spec.flexibility = 0; break;
         case 'f': t->spec.force = 1; break;
