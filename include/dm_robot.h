@@ -70,6 +70,9 @@ int dm_effects_geometry_errors(const dm_effects *effects);
 /* Has the robot any joint clearance (a dead band that flips with the load)? */
 int dm_effects_clearance(const dm_effects *effects);
 
+/* Is any effect switched on (else the robot is the baseline)? */
+int dm_effects_any(const dm_effects *effects);
+
 /* Does chain i sit on a compliant base (its arm root gets three
  * translations tied to ground by springs)? Chains without springs stay rigid. */
 int dm_effects_base_compliant(const dm_effects *effects, int chain);

@@ -57,9 +57,7 @@ static int worker_alloc(const sweep_ctx *c, sweep_worker *w, dm_error *err)
     w->an = dm_analysis_alloc(c->rb, c->na, c->nb, c->kc, DM_EIGEN_PARTIAL, err);
     if (!w->an)
         return err ? err->code : DM_ENOMEM;
-    dm_effects none;
-    memset(&none, 0, sizeof none);
-    if (memcmp(&c->rb->effects, &none, sizeof none) && /* else the change is 0 */
+    if (dm_effects_any(&c->rb->effects) && /* else the change is 0 */
         !(w->nominal = dm_coupling_alloc(c->rb, c->na, c->nb, err))) {
         worker_free(w);
         memset(w, 0, sizeof *w);

@@ -393,6 +393,15 @@ int dm_effects_clearance(const dm_effects *e)
            e->actuator_clearance_radial_m > 0;
 }
 
+int dm_effects_any(const dm_effects *e)
+{
+    int any = e->actuator_stiffness_nm_per_rad || e->joint_stiffness_n_per_m || e->payload_kg ||
+              e->elbow_mass_kg || e->geometric_stiffness || dm_effects_geometry_errors(e);
+    for (int i = 0; i < 3; i++)
+        any |= dm_effects_base_compliant(e, i) || e->payload_offset_m[i] != 0;
+    return any;
+}
+
 int dm_effects_base_compliant(const dm_effects *e, int i)
 {
     assert(i >= 0 && i < 3);
