@@ -73,7 +73,7 @@ int dm_budget_trajectory(const dm_robot *robot, const dm_trajectory *traj,
  * time mean (each step weighted by its length, as the run's own index),
  * minimum and maximum of the finite changes. */
 typedef struct dm_coupling_change {
-    struct dm_coupling *nominal;  /* dm_coupling.h's workspace */
+    struct dm_coupling *nominal;  /* dm_coupling.h's workspace (NULL: no effects, change 0) */
     long samples;
     double t_prev, P_prev[3];
     double integral_s, weight_s, min, max;

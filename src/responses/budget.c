@@ -195,6 +195,8 @@ int dm_coupling_change_init(dm_coupling_change *cc, const dm_robot *rb, int na, 
 {
     memset(cc, 0, sizeof *cc);
     cc->min = cc->max = NAN;
+    if (!dm_effects_any(&rb->effects)) /* the nominal robot is the robot: the change is 0 */
+        return DM_OK;
     cc->nominal = dm_coupling_alloc(rb, na > 0 ? na : rb->na, nb > 0 ? nb : rb->nb, err);
     return cc->nominal ? DM_OK : (err ? err->code : DM_ENOMEM);
 }
@@ -211,7 +213,9 @@ int dm_coupling_change_next(dm_coupling_change *cc, const dm_integ_sample *s, do
     /* the step that ends at this sample was frozen where the last one was */
     const double *P = cc->samples ? cc->P_prev : s->P_m;
     double nominal, change = NAN, h = cc->samples ? s->t_s - cc->t_prev : 0.0;
-    if (!isnan(s->coupling_index_log10)) {
+    if (!isnan(s->coupling_index_log10) && !cc->nominal) {
+        change = 0;
+    } else if (!isnan(s->coupling_index_log10)) {
         dm_error e;
         int rc = dm_coupling_nominal_log10(cc->nominal, P, &nominal, &e);
         if (!rc)
