@@ -16,11 +16,16 @@
 int dm_threads_count(int requested);
 
 typedef struct dm_threads_saved {
-    int omp, blas;
+    int omp, blas, changed;
 } dm_threads_saved;
 
 /* BLAS (and OpenMP outside parallel regions, from which OpenBLAS's OpenMP
- * build takes its count) on one thread until dm_threads_restore. */
+ * build takes its count) on one thread until dm_threads_restore. Inside
+ * an active parallel region it changes nothing (BLAS runs serially there,
+ * and the setting is process-wide). Every library stage that runs threads
+ * of its own calls it: OpenBLAS threads its kernels outside active
+ * regions, one stage thread is not an active region, and threaded kernels
+ * round differently, so one thread and several would disagree. */
 dm_threads_saved dm_threads_serial_blas(void);
 void dm_threads_restore(dm_threads_saved saved);
 

@@ -11,7 +11,10 @@ int dm_threads_count(int requested)
 
 dm_threads_saved dm_threads_serial_blas(void)
 {
-    dm_threads_saved s = {omp_get_max_threads(), openblas_get_num_threads()};
+    dm_threads_saved s = {omp_get_max_threads(), openblas_get_num_threads(), 0};
+    if (omp_in_parallel())
+        return s; /* BLAS is serial in an active region already; the setting is process-wide */
+    s.changed = 1;
     openblas_set_num_threads(1);
     omp_set_num_threads(1);
     return s;
@@ -19,6 +22,8 @@ dm_threads_saved dm_threads_serial_blas(void)
 
 void dm_threads_restore(dm_threads_saved s)
 {
+    if (!s.changed)
+        return;
     omp_set_num_threads(s.omp);
     openblas_set_num_threads(s.blas);
 }

@@ -2,6 +2,7 @@
 #include "dm_diagnose.h"
 
 #include "dm_predict.h"
+#include "dm_threads.h"
 
 #include <assert.h>
 #include <cminpack.h>
@@ -1154,8 +1155,47 @@ static int weights(const dm_dataset *d, const double *pred, double *w)
     return known;
 }
 
+static int diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts *o,
+                    dm_diagnosis *dg, dm_error *err);
+static int fit_effects(const dm_robot *rb, const dm_dataset *d, const char *const *names, int n,
+                       const double start[][DM_DIAG_MAXV], const dm_diagnose_opts *o,
+                       dm_fit *f, dm_error *err);
+
+/* The fits' thread count resolved, and BLAS on one thread while they run:
+ * OpenBLAS's OpenMP build threads its kernels outside active parallel
+ * regions (one fit thread is not an active region), and threaded kernels
+ * round differently, so without this one thread and three gave different
+ * fits on a Zen 3 machine. */
+static dm_threads_saved serial_stage(const dm_diagnose_opts *o, dm_diagnose_opts *resolved)
+{
+    *resolved = *o;
+    resolved->threads = dm_threads_count(o->threads);
+    return dm_threads_serial_blas();
+}
+
 int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts *o,
                 dm_diagnosis *dg, dm_error *err)
+{
+    dm_diagnose_opts resolved;
+    dm_threads_saved saved = serial_stage(o, &resolved);
+    int rc = diagnose(rb, d, &resolved, dg, err);
+    dm_threads_restore(saved);
+    return rc;
+}
+
+int dm_fit_effects(const dm_robot *rb, const dm_dataset *d, const char *const *names, int n,
+                   const double start[][DM_DIAG_MAXV], const dm_diagnose_opts *o, dm_fit *f,
+                   dm_error *err)
+{
+    dm_diagnose_opts resolved;
+    dm_threads_saved saved = serial_stage(o, &resolved);
+    int rc = fit_effects(rb, d, names, n, start, &resolved, f, err);
+    dm_threads_restore(saved);
+    return rc;
+}
+
+static int diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts *o,
+                    dm_diagnosis *dg, dm_error *err)
 {
     memset(dg, 0, sizeof *dg);
     char *held = malloc(d->n);
@@ -1212,9 +1252,9 @@ int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts 
     return rc;
 }
 
-int dm_fit_effects(const dm_robot *rb, const dm_dataset *d, const char *const *names, int n,
-                   const double start[][DM_DIAG_MAXV], const dm_diagnose_opts *o, dm_fit *f,
-                   dm_error *err)
+static int fit_effects(const dm_robot *rb, const dm_dataset *d, const char *const *names, int n,
+                       const double start[][DM_DIAG_MAXV], const dm_diagnose_opts *o,
+                       dm_fit *f, dm_error *err)
 {
     problem p = {.ncand = n};
     int np = 0;

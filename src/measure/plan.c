@@ -14,6 +14,7 @@
 #include "dm_predict.h"
 #include "dm_rng.h"
 #include "dm_synth.h"
+#include "dm_threads.h"
 #include "dm_trajectory.h"
 
 #define DETECT 5.0     /* "seen": the effect moves the data by 5 sigma (norm over samples) */
@@ -807,8 +808,24 @@ static void to_units(const model *m, double *sig)
             sig[j] *= m->eff[e].cand->linear ? m->sc[j] : fabs(m->eff[e].value[k]);
 }
 
+static int plan(const dm_robot *rb, const dm_plan_effect *eff, int neff, const dm_plan_opts *o,
+                dm_plan_result *r, dm_error *err);
+
+/* The thread count resolved and BLAS on one thread while the plan runs
+ * (as dm_diagnose: one thread and two must give the same plan). */
 int dm_plan(const dm_robot *rb, const dm_plan_effect *eff, int neff, const dm_plan_opts *o,
             dm_plan_result *r, dm_error *err)
+{
+    dm_plan_opts resolved = *o;
+    resolved.threads = dm_threads_count(o->threads);
+    dm_threads_saved saved = dm_threads_serial_blas();
+    int rc = plan(rb, eff, neff, &resolved, r, err);
+    dm_threads_restore(saved);
+    return rc;
+}
+
+static int plan(const dm_robot *rb, const dm_plan_effect *eff, int neff, const dm_plan_opts *o,
+                dm_plan_result *r, dm_error *err)
 {
     memset(r, 0, sizeof *r);
     if (neff < 1 || neff > DM_PLAN_MAXEFF)

@@ -9,6 +9,7 @@
 #include "dm_model.h"
 #include "dm_kinematics.h"
 #include "dm_static.h"
+#include "dm_threads.h"
 #include "dm_vec3.h"
 
 const char *dm_tolerance_class_name(int c)
@@ -370,8 +371,23 @@ static int linearise(const dm_robot *rb, const dm_tolerance_spec *sp, const doub
     return DM_OK;
 }
 
+static int tolerance_pose(const dm_robot *rb, const dm_tolerance_spec *sp, const double P[3],
+                          int threads, dm_tolerance_result *res, dm_error *err);
+
+/* BLAS on one thread while the samples run (dm_threads.h: one thread and
+ * several must give the same result; inside a sweep's threads it is so
+ * already). */
 int dm_tolerance_pose(const dm_robot *rb, const dm_tolerance_spec *sp, const double P[3],
                       int threads, dm_tolerance_result *res, dm_error *err)
+{
+    dm_threads_saved saved = dm_threads_serial_blas();
+    int rc = tolerance_pose(rb, sp, P, threads, res, err);
+    dm_threads_restore(saved);
+    return rc;
+}
+
+static int tolerance_pose(const dm_robot *rb, const dm_tolerance_spec *sp, const double P[3],
+                          int threads, dm_tolerance_result *res, dm_error *err)
 {
     int rc = dm_tolerance_check(rb, sp, err);
     if (rc)
