@@ -195,4 +195,25 @@ int dm_integrate_trajectory(const dm_robot *robot, const dm_trajectory *traj,
                             const dm_integ_opts *opts, dm_integ_sink sink, void *user,
                             dm_integ_summary *summary, dm_error *err);
 
+/* A closed-form run without the reference carries only the modal
+ * coordinates from step to step, and what each step takes from its frozen
+ * model (frequencies, the projection between consecutive steps' modes,
+ * modal loads, the platform rows of the modes, the static part of the
+ * dropped modes) does not depend on Rayleigh damping. A history keeps
+ * that for every step, so the run can be replayed for another damping at
+ * O(k^2) per step: a fit of the damping evaluates many. A replay gives
+ * bit for bit what dm_integrate_trajectory gives for a robot that differs
+ * only in its damping (rayleigh_alpha, rayleigh_beta).
+ * dm_integ_history_make: opts must ask for DM_ODE_CLOSED_FORM and no
+ * reference (DM_EINVAL otherwise); dm_integ_history_bytes: what it holds
+ * for k modes. */
+typedef struct dm_integ_history dm_integ_history;
+int dm_integ_history_make(const dm_robot *robot, const dm_trajectory *traj,
+                          const dm_integ_opts *opts, dm_integ_history **history, dm_error *err);
+int dm_integ_history_replay(dm_integ_history *history, double alpha, double beta,
+                            dm_integ_sink sink, void *user, dm_integ_summary *summary,
+                            dm_error *err);
+size_t dm_integ_history_bytes(const dm_trajectory *traj, const dm_integ_opts *opts, int k);
+void dm_integ_history_free(dm_integ_history *history);
+
 #endif

@@ -30,7 +30,10 @@ dm_predictor *dm_predictor_new(const dm_robot *robot, const dm_dataset *data, in
 /* Predictions with this robot: bit for bit those of dm_predict (every run
  * starts the eigen solver cold). The robot may differ from run to run in
  * any value; when its effects change the model's DOFs (a compliant base,
- * joint springs) the workspace is made again for the new size. */
+ * joint springs) the workspace is made again for the new size. Tracker
+ * data: the run keeps its modal history (dm_integ_history), and a next
+ * run whose robot differs only in Rayleigh damping replays it instead of
+ * solving every step again. */
 int dm_predictor_run(dm_predictor *p, const dm_robot *robot, double *pred, dm_error *err);
 
 /* Predict only the first n samples (whole poses, or whole tracker times)

@@ -96,6 +96,56 @@ static void sundials_matches_closed_form(void **state)
     }
 }
 
+/* A modal history replayed with other damping gives, bit for bit, the run
+ * of a robot with that damping (samples and summary), with geometry errors
+ * (the real platform's offset), a tool point and rotated axes; only the
+ * closed form without reference has one. */
+static void history_replays_other_damping(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
+    rb.effects.err_arm_length_m[1] = 2e-4;
+    dm_integ_opts o;
+    dm_integ_summary fresh, replayed;
+    dm_integ_opts_default(&o);
+    o.na = o.nb = 1;
+    o.method = DM_ODE_CLOSED_FORM;
+    o.reference = 0;
+    o.tool_m[2] = -0.05;
+    o.naxes = 2;
+    o.axes_rotation_rad[1] = 0.3;
+    dm_trajectory tr;
+    assert_int_equal(dm_traj_make(MOVING_ZHENG, &rb, &tr, NULL), 0);
+    dm_integ_history *hist;
+    assert_int_equal(dm_integ_history_make(&rb, &tr, &o, &hist, NULL), 0);
+    const double damping[3][2] = {{0, 0}, {30, 0}, {0, 4e-4}};
+    double peak[3];
+    for (int c = 0; c < 3; c++) {
+        dm_robot damped = rb;
+        damped.rayleigh_alpha = damping[c][0];
+        damped.rayleigh_beta = damping[c][1];
+        run_robot(&damped, MOVING_ZHENG, &o, &H1, &fresh);
+        H2.n = 0;
+        assert_int_equal(dm_integ_history_replay(hist, damping[c][0], damping[c][1], record, &H2,
+                                                 &replayed, NULL), 0);
+        assert_int_equal(H1.n, H2.n);
+        assert_memory_equal(H1.t, H2.t, sizeof(double) * H1.n);
+        assert_memory_equal(H1.e, H2.e, sizeof H1.e[0] * H1.n);
+        assert_memory_equal(&fresh, &replayed, sizeof fresh);
+        peak[c] = replayed.peak_error_m;
+    }
+    assert_true(peak[1] != peak[0] && peak[2] != peak[0]); /* the damping was applied */
+    dm_integ_history_free(hist);
+    dm_error err;
+    o.reference = 1;
+    assert_int_equal(dm_integ_history_make(&rb, &tr, &o, &hist, &err), DM_EINVAL);
+    o.reference = 0;
+    o.method = DM_ODE_CVODE;
+    assert_int_equal(dm_integ_history_make(&rb, &tr, &o, &hist, &err), DM_EINVAL);
+    dm_traj_free(&tr);
+}
+
 static void all_modes_equal_full_model(void **state)
 {
     (void)state;
@@ -675,6 +725,7 @@ int main(int argc, char **argv)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(sdof_closed_form_cases),
         cmocka_unit_test(sundials_matches_closed_form),
+        cmocka_unit_test(history_replays_other_damping),
         cmocka_unit_test(all_modes_equal_full_model),
         cmocka_unit_test(quasi_static_limit),
         cmocka_unit_test(free_vibration_decays_at_modal_rate),

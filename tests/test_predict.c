@@ -78,16 +78,21 @@ static void reuse_equals_fresh_on_static_data(void **state)
 static void tracker_runs_and_windows(void **state)
 {
     (void)state;
-    dm_robot rb[2];
-    const double beta = 1e-3;
+    dm_robot rb[5];
+    const double beta = 1e-3, alpha = 20, payload = 0.3;
     robot_with(&rb[0], NULL, NULL, NULL);
     robot_with(&rb[1], "damping", "beta", &beta);
+    rb[2] = rb[1]; /* damping only, again: the kept modal history replayed */
+    assert_int_equal(dm_robot_set_number(&rb[2], "damping", "alpha", &alpha, NULL), 0);
+    rb[3] = rb[2]; /* a new model: the history must not be replayed */
+    assert_int_equal(dm_robot_set_number(&rb[3], "effects", "payload_mass", &payload, NULL), 0);
+    rb[4] = rb[1];
     dm_synth_opts o = {.kind = DM_DATA_TRACKER, .seed = 2, .na = 1, .nb = 1,
                        .path = "circle:centre=0,0,-0.4;radius=0.03;rate=6.283;duration=0.04"};
     dm_dataset d;
     assert_int_equal(dm_synthesize(&rb[0], &o, &d, NULL), 0);
     assert_int_equal(d.npose, 41);
-    assert_reuse_is_fresh(&d, rb, 2, 1, 1);
+    assert_reuse_is_fresh(&d, rb, 5, 1, 1);
 
     dm_dataset part = d; /* the first 20 times, as a file cut there */
     part.n = 3 * 20;

@@ -58,7 +58,15 @@ struct dm_predictor {
     dm_trajectory tr;
     int tr_npose;
     track tk;
+    /* the last tracker run's modal history (NULL: none kept), for the
+     * robot written as hist_robot with its damping zeroed */
+    dm_integ_history *hist;
+    char *hist_robot;
 };
+
+/* Most bytes a kept modal history may hold (dm_integ_history_bytes: about
+ * 2 KB per step at 10 modes, so 35 s of record at 1 ms steps). */
+#define HISTORY_MAX_BYTES ((size_t)64 << 20)
 
 static int max_mode(const dm_dataset *d)
 {
@@ -104,6 +112,8 @@ void dm_predictor_free(dm_predictor *p)
     if (!p)
         return;
     dm_analysis_free(p->an);
+    dm_integ_history_free(p->hist);
+    free(p->hist_robot);
     if (p->tr_npose)
         dm_traj_free(&p->tr);
     free(p->t);
@@ -207,6 +217,59 @@ static int keep(void *user, const dm_integ_sample *s)
     return 0;
 }
 
+static void forget_history(dm_predictor *p)
+{
+    dm_integ_history_free(p->hist);
+    free(p->hist_robot);
+    p->hist = NULL;
+    p->hist_robot = NULL;
+}
+
+/* The robot as text, damping zeroed: two robots that write alike build
+ * the same models (NULL: out of memory). */
+static char *undamped_text(const dm_robot *rb)
+{
+    dm_robot u = *rb;
+    u.rayleigh_alpha = u.rayleigh_beta = 0;
+    char *text = NULL;
+    size_t len = 0;
+    FILE *mem = open_memstream(&text, &len);
+    if (!mem)
+        return NULL;
+    int rc = dm_robot_write(&u, mem);
+    if (fclose(mem) || rc) {
+        free(text);
+        return NULL;
+    }
+    return text;
+}
+
+/* The modal history of the current robot along the current path: kept
+ * from the last run when the robots differ at most in damping (a fit of
+ * the damping then replays it), made afresh otherwise; none when it would
+ * be too large (the run is then streamed, with the same numbers). */
+static int history_for(dm_predictor *p, const dm_integ_opts *o, dm_error *err)
+{
+    char *text = undamped_text(&p->robot);
+    if (!text)
+        return dm_fail(err, DM_ENOMEM, "out of memory");
+    if (p->hist && !strcmp(text, p->hist_robot)) {
+        free(text);
+        return DM_OK;
+    }
+    forget_history(p);
+    if (dm_integ_history_bytes(&p->tr, o, o->k) > HISTORY_MAX_BYTES) {
+        free(text);
+        return DM_OK;
+    }
+    int rc = dm_integ_history_make(&p->robot, &p->tr, o, &p->hist, err);
+    if (rc)
+        free(text);
+    else
+        p->hist_robot = text;
+    return rc;
+}
+
 /* Tracker: the elastic error (static + dynamic) along the commanded path,
  * 10 modes with the quasi-static correction, linear between steps. The
  * path is the spline through the samples predicted, made once per window;
@@ -218,6 +281,7 @@ static int predict_tracker(dm_predictor *p, double *pred, dm_error *err)
     assert(d->n == 3 * m && d->n <= p->nall); /* three samples a time */
     const double *t = p->t;
     if (p->tr_npose != m) {
+        forget_history(p);
         if (p->tr_npose)
             dm_traj_free(&p->tr);
         p->tr_npose = 0;
@@ -237,7 +301,11 @@ static int predict_tracker(dm_predictor *p, double *pred, dm_error *err)
     o.nb = p->nb;
     o.dt_s = fmin(1e-3, t[m - 1] / (m - 1));
     o.force = 1; /* the work of the whole command is judged before it (dm_check_size) */
-    rc = dm_integrate_trajectory(&p->robot, &p->tr, &o, keep, tk, &sum, err);
+    rc = history_for(p, &o, err);
+    if (!rc)
+        rc = p->hist ? dm_integ_history_replay(p->hist, p->robot.rayleigh_alpha,
+                                               p->robot.rayleigh_beta, keep, tk, &sum, err)
+                     : dm_integrate_trajectory(&p->robot, &p->tr, &o, keep, tk, &sum, err);
     assert(rc || tk->n >= 2); /* the start and every step's end */
     for (int i = 0, j = 0; i < m && !rc; i++) {
         while (j + 2 < tk->n && tk->t[j + 1] < t[i])

@@ -1,5 +1,7 @@
 /* Integration along a trajectory: frozen configuration per step, state
  * carried by projection, optional all-modes reference (docs/model.md §4). */
+#include <assert.h>
+#include <cblas.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,6 +47,9 @@ typedef struct {
     int have_frozen;
     double coupling_log10; /* of the frozen K */
     const dm_modes *mo, *mo_all;
+    /* closed-form runs in modal coordinates (see "histories"): the last
+     * step's modes, and Phi_prev and M Phi_prev interleaved (dm_arrow.h) */
+    double *phi_prev, *Xi, *Yi;
 } run_ws;
 
 static void free_ws(run_ws *w)
@@ -63,9 +68,11 @@ static void free_ws(run_ws *w)
     free(w->xf);
     free(w->xfd);
     free(w->xfout);
-    free(w->F0);
-    free(w->F1);
+    free(w->F0); /* and F1 */
     free(w->xout);
+    free(w->phi_prev);
+    free(w->Xi);
+    free(w->Yi);
 }
 
 static int alloc_ws(run_ws *w, dm_error *err)
@@ -106,8 +113,8 @@ static int alloc_ws(run_ws *w, dm_error *err)
     w->xf = calloc(1, sz);
     w->xfd = calloc(1, sz);
     w->xfout = malloc(sz);
-    w->F0 = malloc(sz);
-    w->F1 = malloc(sz);
+    w->F0 = malloc(2 * sz); /* F1 = F0 + n: loads_at fills both in one pass */
+    w->F1 = w->F0 ? w->F0 + n : NULL;
     w->xout = malloc(sz);
     if (!w->x || !w->xd || !w->xr || !w->xrd || !w->xf || !w->xfd || !w->xfout || !w->F0 ||
         !w->F1 || !w->xout)
@@ -125,40 +132,48 @@ static int pose_at(const run_ws *w, const double P[3], const double a[3], dm_pos
     return dm_kin_pose_loaded(w->rb, P, W, pose, err);
 }
 
-/* Load at time t on the model frozen at the current step's pose: gravity +
- * inertia of the nominal motion at t (rates from the kinematics at P(t)). */
-static int load_at(const run_ws *w, double t, double *F, dm_error *err)
+/* The nominal motion at time t, on the model frozen at the current
+ * step's pose (rates from the kinematics at P(t)). */
+static int motion_at(const run_ws *w, double t, dm_rigid_motion *mo, dm_error *err)
 {
     double P[3], v[3], a[3];
     dm_pose pose;
-    dm_rigid_motion mo;
     dm_traj_eval(w->tr, t, P, v, a);
     int rc = pose_at(w, P, a, &pose, err);
     if (!rc)
-        rc = dm_kin_rates(w->rb, &pose, v, mo.alpha_dot, err);
+        rc = dm_kin_rates(w->rb, &pose, v, mo->alpha_dot, err);
     if (!rc)
-        rc = dm_kin_accelerations(w->rb, &pose, v, a, mo.alpha_ddot, err);
+        rc = dm_kin_accelerations(w->rb, &pose, v, a, mo->alpha_ddot, err);
+    dm_copy3(a, mo->aP);
+    return rc;
+}
+
+/* Loads at the step's ends t0 and t1 into F0 and F1 (= F0 + n): gravity
+ * + inertia of the nominal motion, both in one pass over the elements. */
+static int loads_at(const run_ws *w, double t0, double t1, dm_error *err)
+{
+    dm_rigid_motion mo[2];
+    int rc = motion_at(w, t0, &mo[0], err);
+    if (!rc)
+        rc = motion_at(w, t1, &mo[1], err);
     if (rc)
         return rc;
-    dm_copy3(a, mo.aP);
-    memcpy(F, w->md->F_gravity, sizeof(double) * w->n);
-    dm_loads_add_inertial(w->md, &mo, F);
     const double no_torque[3] = {0, 0, 0};
-    dm_loads_add_platform_wrench(w->md, w->o.force_n, no_torque, F);
+    for (int l = 0; l < 2; l++)
+        memcpy(w->F0 + (size_t)l * w->n, w->md->F_gravity, sizeof(double) * w->n);
+    dm_loads_add_inertial_many(w->md, mo, 2, w->F0);
+    dm_loads_add_platform_wrench(w->md, w->o.force_n, no_torque, w->F0);
+    dm_loads_add_platform_wrench(w->md, w->o.force_n, no_torque, w->F1);
     return DM_OK;
 }
 
-/* Output displacement: the state x, plus with quasi_static the static part
- * of the dropped modes, K^-1 F - sum_j phi_j phi_j' F / omega_j^2, with the
- * factor of K made with the step's model, into out. */
-static int output_state(run_ws *w, const dm_modes *mo, const double *F, const double *x,
-                        double *xout, dm_error *err)
+/* The static part of the dropped modes under F,
+ * K^-1 F - sum_j phi_j phi_j' F / omega_j^2, with the factor of K made
+ * with the step's model, into s (which must not be F). */
+static int static_remainder(run_ws *w, const dm_modes *mo, const double *F, double *s,
+                            dm_error *err)
 {
     int n = w->n;
-    memcpy(xout, x, sizeof(double) * n);
-    if (!w->o.quasi_static || w->k == n)
-        return DM_OK;
-    double *s = w->F0 == F ? w->F1 : w->F0; /* scratch that is not F */
     memcpy(s, F, sizeof(double) * n);
     int rc = dm_static_solve(w->statics, s, 1, err); /* factored with the step's model */
     if (rc)
@@ -171,32 +186,68 @@ static int output_state(run_ws *w, const dm_modes *mo, const double *F, const do
         for (int i = 0; i < n; i++)
             s[i] -= ph[i] * f / w2;
     }
+    return DM_OK;
+}
+
+/* Output displacement: the state x, plus with quasi_static the static part
+ * of the dropped modes, into xout. */
+static int output_state(run_ws *w, const dm_modes *mo, const double *F, const double *x,
+                        double *xout, dm_error *err)
+{
+    int n = w->n;
+    memcpy(xout, x, sizeof(double) * n);
+    if (!w->o.quasi_static || w->k == n)
+        return DM_OK;
+    double *s = w->F0 == F ? w->F1 : w->F0; /* scratch that is not F */
+    int rc = static_remainder(w, mo, F, s, err);
+    if (rc)
+        return rc;
     for (int i = 0; i < n; i++)
         xout[i] += s[i];
     return DM_OK;
 }
 
-static void fill_sample(const run_ws *w, double t, const double *x, const dm_modes *mo,
-                        dm_integ_sample *s)
+/* A sample at t but its errors; offset: where geometry errors put the real
+ * platform at t (NULL: not wanted), *has_offset whether it was found. */
+static void sample_base(const run_ws *w, double t, const dm_modes *mo, dm_integ_sample *s,
+                        double offset[3], int *has_offset)
 {
-    double v[3], a[3], exr[3];
-    const double *u = x + w->md->platform_dof;
+    double v[3], a[3];
+    memset(s, 0, sizeof *s);
     s->t_s = t;
     dm_traj_eval(w->tr, t, s->P_m, v, a);
-    memcpy(s->error, u, 6 * sizeof(double));
     dm_pose real;
-    if (dm_effects_geometry_errors(&w->rb->effects) && !pose_at(w, s->P_m, a, &real, NULL))
-        for (int k = 0; k < 3; k++) /* geometry errors: where the real platform is at t */
-            s->error[k] += real.offset[k];
-    dm_cross3(u + 3, w->o.tool_m, exr);
+    *has_offset = dm_effects_geometry_errors(&w->rb->effects) && !pose_at(w, s->P_m, a, &real, NULL);
     for (int k = 0; k < 3; k++)
-        s->tool_error_m[k] = u[k] + exr[k];
+        offset[k] = *has_offset ? real.offset[k] : 0.0;
     s->nfreq = w->o.nfreq < mo->k ? w->o.nfreq : mo->k;
     if (s->nfreq > DM_INTEG_MAXFREQ)
         s->nfreq = DM_INTEG_MAXFREQ;
     for (int j = 0; j < s->nfreq; j++)
         s->freq_hz[j] = mo->freq_hz[j];
     s->coupling_index_log10 = w->coupling_log10;
+}
+
+/* The sample's errors from the platform displacement u (6). */
+static void sample_errors(dm_integ_sample *s, const double u[6], const double offset[3],
+                          int has_offset, const double tool[3])
+{
+    double exr[3];
+    memcpy(s->error, u, 6 * sizeof(double));
+    for (int k = 0; has_offset && k < 3; k++) /* geometry errors: where the real platform is */
+        s->error[k] += offset[k];
+    dm_cross3(u + 3, tool, exr);
+    for (int k = 0; k < 3; k++)
+        s->tool_error_m[k] = u[k] + exr[k];
+}
+
+static void fill_sample(const run_ws *w, double t, const double *x, const dm_modes *mo,
+                        dm_integ_sample *s)
+{
+    double offset[3];
+    int has_offset;
+    sample_base(w, t, mo, s, offset, &has_offset);
+    sample_errors(s, x + w->md->platform_dof, offset, has_offset, w->o.tool_m);
 }
 
 static double platform_diff(const run_ws *w, const double *a, const double *b)
@@ -225,15 +276,13 @@ typedef struct {
     double axes[DM_INTEG_MAXAXES][3];
 } run_stats;
 
-static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, run_stats *rs,
-                dm_error *err)
+/* The model, factor and modes at the pose commanded at t0 (a step at the
+ * very same pose as the last one keeps them). */
+static int freeze(run_ws *w, double t0, dm_error *err)
 {
-    const dm_trajectory *tr = w->tr;
-    double t0 = j * w->o.dt_s, t1 = j + 1 == nsteps ? tr->duration_s : (j + 1) * w->o.dt_s;
-    double h = t1 - t0, P[3], v[3], a[3];
+    double P[3], v[3], a[3];
     dm_pose pose;
-    dm_integ_sample s;
-    dm_traj_eval(tr, t0, P, v, a);
+    dm_traj_eval(w->tr, t0, P, v, a);
     memset(&pose, 0, sizeof pose); /* compared bytewise below */
     int rc = pose_at(w, P, a, &pose, err);
     /* the same pose bit for bit gives the same model, modes and factor */
@@ -251,6 +300,41 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
         w->frozen = pose;
         w->have_frozen = !rc;
     }
+    return rc;
+}
+
+/* A step's sample into the run's integrals and maxima. */
+static void account(const dm_integ_opts *o, run_stats *rs, long j, double h, double coupling,
+                    const dm_integ_sample *s)
+{
+    double e = dm_norm3(s->error);
+    rs->mean += h * e;
+    rs->coupling_mean += h * coupling;
+    for (int a = 0; a < o->naxes && a < DM_INTEG_MAXAXES; a++) {
+        double b = o->axes_rotation_rad[a], c = cos(b), sn = sin(b);
+        rs->axes[a][0] += h * fabs(c * s->error[0] + sn * s->error[1]);
+        rs->axes[a][1] += h * fabs(-sn * s->error[0] + c * s->error[1]);
+        rs->axes[a][2] += h * fabs(s->error[2]);
+    }
+    rs->coupling_min = j == 0 ? coupling : fmin(rs->coupling_min, coupling);
+    rs->coupling_max = j == 0 ? coupling : fmax(rs->coupling_max, coupling);
+    rs->peak = fmax(rs->peak, e);
+}
+
+static void step_times(const run_ws *w, long j, long nsteps, double *t0, double *t1)
+{
+    *t0 = j * w->o.dt_s;
+    *t1 = j + 1 == nsteps ? w->tr->duration_s : (j + 1) * w->o.dt_s;
+}
+
+static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, run_stats *rs,
+                dm_error *err)
+{
+    double t0, t1;
+    step_times(w, j, nsteps, &t0, &t1);
+    double h = t1 - t0;
+    dm_integ_sample s;
+    int rc = freeze(w, t0, err);
     const dm_modes *mo = w->mo;
     if (!rc && j == 0) {
         rc = initial_state(w, err);
@@ -260,8 +344,7 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
             rs->peak = dm_norm3(w->x + w->md->platform_dof);
         }
     }
-    if (!rc) rc = load_at(w, t0, w->F0, err);
-    if (!rc) rc = load_at(w, t1, w->F1, err);
+    if (!rc) rc = loads_at(w, t0, t1, err);
     if (!rc && w->ref_stepper)
         rc = dm_stepper_advance(w->ref_stepper, w->md, w->mo_all, w->n, w->F0, w->F1, h, w->xr,
                                 w->xrd, err);
@@ -275,18 +358,7 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     if (rc)
         return rc;
     fill_sample(w, t1, w->xout, mo, &s);
-    double e = dm_norm3(s.error);
-    rs->mean += h * e;
-    rs->coupling_mean += h * w->coupling_log10;
-    for (int a = 0; a < w->o.naxes && a < DM_INTEG_MAXAXES; a++) {
-        double b = w->o.axes_rotation_rad[a], c = cos(b), sn = sin(b);
-        rs->axes[a][0] += h * fabs(c * s.error[0] + sn * s.error[1]);
-        rs->axes[a][1] += h * fabs(-sn * s.error[0] + c * s.error[1]);
-        rs->axes[a][2] += h * fabs(s.error[2]);
-    }
-    rs->coupling_min = j == 0 ? w->coupling_log10 : fmin(rs->coupling_min, w->coupling_log10);
-    rs->coupling_max = j == 0 ? w->coupling_log10 : fmax(rs->coupling_max, w->coupling_log10);
-    rs->peak = fmax(rs->peak, e);
+    account(&w->o, rs, j, h, w->coupling_log10, &s);
     if (w->ref_stepper) {
         double er = dm_norm3(w->xr + w->md->platform_dof);
         double d = platform_diff(w, w->fig_stepper ? w->xfout : w->xout, w->xr);
@@ -297,6 +369,269 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     return sink && sink(user, &s) ? DM_EINTERRUPT : DM_OK;
 }
 
+/* ---- histories: closed-form runs in modal coordinates ----------------------
+ *
+ * Without the all-modes reference, a closed-form run carries only the k
+ * modal coordinates from step to step: after step j-1 the state is
+ * x = Phi_{j-1} q, so step j's projection Phi_j' M_j x is T_j q with
+ * T_j = Phi_j' M_j Phi_{j-1} (k x k; the initial equilibrium x0, which
+ * is not in any modal span, is projected once). Each step then needs from
+ * its frozen model only the frequencies, T_j, the modal loads at its ends,
+ * the platform rows of Phi_j and the static part of the dropped modes on
+ * the platform: none of it depends on the damping. A history keeps these
+ * records, and replays the run for another Rayleigh damping at O(k^2)
+ * per step (a fit of the damping evaluates many) instead of a model, a
+ * factorization and an eigen solve per step. A streamed run makes one
+ * record at a time and applies it by the same code as a replay: both give
+ * the same numbers, bit for bit. */
+
+struct dm_integ_history {
+    int n, k, geometry;
+    dm_integ_opts o;
+    double duration_s;
+    long nsteps, nrec;     /* steps of the run; records held (1: streamed) */
+    size_t len;            /* doubles per record */
+    dm_integ_sample first; /* t = 0 */
+    double peak0;          /* |platform translation| at t = 0 */
+    double *q0;            /* k: the initial state on step 0's modes */
+    double *rec;           /* nrec x len */
+    dm_integ_sample *base; /* nrec: each step's end sample but its errors */
+    double *q, *qd, *tmp;  /* k each: a replay's state */
+};
+
+/* A record: h, omega (k), f0 (k), f1 (k), T (k x k), platform rows of Phi
+ * (6 x k, column-major), static remainder on the platform (6), geometry
+ * offset (3) and whether it was found (1). */
+typedef struct {
+    double h;
+    double *omega, *f0, *f1, *T, *phiP, *sP, *offset;
+    int has_offset;
+} step_record;
+
+static size_t record_len(int k) { return 1 + 3 * (size_t)k + (size_t)k * k + 6 * (size_t)k + 10; }
+
+static void record_view(const dm_integ_history *h, long slot, step_record *r)
+{
+    int k = h->k;
+    double *p = h->rec + (size_t)slot * h->len;
+    r->h = p[0];
+    r->omega = p + 1, r->f0 = r->omega + k, r->f1 = r->f0 + k, r->T = r->f1 + k;
+    r->phiP = r->T + (size_t)k * k, r->sP = r->phiP + 6 * k, r->offset = r->sP + 6;
+    r->has_offset = r->offset[3] != 0;
+}
+
+static void history_free(dm_integ_history *h)
+{
+    if (!h)
+        return;
+    free(h->q0), free(h->rec), free(h->base), free(h->q), free(h->qd), free(h->tmp);
+    free(h);
+}
+
+void dm_integ_history_free(dm_integ_history *h) { history_free(h); }
+
+static dm_integ_history *history_alloc(const run_ws *w, long nsteps, long nrec, dm_error *err)
+{
+    dm_integ_history *h = calloc(1, sizeof *h);
+    if (h) {
+        h->n = w->n, h->k = w->k, h->o = w->o, h->nsteps = nsteps, h->nrec = nrec;
+        h->geometry = dm_effects_geometry_errors(&w->rb->effects);
+        h->duration_s = w->tr->duration_s;
+        h->len = record_len(w->k);
+        h->q0 = malloc(sizeof(double) * w->k);
+        h->q = malloc(sizeof(double) * w->k);
+        h->qd = malloc(sizeof(double) * w->k);
+        h->tmp = malloc(sizeof(double) * w->k);
+        h->rec = malloc(sizeof(double) * h->len * nrec);
+        h->base = malloc(sizeof *h->base * nrec);
+    }
+    if (!h || !h->q0 || !h->q || !h->qd || !h->tmp || !h->rec || !h->base) {
+        history_free(h);
+        dm_fail(err, DM_ENOMEM, "out of memory for the trajectory's modal history");
+        return NULL;
+    }
+    return h;
+}
+
+/* Workspace of the records: the last modes, and M times them. */
+static int alloc_record_ws(run_ws *w, dm_error *err)
+{
+    size_t sz = sizeof(double) * w->n * w->k;
+    w->phi_prev = malloc(sz), w->Xi = malloc(sz), w->Yi = malloc(sz);
+    if (!w->phi_prev || !w->Xi || !w->Yi)
+        return dm_fail(err, DM_ENOMEM, "out of memory for the trajectory run");
+    return DM_OK;
+}
+
+/* T = Phi' M Phi_prev (k x k, column-major). */
+static void transfer(run_ws *w, const double *Phi, double *T)
+{
+    int n = w->n, k = w->k;
+    for (int i = 0; i < n; i++) /* Phi_prev interleaved: row i holds its k values */
+        for (int c = 0; c < k; c++)
+            w->Xi[(size_t)i * k + c] = w->phi_prev[(size_t)c * n + i];
+    dm_model_mult_M(w->md, w->Xi, k, w->Yi);
+    /* Yi read column-major is (M Phi_prev)', k x n */
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasTrans, k, k, n, 1.0, Phi, n, w->Yi, k, 0.0, T, k);
+}
+
+/* Step j's record into slot `slot` of h (step 0 also sets the start). */
+static int record_step(run_ws *w, dm_integ_history *h, long j, long slot, dm_error *err)
+{
+    int n = w->n, k = w->k, pd;
+    double t0, t1;
+    step_times(w, j, h->nsteps, &t0, &t1);
+    int rc = freeze(w, t0, err);
+    if (rc)
+        return rc;
+    const dm_modes *mo = w->mo;
+    const double *Phi = mo->phi;
+    pd = w->md->platform_dof;
+    step_record r;
+    record_view(h, slot, &r);
+    h->rec[(size_t)slot * h->len] = t1 - t0;
+    if (j == 0) { /* the start: equilibrium (or rest), projected as a stepper does */
+        if ((rc = initial_state(w, err)))
+            return rc;
+        fill_sample(w, 0.0, w->x, mo, &h->first);
+        h->peak0 = dm_norm3(w->x + pd);
+        dm_model_mult_M(w->md, w->x, 1, w->xd);
+        cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, w->xd, 1, 0.0, h->q0, 1);
+        memset(r.T, 0, sizeof(double) * k * k);
+    } else
+        transfer(w, Phi, r.T);
+    if ((rc = loads_at(w, t0, t1, err)))
+        return rc;
+    cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, w->F0, 1, 0.0, r.f0, 1);
+    cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, w->F1, 1, 0.0, r.f1, 1);
+    memcpy(r.omega, mo->omega_rad_s, sizeof(double) * k);
+    for (int c = 0; c < k; c++)
+        memcpy(r.phiP + 6 * c, Phi + (size_t)c * n + pd, 6 * sizeof(double));
+    memset(r.sP, 0, 6 * sizeof(double));
+    if (w->o.quasi_static && k < n) {
+        if ((rc = static_remainder(w, mo, w->F1, w->F0, err)))
+            return rc;
+        memcpy(r.sP, w->F0 + pd, 6 * sizeof(double));
+    }
+    int has_offset;
+    sample_base(w, t1, mo, &h->base[slot], r.offset, &has_offset);
+    r.offset[3] = has_offset;
+    memcpy(w->phi_prev, Phi, sizeof(double) * n * k);
+    return DM_OK;
+}
+
+/* Apply step j's record (slot) to the replay's state, with damping
+ * (alpha, beta): the sample at the step's end. */
+static void replay_step(dm_integ_history *h, long j, long slot, double alpha, double beta,
+                        dm_integ_sample *s)
+{
+    int k = h->k;
+    step_record r;
+    record_view(h, slot, &r);
+    if (j == 0) {
+        memcpy(h->q, h->q0, sizeof(double) * k);
+        memset(h->qd, 0, sizeof(double) * k); /* from rest or equilibrium */
+    } else {
+        cblas_dgemv(CblasColMajor, CblasNoTrans, k, k, 1.0, r.T, k, h->q, 1, 0.0, h->tmp, 1);
+        memcpy(h->q, h->tmp, sizeof(double) * k);
+        cblas_dgemv(CblasColMajor, CblasNoTrans, k, k, 1.0, r.T, k, h->qd, 1, 0.0, h->tmp, 1);
+        memcpy(h->qd, h->tmp, sizeof(double) * k);
+    }
+    for (int m = 0; m < k; m++) {
+        double om = r.omega[m], zeta = alpha / (2 * om) + beta * om / 2;
+        dm_sdof_step(om, zeta, r.f0[m], r.f1[m], r.h, &h->q[m], &h->qd[m]);
+    }
+    double u[6];
+    for (int i = 0; i < 6; i++) {
+        double v = r.sP[i];
+        for (int m = 0; m < k; m++)
+            v += r.phiP[6 * m + i] * h->q[m];
+        u[i] = v;
+    }
+    *s = h->base[slot];
+    sample_errors(s, u, r.offset, r.has_offset, h->o.tool_m);
+}
+
+static void summarise(const dm_integ_history *h, const run_stats *rs, double alpha, double beta,
+                      dm_integ_summary *sum)
+{
+    memset(sum, 0, sizeof *sum);
+    sum->n = h->n;
+    sum->k = h->k;
+    sum->steps = h->nsteps;
+    sum->duration_s = h->duration_s;
+    sum->mean_error_m = rs->mean / h->duration_s;
+    sum->peak_error_m = rs->peak;
+    sum->truncation_error = NAN;
+    sum->reference_mean_error_m = NAN;
+    sum->aliasing_risk = alpha == 0 && beta == 0 && h->o.dt_s > 1.25e-4 && h->k > 20;
+    sum->coupling_mean_log10 = rs->coupling_mean / h->duration_s;
+    sum->coupling_min_log10 = rs->coupling_min;
+    sum->coupling_max_log10 = rs->coupling_max;
+    for (int a = 0; a < h->o.naxes && a < DM_INTEG_MAXAXES; a++)
+        for (int c = 0; c < 3; c++)
+            sum->mean_axes_m[a][c] = rs->axes[a][c] / h->duration_s;
+}
+
+/* Emit step j's sample (slot) after applying it; non-zero: the sink stopped the run. */
+static int replay_one(dm_integ_history *h, long j, long slot, double alpha, double beta,
+                      run_stats *rs, dm_integ_sink sink, void *user)
+{
+    dm_integ_sample s;
+    if (j == 0) {
+        rs->peak = h->peak0;
+        if (sink && sink(user, &h->first))
+            return DM_EINTERRUPT;
+    }
+    replay_step(h, j, slot, alpha, beta, &s);
+    step_record r;
+    record_view(h, slot, &r);
+    account(&h->o, rs, j, r.h, s.coupling_index_log10, &s);
+    return sink && sink(user, &s) ? DM_EINTERRUPT : DM_OK;
+}
+
+int dm_integ_history_replay(dm_integ_history *h, double alpha, double beta, dm_integ_sink sink,
+                            void *user, dm_integ_summary *sum, dm_error *err)
+{
+    if (h->nrec != h->nsteps)
+        return dm_fail(err, DM_EINVAL, "a streamed run's history cannot be replayed");
+    run_stats rs = {0};
+    int rc = DM_OK;
+    for (long j = 0; !rc && j < h->nsteps; j++)
+        rc = replay_one(h, j, j, alpha, beta, &rs, sink, user);
+    if (!rc)
+        summarise(h, &rs, alpha, beta, sum);
+    return rc;
+}
+
+/* A closed-form run without the reference: its records made (all kept
+ * into *out, or one at a time and applied as they come when out is NULL). */
+static int run_modal(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
+                     long nsteps, dm_integ_sink sink, void *user, dm_integ_summary *sum,
+                     dm_integ_history **out, dm_error *err)
+{
+    run_ws w = {.rb = rb, .tr = tr, .o = *o};
+    dm_integ_history *h = NULL;
+    run_stats rs = {0};
+    int rc = alloc_ws(&w, err);
+    if (!rc) rc = alloc_record_ws(&w, err);
+    if (!rc && !(h = history_alloc(&w, nsteps, out ? nsteps : 1, err)))
+        rc = err ? err->code : DM_ENOMEM;
+    for (long j = 0; !rc && j < nsteps; j++) {
+        rc = record_step(&w, h, j, out ? j : 0, err);
+        if (!rc && !out)
+            rc = replay_one(h, j, 0, rb->rayleigh_alpha, rb->rayleigh_beta, &rs, sink, user);
+    }
+    if (!rc && !out)
+        summarise(h, &rs, rb->rayleigh_alpha, rb->rayleigh_beta, sum);
+    free_ws(&w);
+    if (!rc && out)
+        *out = h;
+    else
+        history_free(h);
+    return rc;
+}
+
 double dm_integ_estimate_s(long steps, int n, int k, int reference)
 {
     double s = n / 210.0, per_step = 2e-3 * s * s * fmax(1.0, k / 10.0);
@@ -305,8 +640,9 @@ double dm_integ_estimate_s(long steps, int n, int k, int reference)
     return steps * per_step;
 }
 
-int dm_integrate_trajectory(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
-                            dm_integ_sink sink, void *user, dm_integ_summary *sum, dm_error *err)
+/* The run's step count, after refusing what it cannot or should not do. */
+static int check_run(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
+                     long *nsteps, dm_error *err)
 {
     if (!(o->dt_s > 0) || !(tr->duration_s > 0))
         return dm_fail(err, DM_EINVAL, "time step and duration must be > 0");
@@ -321,12 +657,38 @@ int dm_integrate_trajectory(const dm_robot *rb, const dm_trajectory *tr, const d
                        "path or no all-modes reference would do, or force it)",
                        tr->name, tr->duration_s, o->dt_s, steps_d, est / 3600, n,
                        DM_INTEG_MAX_SECONDS / 3600);
-    int rc = dm_traj_check_reachable(tr, rb, o->dt_s, err);
+    *nsteps = (long)ceil(tr->duration_s / o->dt_s - 1e-9);
+    return dm_traj_check_reachable(tr, rb, o->dt_s, err);
+}
+
+int dm_integ_history_make(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
+                          dm_integ_history **out, dm_error *err)
+{
+    long nsteps;
+    *out = NULL;
+    if (o->method != DM_ODE_CLOSED_FORM || o->reference)
+        return dm_fail(err, DM_EINVAL, "a modal history needs the closed form without reference");
+    int rc = check_run(rb, tr, o, &nsteps, err);
+    return rc ? rc : run_modal(rb, tr, o, nsteps, NULL, NULL, NULL, out, err);
+}
+
+size_t dm_integ_history_bytes(const dm_trajectory *tr, const dm_integ_opts *o, int k)
+{
+    double steps = ceil(tr->duration_s / o->dt_s - 1e-9);
+    return (size_t)fmin(steps * (sizeof(double) * record_len(k) + sizeof(dm_integ_sample)), 1e18);
+}
+
+int dm_integrate_trajectory(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
+                            dm_integ_sink sink, void *user, dm_integ_summary *sum, dm_error *err)
+{
+    long nsteps;
+    int rc = check_run(rb, tr, o, &nsteps, err);
     if (rc)
         return rc;
+    if (o->method == DM_ODE_CLOSED_FORM && !o->reference)
+        return run_modal(rb, tr, o, nsteps, sink, user, sum, NULL, err);
     run_ws w = {.rb = rb, .tr = tr, .o = *o};
     run_stats rs = {0};
-    long nsteps = (long)ceil(tr->duration_s / o->dt_s - 1e-9);
     rc = alloc_ws(&w, err);
     for (long j = 0; !rc && j < nsteps; j++)
         rc = step(&w, j, nsteps, sink, user, &rs, err);
