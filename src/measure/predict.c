@@ -58,10 +58,10 @@ struct dm_predictor {
     dm_trajectory tr;
     int tr_npose;
     track tk;
-    /* the last tracker run's modal history (NULL: none kept), for the
-     * robot written as hist_robot with its damping zeroed */
+    /* the last tracker run's modal history (NULL: none kept), for
+     * hist_robot: that run's robot with its damping zeroed */
     dm_integ_history *hist;
-    char *hist_robot;
+    dm_robot hist_robot;
 };
 
 /* Most bytes a kept modal history may hold (dm_integ_history_bytes: about
@@ -113,7 +113,6 @@ void dm_predictor_free(dm_predictor *p)
         return;
     dm_analysis_free(p->an);
     dm_integ_history_free(p->hist);
-    free(p->hist_robot);
     if (p->tr_npose)
         dm_traj_free(&p->tr);
     free(p->t);
@@ -220,53 +219,27 @@ static int keep(void *user, const dm_integ_sample *s)
 static void forget_history(dm_predictor *p)
 {
     dm_integ_history_free(p->hist);
-    free(p->hist_robot);
     p->hist = NULL;
-    p->hist_robot = NULL;
-}
-
-/* The robot as text, damping zeroed: two robots that write alike build
- * the same models (NULL: out of memory). */
-static char *undamped_text(const dm_robot *rb)
-{
-    dm_robot u = *rb;
-    u.rayleigh_alpha = u.rayleigh_beta = 0;
-    char *text = NULL;
-    size_t len = 0;
-    FILE *mem = open_memstream(&text, &len);
-    if (!mem)
-        return NULL;
-    int rc = dm_robot_write(&u, mem);
-    if (fclose(mem) || rc) {
-        free(text);
-        return NULL;
-    }
-    return text;
 }
 
 /* The modal history of the current robot along the current path: kept
  * from the last run when the robots differ at most in damping (a fit of
  * the damping then replays it), made afresh otherwise; none when it would
- * be too large (the run is then streamed, with the same numbers). */
+ * be too large (the run is then streamed, with the same numbers). The
+ * robots are compared byte for byte: equal bytes are equal robots (a
+ * difference in padding alone only makes the history again). */
 static int history_for(dm_predictor *p, const dm_integ_opts *o, dm_error *err)
 {
-    char *text = undamped_text(&p->robot);
-    if (!text)
-        return dm_fail(err, DM_ENOMEM, "out of memory");
-    if (p->hist && !strcmp(text, p->hist_robot)) {
-        free(text);
+    dm_robot undamped = p->robot;
+    undamped.rayleigh_alpha = undamped.rayleigh_beta = 0;
+    if (p->hist && !memcmp(&undamped, &p->hist_robot, sizeof undamped))
         return DM_OK;
-    }
     forget_history(p);
-    if (dm_integ_history_bytes(&p->tr, o, o->k) > HISTORY_MAX_BYTES) {
-        free(text);
+    if (dm_integ_history_bytes(&p->tr, o, o->k) > HISTORY_MAX_BYTES)
         return DM_OK;
-    }
     int rc = dm_integ_history_make(&p->robot, &p->tr, o, &p->hist, err);
-    if (rc)
-        free(text);
-    else
-        p->hist_robot = text;
+    if (!rc)
+        p->hist_robot = undamped;
     return rc;
 }
 
