@@ -9,6 +9,7 @@
 #include <lapacke.h>
 #include <math.h>
 #include <omp.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -145,7 +146,97 @@ typedef struct {
     int sigma_known;         /* else w is 1/RMS of the baseline's residuals */
     double train_end_s;      /* tracker: time of the last training sample */
     int *nomem;              /* set when a fit ran out of memory (the result is void) */
+    struct memo *memo;       /* predictions made so far (NULL: none kept) */
 } shared;
+
+/* ---- predictions made once ---------------------------------------------------
+ *
+ * A prediction is a function of the robot and the window alone (every run
+ * starts cold, dm_predictor_run), so a repeat is looked up instead of made
+ * again: every linear candidate's fit starts at the file's robot, and each
+ * fit ends by predicting its best point, which its last step evaluated
+ * (the docs' 0.1 s tracker case repeats 150 of 1 009). Robots are found by
+ * their bytes: equal bytes are equal robots (padding that differs only
+ * costs a miss). Shared by the fits' threads; what is found is what would
+ * have been computed, bit for bit, so the result does not depend on which
+ * thread made it first. */
+
+typedef struct {
+    uint64_t hash;
+    int n;          /* samples predicted (the window) */
+    dm_robot robot;
+    double *pred;   /* n */
+} memo_entry;
+
+typedef struct memo {
+    memo_entry *e;
+    int count, cap;
+    size_t bytes;
+} memo;
+
+/* Most bytes the predictions kept may take. */
+#define MEMO_MAX_BYTES ((size_t)64 << 20)
+
+static uint64_t memo_hash(const dm_robot *rb, int n)
+{
+    const unsigned char *b = (const unsigned char *)rb;
+    uint64_t h = 1469598103934665603u ^ (uint64_t)n; /* FNV-1a */
+    for (size_t i = 0; i < sizeof *rb; i++)
+        h = (h ^ b[i]) * 1099511628211u;
+    return h;
+}
+
+static int memo_get(memo *m, const dm_robot *rb, int n, double *pred)
+{
+    if (!m)
+        return 0;
+    uint64_t h = memo_hash(rb, n);
+    int found = 0;
+#pragma omp critical(dm_diag_memo)
+    for (int i = 0; i < m->count && !found; i++) {
+        const memo_entry *e = &m->e[i];
+        if (e->hash == h && e->n == n && !memcmp(&e->robot, rb, sizeof *rb)) {
+            memcpy(pred, e->pred, sizeof(double) * n);
+            found = 1;
+        }
+    }
+    return found;
+}
+
+/* Keep a prediction (silently not, beyond MEMO_MAX_BYTES or memory). */
+static void memo_put(memo *m, const dm_robot *rb, int n, const double *pred)
+{
+    if (!m)
+        return;
+    uint64_t h = memo_hash(rb, n);
+#pragma omp critical(dm_diag_memo)
+    {
+        size_t more = sizeof(memo_entry) + sizeof(double) * n;
+        if (m->count == m->cap && m->bytes + more <= MEMO_MAX_BYTES) {
+            int cap = m->cap ? 2 * m->cap : 64;
+            memo_entry *e = realloc(m->e, sizeof *e * cap);
+            if (e)
+                m->e = e, m->cap = cap;
+        }
+        double *copy = m->count < m->cap && m->bytes + more <= MEMO_MAX_BYTES
+                           ? malloc(sizeof(double) * n)
+                           : NULL;
+        if (copy) {
+            memo_entry *e = &m->e[m->count++];
+            memcpy(copy, pred, sizeof(double) * n);
+            memcpy(&e->robot, rb, sizeof *rb); /* padding too: compared by bytes */
+            e->hash = h, e->n = n, e->pred = copy;
+            m->bytes += more;
+        }
+    }
+}
+
+static void memo_free(memo *m)
+{
+    for (int i = 0; i < m->count; i++)
+        free(m->e[i].pred);
+    free(m->e);
+}
 
 /* A fit that fails for want of memory must not pass for one that does
  * not fit: the diagnosis is then an out-of-memory error. */
@@ -182,9 +273,11 @@ static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_error *err
     int rc = DM_OK;
     for (int i = 0; i < p->ncand && !rc; i++)
         rc = dm_effect_apply(&rb, p->cand[i]->name, value[i], err);
-    if (!rc) {
+    if (!rc && !memo_get(p->s->memo, &rb, p->view.n, p->pred)) {
         dm_predictor_window(p->predictor, p->view.n);
         rc = dm_predictor_run(p->predictor, &rb, p->pred, err);
+        if (!rc)
+            memo_put(p->s->memo, &rb, p->view.n, p->pred);
     }
     return rc;
 }
@@ -1205,7 +1298,8 @@ static int diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_o
         return dm_fail(err, DM_ENOMEM, "out of memory");
     }
     int nomem = 0;
-    shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w, .nomem = &nomem};
+    memo made = {0};
+    shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w, .nomem = &nomem, .memo = &made};
     split_samples(d, held);
     for (int i = 0; i < d->n; i++) {
         dg->n_held += held[i];
@@ -1246,6 +1340,7 @@ static int diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_o
             rc = dm_fail(err, DM_ENOMEM, "%s: out of memory while fitting the effects",
                          d->source);
     }
+    memo_free(&made);
     free(held);
     free(pred);
     free(w);
