@@ -11,6 +11,7 @@
 #include "dm_kinematics.h"
 #include "dm_loads.h"
 #include "dm_static.h"
+#include "dm_threads.h"
 #include "dm_vec3.h"
 
 void dm_integ_opts_default(dm_integ_opts *o)
@@ -669,7 +670,12 @@ int dm_integ_history_make(const dm_robot *rb, const dm_trajectory *tr, const dm_
     if (o->method != DM_ODE_CLOSED_FORM || o->reference)
         return dm_fail(err, DM_EINVAL, "a modal history needs the closed form without reference");
     int rc = check_run(rb, tr, o, &nsteps, err);
-    return rc ? rc : run_modal(rb, tr, o, nsteps, NULL, NULL, NULL, out, err);
+    if (rc)
+        return rc;
+    dm_threads_saved saved = dm_threads_serial_blas(); /* see integrate() */
+    rc = run_modal(rb, tr, o, nsteps, NULL, NULL, NULL, out, err);
+    dm_threads_restore(saved);
+    return rc;
 }
 
 size_t dm_integ_history_bytes(const dm_trajectory *tr, const dm_integ_opts *o, int k)
@@ -678,8 +684,23 @@ size_t dm_integ_history_bytes(const dm_trajectory *tr, const dm_integ_opts *o, i
     return (size_t)fmin(steps * (sizeof(double) * record_len(k) + sizeof(dm_integ_sample)), 1e18);
 }
 
+static int integrate(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
+                     dm_integ_sink sink, void *user, dm_integ_summary *sum, dm_error *err);
+
+/* BLAS on one thread for the run (dm_threads.h): its matrices have 48-430
+ * rows, where BLAS threads spin more than they compute (chen2018's
+ * truncation figure at mesh 1,1: 65 s with two, 37 s with one). */
 int dm_integrate_trajectory(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
                             dm_integ_sink sink, void *user, dm_integ_summary *sum, dm_error *err)
+{
+    dm_threads_saved saved = dm_threads_serial_blas();
+    int rc = integrate(rb, tr, o, sink, user, sum, err);
+    dm_threads_restore(saved);
+    return rc;
+}
+
+static int integrate(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
+                     dm_integ_sink sink, void *user, dm_integ_summary *sum, dm_error *err)
 {
     long nsteps;
     int rc = check_run(rb, tr, o, &nsteps, err);
