@@ -553,25 +553,33 @@ static void replay_step(dm_integ_history *h, long j, long slot, double alpha, do
     sample_errors(s, u, r.offset, r.has_offset, h->o.tool_m);
 }
 
-static void summarise(const dm_integ_history *h, const run_stats *rs, double alpha, double beta,
-                      dm_integ_summary *sum)
+/* A run's summary from its integrals and maxima (no reference: the
+ * truncation figures NaN, set by the caller that ran one). */
+static void summarise(const dm_integ_opts *o, int n, int k, long nsteps, double duration_s,
+                      const run_stats *rs, double alpha, double beta, dm_integ_summary *sum)
 {
     memset(sum, 0, sizeof *sum);
-    sum->n = h->n;
-    sum->k = h->k;
-    sum->steps = h->nsteps;
-    sum->duration_s = h->duration_s;
-    sum->mean_error_m = rs->mean / h->duration_s;
+    sum->n = n;
+    sum->k = k;
+    sum->steps = nsteps;
+    sum->duration_s = duration_s;
+    sum->mean_error_m = rs->mean / duration_s;
     sum->peak_error_m = rs->peak;
     sum->truncation_error = NAN;
     sum->reference_mean_error_m = NAN;
-    sum->aliasing_risk = alpha == 0 && beta == 0 && h->o.dt_s > 1.25e-4 && h->k > 20;
-    sum->coupling_mean_log10 = rs->coupling_mean / h->duration_s;
+    sum->aliasing_risk = alpha == 0 && beta == 0 && o->dt_s > 1.25e-4 && k > 20;
+    sum->coupling_mean_log10 = rs->coupling_mean / duration_s;
     sum->coupling_min_log10 = rs->coupling_min;
     sum->coupling_max_log10 = rs->coupling_max;
-    for (int a = 0; a < h->o.naxes && a < DM_INTEG_MAXAXES; a++)
+    for (int a = 0; a < o->naxes && a < DM_INTEG_MAXAXES; a++)
         for (int c = 0; c < 3; c++)
-            sum->mean_axes_m[a][c] = rs->axes[a][c] / h->duration_s;
+            sum->mean_axes_m[a][c] = rs->axes[a][c] / duration_s;
+}
+
+static void summarise_history(const dm_integ_history *h, const run_stats *rs, double alpha,
+                              double beta, dm_integ_summary *sum)
+{
+    summarise(&h->o, h->n, h->k, h->nsteps, h->duration_s, rs, alpha, beta, sum);
 }
 
 /* Emit step j's sample (slot) after applying it; non-zero: the sink stopped the run. */
@@ -601,7 +609,7 @@ int dm_integ_history_replay(dm_integ_history *h, double alpha, double beta, dm_i
     for (long j = 0; !rc && j < h->nsteps; j++)
         rc = replay_one(h, j, j, alpha, beta, &rs, sink, user);
     if (!rc)
-        summarise(h, &rs, alpha, beta, sum);
+        summarise_history(h, &rs, alpha, beta, sum);
     return rc;
 }
 
@@ -624,7 +632,7 @@ static int run_modal(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
             rc = replay_one(h, j, 0, rb->rayleigh_alpha, rb->rayleigh_beta, &rs, sink, user);
     }
     if (!rc && !out)
-        summarise(h, &rs, rb->rayleigh_alpha, rb->rayleigh_beta, sum);
+        summarise_history(h, &rs, rb->rayleigh_alpha, rb->rayleigh_beta, sum);
     free_ws(&w);
     if (!rc && out)
         *out = h;
@@ -714,24 +722,13 @@ static int integrate(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
     for (long j = 0; !rc && j < nsteps; j++)
         rc = step(&w, j, nsteps, sink, user, &rs, err);
     if (!rc) {
-        memset(sum, 0, sizeof *sum);
-        sum->n = w.n;
-        sum->k = w.k;
-        sum->steps = nsteps;
-        sum->duration_s = tr->duration_s;
-        sum->mean_error_m = rs.mean / tr->duration_s;
-        sum->peak_error_m = rs.peak;
-        sum->truncation_error = o->reference ? sqrt(rs.diff_sq / rs.ref_sq) : NAN;
-        sum->reference_mean_error_m = o->reference ? rs.ref_mean / tr->duration_s : NAN;
+        summarise(o, w.n, w.k, nsteps, tr->duration_s, &rs, rb->rayleigh_alpha,
+                  rb->rayleigh_beta, sum);
+        if (o->reference) {
+            sum->truncation_error = sqrt(rs.diff_sq / rs.ref_sq);
+            sum->reference_mean_error_m = rs.ref_mean / tr->duration_s;
+        }
         sum->truncation_beta_s = w.fig_beta;
-        int undamped = rb->rayleigh_alpha == 0 && rb->rayleigh_beta == 0;
-        sum->aliasing_risk = undamped && o->dt_s > 1.25e-4 && w.k > 20;
-        sum->coupling_mean_log10 = rs.coupling_mean / tr->duration_s;
-        sum->coupling_min_log10 = rs.coupling_min;
-        sum->coupling_max_log10 = rs.coupling_max;
-        for (int a = 0; a < o->naxes && a < DM_INTEG_MAXAXES; a++)
-            for (int k = 0; k < 3; k++)
-                sum->mean_axes_m[a][k] = rs.axes[a][k] / tr->duration_s;
     }
     free_ws(&w);
     return rc;
