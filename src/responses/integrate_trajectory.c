@@ -387,7 +387,7 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
  * the same numbers, bit for bit. */
 
 struct dm_integ_history {
-    int n, k, geometry;
+    int n, k;
     dm_integ_opts o;
     double duration_s;
     long nsteps, nrec;     /* steps of the run; records held (1: streamed) */
@@ -421,7 +421,7 @@ static void record_view(const dm_integ_history *h, long slot, step_record *r)
     r->has_offset = r->offset[3] != 0;
 }
 
-static void history_free(dm_integ_history *h)
+void dm_integ_history_free(dm_integ_history *h)
 {
     if (!h)
         return;
@@ -429,14 +429,11 @@ static void history_free(dm_integ_history *h)
     free(h);
 }
 
-void dm_integ_history_free(dm_integ_history *h) { history_free(h); }
-
 static dm_integ_history *history_alloc(const run_ws *w, long nsteps, long nrec, dm_error *err)
 {
     dm_integ_history *h = calloc(1, sizeof *h);
     if (h) {
         h->n = w->n, h->k = w->k, h->o = w->o, h->nsteps = nsteps, h->nrec = nrec;
-        h->geometry = dm_effects_geometry_errors(&w->rb->effects);
         h->duration_s = w->tr->duration_s;
         h->len = record_len(w->k);
         h->q0 = malloc(sizeof(double) * w->k);
@@ -447,7 +444,7 @@ static dm_integ_history *history_alloc(const run_ws *w, long nsteps, long nrec, 
         h->base = malloc(sizeof *h->base * nrec);
     }
     if (!h || !h->q0 || !h->q || !h->qd || !h->tmp || !h->rec || !h->base) {
-        history_free(h);
+        dm_integ_history_free(h);
         dm_fail(err, DM_ENOMEM, "out of memory for the trajectory's modal history");
         return NULL;
     }
@@ -637,7 +634,7 @@ static int run_modal(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
     if (!rc && out)
         *out = h;
     else
-        history_free(h);
+        dm_integ_history_free(h);
     return rc;
 }
 
