@@ -60,6 +60,10 @@ int dm_stepper_advance(dm_stepper *st, const dm_model *model, const dm_modes *mo
 void dm_sdof_step(double omega, double zeta, double f0, double f1, double h, double *q,
                   double *qd);
 
+/* The damping ratio of a mode at omega [rad/s] under Rayleigh damping
+ * C = alpha M + beta K (docs/model.md, "Damping"): alpha / (2 omega) + beta omega / 2. */
+double dm_rayleigh_zeta(double alpha, double beta, double omega);
+
 /* ---- standard_move.c: the standard move (docs/model.md §5) ------------------- */
 
 /* A rest-to-rest bang-bang move starting at the pose: +amax for tau/2, then

@@ -21,6 +21,11 @@
 
 /* ---- one degree of freedom, exact -------------------------------------- */
 
+double dm_rayleigh_zeta(double alpha, double beta, double omega)
+{
+    return alpha / (2 * omega) + beta * omega / 2;
+}
+
 void dm_sdof_step(double w, double z, double f0, double f1, double h, double *q, double *qd)
 {
     /* particular solution A + B t for the load f0 + s t */
@@ -311,7 +316,7 @@ static int advance_modal(dm_stepper *st, const dm_model *md, const dm_modes *mo,
     for (int j = 0; j < k; j++) {
         double w = mo->omega_rad_s[j];
         st->omega[j] = w;
-        st->zeta[j] = st->alpha / (2 * w) + st->beta * w / 2;
+        st->zeta[j] = dm_rayleigh_zeta(st->alpha, st->beta, w);
     }
     if (st->method == DM_ODE_CLOSED_FORM) {
         for (int j = 0; j < k; j++)

@@ -536,7 +536,7 @@ static void replay_step(dm_integ_history *h, long j, long slot, double alpha, do
         memcpy(h->qd, h->tmp, sizeof(double) * k);
     }
     for (int m = 0; m < k; m++) {
-        double om = r.omega[m], zeta = alpha / (2 * om) + beta * om / 2;
+        double om = r.omega[m], zeta = dm_rayleigh_zeta(alpha, beta, om);
         dm_sdof_step(om, zeta, r.f0[m], r.f1[m], r.h, &h->q[m], &h->qd[m]);
     }
     double u[6];

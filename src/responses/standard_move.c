@@ -868,7 +868,7 @@ static void one_move(dm_move_ws *w, carried *c, double alpha, double beta, const
 {
     int damped = 0;
     for (int j = 0; j < c->nm; j++) {
-        c->z[j] = alpha / (2 * c->om[j]) + beta * c->om[j] / 2;
+        c->z[j] = dm_rayleigh_zeta(alpha, beta, c->om[j]);
         damped |= c->z[j] > 0;
         c->q[j] = c->v[j] = 0;
     }
