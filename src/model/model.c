@@ -383,88 +383,108 @@ static int build_rod(dm_model *md, int i, int s, dm_element *e, dm_error *err)
     return DM_OK;
 }
 
-/* El = T * S (12 x m): the element's local DOFs in terms of its reduced DOFs. */
-static int element_map(const dm_element *e, double El[12][2 * DM_NODEMAP_MAX],
-                       int idx[2 * DM_NODEMAP_MAX])
+/* The element's reduced DOFs: u_node = S U[idx] (global frame), S block
+ * diagonal (node 0's rows reach only its own columns), kept as its
+ * non-zeros: a free node's S is the identity, a rod end's holds its rigid
+ * offset and two rotation axes. */
+typedef struct {
+    int m, nnz;
+    int idx[2 * DM_NODEMAP_MAX];
+    unsigned char row[12 * DM_NODEMAP_MAX], col[12 * DM_NODEMAP_MAX];
+    double v[12 * DM_NODEMAP_MAX];
+} reduction;
+
+static void reduction_of(const dm_element *e, reduction *S)
 {
-    int m = 0;
-    memset(El, 0, sizeof(double) * 12 * 2 * DM_NODEMAP_MAX);
+    S->m = S->nnz = 0;
     for (int nd = 0; nd < 2; nd++) {
         const dm_nodemap *nm = &e->node[nd];
-        for (int j = 0; j < nm->m; j++, m++) {
-            idx[m] = nm->idx[j];
-            for (int blk = 0; blk < 2; blk++)
-                for (int r = 0; r < 3; r++) {
-                    double s = 0;
-                    for (int k = 0; k < 3; k++)
-                        s += e->lambda[3 * r + k] * nm->c[3 * blk + k][j];
-                    El[6 * nd + 3 * blk + r][m] = s;
+        for (int j = 0; j < nm->m; j++, S->m++) {
+            S->idx[S->m] = nm->idx[j];
+            for (int r = 0; r < 6; r++)
+                if (nm->c[r][j] != 0) {
+                    S->row[S->nnz] = (unsigned char)(6 * nd + r);
+                    S->col[S->nnz] = (unsigned char)S->m;
+                    S->v[S->nnz++] = nm->c[r][j];
                 }
         }
     }
-    return m;
 }
 
-/* X[idx, idx] += El' Ke El, the half that X stores (dm_arrow_add keeps
- * entry (i, j) when j is a platform DOF, or i >= j inside a chain). El is
- * block diagonal: rows 0-5 (node 0) reach only columns 0..m0-1, rows 6-11
- * only the rest, so each product runs over the six rows of its column's
- * node. */
-static void scatter(dm_arrow *X, const double Ke[144], double El[12][2 * DM_NODEMAP_MAX],
-                    const int idx[], int m, int m0)
+/* G = T' X T for the element rotation T = diag(L, L, L, L) (L = lambda,
+ * rows the local axes): each 3 x 3 block L' B L as a sum over the
+ * non-zeros of the local block B, of which a beam has at most two per
+ * block (axial, torsion, and one bending coupling in each plane). Lower
+ * blocks, then mirrored. */
+static void to_global(const double L[9], const double X[144], double G[144])
 {
-    double KE[12][2 * DM_NODEMAP_MAX], E[4 * DM_NODEMAP_MAX * DM_NODEMAP_MAX];
-    int border = X->lay.border;
-    for (int r = 0; r < 12; r++)
-        for (int j = 0; j < m; j++) {
-            int k0 = j < m0 ? 0 : 6;
-            double s = 0;
-            for (int k = k0; k < k0 + 6; k++)
-                s += Ke[r * 12 + k] * El[k][j];
-            KE[r][j] = s;
-        }
-    for (int b = 0; b < m; b++)
-        for (int a = 0; a < m; a++) {
-            if (!(idx[b] >= border || (idx[a] < border && idx[a] >= idx[b])))
-                continue; /* the mirrored entry, which X does not store */
-            int k0 = a < m0 ? 0 : 6;
-            double s = 0;
-            for (int k = k0; k < k0 + 6; k++)
-                s += El[k][a] * KE[k][b];
-            E[b * m + a] = s;
-        }
-    dm_arrow_add_matrix(X, idx, m, E);
+    memset(G, 0, 144 * sizeof *G);
+    for (int I = 0; I < 4; I++)
+        for (int J = 0; J <= I; J++)
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 3; c++) {
+                    double b = X[(3 * I + r) * 12 + 3 * J + c];
+                    if (b == 0)
+                        continue;
+                    for (int p = 0; p < 3; p++) {
+                        double bp = b * L[3 * r + p];
+                        for (int s = 0; s < 3; s++)
+                            G[(3 * I + p) * 12 + 3 * J + s] += bp * L[3 * c + s];
+                    }
+                }
+    for (int I = 0; I < 4; I++)
+        for (int J = I + 1; J < 4; J++)
+            for (int p = 0; p < 3; p++)
+                for (int s = 0; s < 3; s++)
+                    G[(3 * I + p) * 12 + 3 * J + s] = G[(3 * J + s) * 12 + 3 * I + p];
+}
+
+/* X[idx, idx] += S' T' Xe T S: the local element matrix in the global
+ * frame, then reduced through the non-zeros of S. */
+static void scatter(dm_arrow *X, const double Xe[144], const double lambda[9],
+                    const reduction *S)
+{
+    enum { MM = 2 * DM_NODEMAP_MAX };
+    double G[144], GS[12][MM] = {{0}}, E[MM * MM] = {0};
+    int m = S->m;
+    to_global(lambda, Xe, G);
+    for (int k = 0; k < S->nnz; k++) /* GS = G S */
+        for (int p = 0; p < 12; p++)
+            GS[p][S->col[k]] += G[p * 12 + S->row[k]] * S->v[k];
+    for (int k = 0; k < S->nnz; k++) /* E = S' GS, column-major */
+        for (int b = 0; b < m; b++)
+            E[b * m + S->col[k]] += S->v[k] * GS[S->row[k]][b];
+    dm_arrow_add_matrix(X, S->idx, m, E);
 }
 
 void dm_model_add_element_loads(const dm_model *md, const dm_element *e, int q,
                                 const double *a12, double *F)
 {
-    double El[12][2 * DM_NODEMAP_MAX], Me[144], aloc[12], f[12];
-    int idx[2 * DM_NODEMAP_MAX];
+    const double *L = e->lambda;
+    double Me[144], aloc[12], f[12], fg[12];
+    reduction S;
     assert(q >= 1);
-    int m = element_map(e, El, idx), n = md->n;
+    reduction_of(e, &S);
     dm_beam_mass(&md->props[e->member], e->length_m, Me);
-    for (int l = 0; l < q; l++) { /* the map and M_e once for all q loads */
+    for (int l = 0; l < q; l++) { /* the reduction and M_e once for all q loads */
         const double *a = a12 + 12 * l;
-        for (int blk = 0; blk < 4; blk++)
-            for (int r = 0; r < 3; r++) {
-                double s = 0;
-                for (int k = 0; k < 3; k++)
-                    s += e->lambda[3 * r + k] * a[3 * blk + k];
-                aloc[3 * blk + r] = s;
-            }
+        for (int blk = 0; blk < 4; blk++) /* local = T global */
+            for (int r = 0; r < 3; r++)
+                aloc[3 * blk + r] = L[3 * r] * a[3 * blk] + L[3 * r + 1] * a[3 * blk + 1] +
+                                    L[3 * r + 2] * a[3 * blk + 2];
         for (int r = 0; r < 12; r++) {
             double s = 0;
             for (int k = 0; k < 12; k++)
                 s += Me[r * 12 + k] * aloc[k];
             f[r] = s;
         }
-        for (int j = 0; j < m; j++) {
-            double s = 0;
-            for (int k = 0; k < 12; k++)
-                s += El[k][j] * f[k];
-            F[(size_t)l * n + idx[j]] += s;
-        }
+        for (int blk = 0; blk < 4; blk++) /* global = T' local */
+            for (int k = 0; k < 3; k++)
+                fg[3 * blk + k] = L[k] * f[3 * blk] + L[3 + k] * f[3 * blk + 1] +
+                                  L[6 + k] * f[3 * blk + 2];
+        double *Fl = F + (size_t)l * md->n;
+        for (int j = 0; j < S.nnz; j++)
+            Fl[S.idx[S.col[j]]] += S.v[j] * fg[S.row[j]];
     }
 }
 
@@ -540,14 +560,16 @@ static int add_geometric_stiffness(dm_model *md, dm_error *err)
     dm_arrow_chol_solve(md->gs_factor, u, 1);
     for (int k = 0; k < md->nelem; k++) {
         const dm_element *e = &md->elem[k];
-        double El[12][2 * DM_NODEMAP_MAX], KG[144], du = 0;
-        int idx[2 * DM_NODEMAP_MAX];
-        int m = element_map(e, El, idx);
-        for (int j = 0; j < m; j++) /* local axial displacement, node 2 - node 1 */
-            du += (El[6][j] - El[0][j]) * u[idx[j]];
+        double KG[144], ug[12] = {0}, du = 0;
+        reduction S;
+        reduction_of(e, &S);
+        for (int j = 0; j < S.nnz; j++) /* the nodes' displacements, global */
+            ug[S.row[j]] += S.v[j] * u[S.idx[S.col[j]]];
+        for (int k = 0; k < 3; k++) /* local axial displacement, node 2 - node 1 */
+            du += e->lambda[k] * (ug[6 + k] - ug[k]);
         const dm_beam_props *p = &md->props[e->member];
         dm_beam_geometric(p, p->EA * du / e->length_m, e->length_m, KG);
-        scatter(&md->K, KG, El, idx, m, e->node[0].m);
+        scatter(&md->K, KG, e->lambda, &S);
     }
     return DM_OK;
 }
@@ -576,13 +598,13 @@ int dm_model_build(dm_model *md, const dm_pose *pose, dm_error *err)
     const double g12[12] = {g[0], g[1], g[2], 0, 0, 0, g[0], g[1], g[2], 0, 0, 0};
     for (int k = 0; k < md->nelem; k++) {
         const dm_element *el = &md->elem[k];
-        double El[12][2 * DM_NODEMAP_MAX], Ke[144], Me[144];
-        int idx[2 * DM_NODEMAP_MAX];
-        int m = element_map(el, El, idx);
+        double Ke[144], Me[144];
+        reduction S;
+        reduction_of(el, &S);
         dm_beam_stiffness(&md->props[el->member], el->length_m, Ke);
         dm_beam_mass(&md->props[el->member], el->length_m, Me);
-        scatter(&md->K, Ke, El, idx, m, el->node[0].m);
-        scatter(&md->M, Me, El, idx, m, el->node[0].m);
+        scatter(&md->K, Ke, el->lambda, &S);
+        scatter(&md->M, Me, el->lambda, &S);
         dm_model_add_element_load(md, el, g12, md->F_gravity);
     }
     add_platform(md);
