@@ -426,6 +426,16 @@ static int svd(double *A, int m, int n, double *s, double *U, double *VT)
     return LAPACKE_dgesvd(LAPACK_COL_MAJOR, 'S', 'A', m, n, A, m, s, U, m, VT, n, superb);
 }
 
+/* The relative error of a prediction, which sets lmdif's forward-difference
+ * step (sqrt of it, relative to x): second differences of the docs' 0.1 s
+ * tracker predictions in the payload mass level off at 5e-12 of the
+ * largest value below steps of 1e-5 (the eigen solves' convergence
+ * tolerances), so the default step (sqrt of machine epsilon, 1.5e-8)
+ * carried up to 0.3 % of noise into the Jacobian and cost searches extra
+ * evaluations (8-20 % of a tracker diagnosis). 1e-10 (steps of 1e-5)
+ * keeps that noise at 1e-6 and the truncation error at 1e-5. */
+#define PREDICTION_EPS 1e-10
+
 /* Levenberg-Marquardt (cminpack lmdif) from x; uncertainties from the
  * R factor of its last Jacobian (covar), so they cost no predictions.
  * Tolerances 1e-6 on log10 values are far below any uncertainty; the
@@ -443,8 +453,9 @@ static void lm_fit(problem *p, double *x, int n, int m, double *sig)
     if (!fvec || !fjac || !wa4)
         out_of_memory(p->s);
     else {
-        int info = lmdif(residuals, p, m, n, x, fvec, 1e-6, 1e-6, 0.0, 25 * (n + 1), 0.0, diag,
-                         1, 100.0, 0, &nfev, fjac, m, ipvt, qtf, wa1, wa2, wa3, wa4);
+        int info = lmdif(residuals, p, m, n, x, fvec, 1e-6, 1e-6, 0.0, 25 * (n + 1),
+                         PREDICTION_EPS, diag, 1, 100.0, 0, &nfev, fjac, m, ipvt, qtf, wa1, wa2,
+                         wa3, wa4);
         if (info > 0) {
             double scale = misfit_scale(p->s, sum_squares(fvec, m), m, n);
             covar(n, fjac, m, ipvt, 1e-12, wa1);
