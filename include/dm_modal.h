@@ -87,6 +87,16 @@ size_t dm_modal_seed_size(const dm_modal *ws);
 int dm_modal_seed_save(const dm_modal *ws, void *seed);
 void dm_modal_seed_load(dm_modal *ws, const void *seed);
 
+/* How a cold solve of the subspace method starts: from a block of
+ * pseudo-random vectors (always the same) iterated to convergence, or
+ * from the dense solver's lowest pairs; either way the Sturm count proves
+ * the result, and a random start that fails falls back to the dense one.
+ * DM_COLD_AUTO (the default) takes the random block above 96 DOF, where it
+ * is measured faster, the dense solver below; the other two are for tests
+ * and benchmarks. */
+typedef enum { DM_COLD_AUTO, DM_COLD_RANDOM, DM_COLD_DENSE } dm_cold_start;
+void dm_modal_set_cold_start(dm_modal *ws, dm_cold_start how);
+
 /* How the last solve went. */
 typedef struct dm_modal_stats {
     int iterations;     /* applications of K^-1 M (0: dense) */
@@ -94,6 +104,7 @@ typedef struct dm_modal_stats {
     int warm;           /* started from a previous solution */
     int fallback;       /* the warm start failed (no convergence, or the
                            Sturm count found a mode it missed): cold */
+    int random;         /* cold, and from the random block (else dense) */
     int subspace;       /* vectors iterated */
     int converged;      /* modes proven: the Sturm count below sigma */
     double sigma;       /* the Sturm shift (rad^2/s^2) */
