@@ -132,7 +132,7 @@ double dm_arrow_chol_logdet(const dm_arrow_chol *f);
 
 typedef struct dm_arrow_ldl {
     dm_arrow shifted;              /* A - sigma B */
-    double *Z[DM_ARROW_BLOCKS];    /* L_c^-1 C_c */
+    double *Z[DM_ARROW_BLOCKS];    /* L_c^-1 C_c, interleaved (nb x 6, row-major) */
 } dm_arrow_ldl;
 
 int dm_arrow_ldl_init(dm_arrow_ldl *w, const dm_arrow_layout *lay, dm_error *err);
