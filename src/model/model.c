@@ -279,17 +279,19 @@ static void lerp3(const double a[3], const double b[3], double s, double out[3])
         out[k] = a[k] + s * (b[k] - a[k]);
 }
 
+/* An element of a member (arm or rod) cut into `parts` equal elements:
+ * its length and frame are the member's, the same numbers for every
+ * element of the member (so their global matrices are computed once). */
 static int set_geometry(dm_element *e, dm_member_kind kind, int chain, const double x1[3],
-                        const double x2[3], const double y_hint[3], dm_error *err)
+                        const double x2[3], const double member_axis[3], int parts,
+                        const double y_hint[3], dm_error *err)
 {
-    double axis[3];
     e->member = kind;
     e->chain = chain;
     dm_copy3(x1, e->x1);
     dm_copy3(x2, e->x2);
-    dm_sub3(x2, x1, axis);
-    e->length_m = dm_norm3(axis);
-    if (dm_beam_frame(axis, y_hint, e->lambda))
+    e->length_m = dm_norm3(member_axis) / parts;
+    if (dm_beam_frame(member_axis, y_hint, e->lambda))
         return dm_fail(err, DM_ENUMERIC,
                        "chain %d: %s element has no local frame (axis parallel to t_i)",
                        chain, kind == DM_MEMBER_ARM ? "arm" : "rod");
@@ -299,11 +301,13 @@ static int set_geometry(dm_element *e, dm_member_kind kind, int chain, const dou
 static int build_arm(dm_model *md, int i, dm_element *e, dm_error *err)
 {
     const dm_pose *p = &md->pose;
+    double axis[3];
+    dm_sub3(p->B[i], p->A[i], axis);
     for (int k = 0; k < md->na; k++, e++) {
         double x1[3], x2[3];
         lerp3(p->A[i], p->B[i], (double)k / md->na, x1);
         lerp3(p->A[i], p->B[i], (double)(k + 1) / md->na, x2);
-        int rc = set_geometry(e, DM_MEMBER_ARM, i, x1, x2, p->t[i], err);
+        int rc = set_geometry(e, DM_MEMBER_ARM, i, x1, x2, axis, md->na, p->t[i], err);
         e->s1 = (double)k / md->na;
         e->s2 = (double)(k + 1) / md->na;
         if (rc)
@@ -358,11 +362,13 @@ static int build_rod(dm_model *md, int i, int s, dm_element *e, dm_error *err)
     dm_axpy3(plat_arm, 1.0, bar, plat_arm);
     int base = upper_end_dof(md, i, s), nb = md->nb;
     int lower = lower_end_dof(md, i, s);
+    double axis[3];
+    dm_sub3(bottom, top, axis);
     for (int k = 0; k < nb; k++, e++) {
         double x1[3], x2[3];
         lerp3(top, bottom, (double)k / nb, x1);
         lerp3(top, bottom, (double)(k + 1) / nb, x2);
-        int rc = set_geometry(e, DM_MEMBER_ROD, i, x1, x2, p->t[i], err);
+        int rc = set_geometry(e, DM_MEMBER_ROD, i, x1, x2, axis, nb, p->t[i], err);
         e->s1 = (double)k / nb;
         e->s2 = (double)(k + 1) / nb;
         if (rc)
@@ -439,15 +445,13 @@ static void to_global(const double L[9], const double X[144], double G[144])
                     G[(3 * I + p) * 12 + 3 * J + s] = G[(3 * J + s) * 12 + 3 * I + p];
 }
 
-/* X[idx, idx] += S' T' Xe T S: the local element matrix in the global
- * frame, then reduced through the non-zeros of S. */
-static void scatter(dm_arrow *X, const double Xe[144], const double lambda[9],
-                    const reduction *S)
+/* X[idx, idx] += S' G S: an element matrix in the global frame (G = T' Xe
+ * T, to_global) reduced through the non-zeros of S. */
+static void scatter(dm_arrow *X, const double G[144], const reduction *S)
 {
     enum { MM = 2 * DM_NODEMAP_MAX };
-    double G[144], GS[12][MM] = {{0}}, E[MM * MM] = {0};
+    double GS[12][MM] = {{0}}, E[MM * MM] = {0};
     int m = S->m;
-    to_global(lambda, Xe, G);
     for (int k = 0; k < S->nnz; k++) /* GS = G S */
         for (int p = 0; p < 12; p++)
             GS[p][S->col[k]] += G[p * 12 + S->row[k]] * S->v[k];
@@ -568,10 +572,35 @@ static int add_geometric_stiffness(dm_model *md, dm_error *err)
         for (int k = 0; k < 3; k++) /* local axial displacement, node 2 - node 1 */
             du += e->lambda[k] * (ug[6 + k] - ug[k]);
         const dm_beam_props *p = &md->props[e->member];
+        double G[144];
         dm_beam_geometric(p, p->EA * du / e->length_m, e->length_m, KG);
-        scatter(&md->K, KG, e->lambda, &S);
+        to_global(e->lambda, KG, G);
+        scatter(&md->K, G, &S);
     }
     return DM_OK;
+}
+
+/* The global K_e and M_e of the last element: the elements of a member
+ * share them (set_geometry), so they are computed once per member. */
+typedef struct {
+    int member;            /* dm_member_kind, -1: none yet */
+    double length_m, lambda[9];
+    double K[144], M[144];
+} element_cache;
+
+static void global_matrices(const dm_model *md, const dm_element *e, element_cache *c)
+{
+    if ((int)e->member == c->member && e->length_m == c->length_m &&
+        !memcmp(e->lambda, c->lambda, sizeof c->lambda))
+        return;
+    double Ke[144], Me[144];
+    dm_beam_stiffness(&md->props[e->member], e->length_m, Ke);
+    dm_beam_mass(&md->props[e->member], e->length_m, Me);
+    to_global(e->lambda, Ke, c->K);
+    to_global(e->lambda, Me, c->M);
+    c->member = (int)e->member;
+    c->length_m = e->length_m;
+    memcpy(c->lambda, e->lambda, sizeof c->lambda);
 }
 
 int dm_model_build(dm_model *md, const dm_pose *pose, dm_error *err)
@@ -596,15 +625,14 @@ int dm_model_build(dm_model *md, const dm_pose *pose, dm_error *err)
     }
     const double *g = md->robot->gravity_ms2;
     const double g12[12] = {g[0], g[1], g[2], 0, 0, 0, g[0], g[1], g[2], 0, 0, 0};
+    element_cache cache = {.member = -1};
     for (int k = 0; k < md->nelem; k++) {
         const dm_element *el = &md->elem[k];
-        double Ke[144], Me[144];
         reduction S;
         reduction_of(el, &S);
-        dm_beam_stiffness(&md->props[el->member], el->length_m, Ke);
-        dm_beam_mass(&md->props[el->member], el->length_m, Me);
-        scatter(&md->K, Ke, el->lambda, &S);
-        scatter(&md->M, Me, el->lambda, &S);
+        global_matrices(md, el, &cache);
+        scatter(&md->K, cache.K, &S);
+        scatter(&md->M, cache.M, &S);
         dm_model_add_element_load(md, el, g12, md->F_gravity);
     }
     add_platform(md);
