@@ -64,6 +64,7 @@ typedef struct dm_model {
     int elbow_dof[3];       /* first DOF (translations) of each elbow node */
     int nelem;
     dm_element *elem;
+    dm_arrow_plan *plan;    /* nelem: where each element's entries go in M and K */
     dm_beam_props props[2]; /* arm, rod */
     double platform_mass[36]; /* 6x6 rigid mass of platform (+ payload) */
     dm_pose pose;
@@ -86,14 +87,11 @@ void dm_model_free(dm_model *model);
 /* Build M, K and the gravity load at a pose (from dm_kin_inverse). */
 int dm_model_build(dm_model *model, const dm_pose *pose, dm_error *err);
 
-/* Add to F (length n) the consistent load of one element whose nodes have
- * global accelerations a12 (translation, rotation per node):
- * F += (T S)' M_e T a12. Used for gravity and for inertial loads. */
-void dm_model_add_element_load(const dm_model *model, const dm_element *e,
-                               const double a12[12], double *F);
-
-/* The same for q loads at once: a12 holds q sets of 12 accelerations, F
- * q columns of length n (the element's map and mass computed once). */
+/* Add to F the consistent loads of one element whose nodes have global
+ * accelerations a12 (translation, rotation per node), F += (T S)' M_e T a,
+ * for q loads at once: a12 holds q sets of 12 accelerations, F q columns
+ * of length n (the element's map and mass computed once). Inertial loads
+ * (dm_loads); the build's gravity load is the same sum. */
 void dm_model_add_element_loads(const dm_model *model, const dm_element *e, int q,
                                 const double *a12, double *F);
 

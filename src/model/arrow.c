@@ -214,32 +214,63 @@ void dm_arrow_add(dm_arrow *a, int i, int j, double v)
         mark(a, s);
 }
 
-void dm_arrow_add_matrix(dm_arrow *a, const int *idx, int m, const double *E)
+/* A plan's places: which array (bands 0-2, couplings 3-5, the border 6)
+ * in the bits above PLACE_SHIFT, the offset in it below. */
+#define PLACE_SHIFT 24
+#define PLACE_BORDER (2 * NB)
+
+static int place(int array, size_t offset)
 {
-    const dm_arrow_layout *lay = &a->lay;
-    int bo = lay->border, blk[2 * 16], loc[2 * 16];
-    assert(m <= 32);
+    assert(offset < (1u << PLACE_SHIFT));
+    return (array << PLACE_SHIFT) | (int)offset;
+}
+
+void dm_arrow_plan_make(const dm_arrow_layout *lay, const int *idx, int m, dm_arrow_plan *p)
+{
+    int bo = lay->border, blk[DM_ARROW_PLAN_DOFS], loc[DM_ARROW_PLAN_DOFS];
+    assert(m <= DM_ARROW_PLAN_DOFS);
     for (int r = 0; r < m; r++) { /* block and local index of each DOF */
         blk[r] = block_of(lay, idx[r]);
         loc[r] = idx[r] - (blk[r] == NB ? bo : lay->off[blk[r]]);
     }
+    p->count = 0;
     for (int c = 0; c < m; c++)
         for (int r = 0; r < m; r++) {
-            double *s;
+            int to;
             if (blk[c] == NB)
-                s = blk[r] == NB ? &a->pp[loc[c] * NP + loc[r]]
-                                 : &a->cpl[blk[r]][loc[r] + (size_t)loc[c] * lay->nb[blk[r]]];
+                to = blk[r] == NB ? place(PLACE_BORDER, (size_t)loc[c] * NP + loc[r])
+                                  : place(NB + blk[r], loc[r] + (size_t)loc[c] * lay->nb[blk[r]]);
             else if (blk[r] == blk[c] && loc[r] >= loc[c]) {
                 assert(loc[r] - loc[c] <= lay->kd[blk[r]]);
-                s = &a->band[blk[r]][(loc[r] - loc[c]) + (size_t)loc[c] * (lay->kd[blk[r]] + 1)];
+                to = place(blk[r], (loc[r] - loc[c]) + (size_t)loc[c] * (lay->kd[blk[r]] + 1));
             } else {
                 assert(blk[r] == NB || blk[r] == blk[c]); /* blocks meet only at the border */
                 continue; /* the half that is not stored */
             }
-            *s += E[c * m + r];
-            if (a->touched[0])
-                mark(a, s);
+            p->from[p->count] = (short)(c * m + r);
+            p->to[p->count++] = to;
         }
+}
+
+void dm_arrow_add_planned(dm_arrow *a, const dm_arrow_plan *p, const double *E)
+{
+    double *base[2 * NB + 1];
+    for (int c = 0; c < NB; c++)
+        base[c] = a->band[c], base[NB + c] = a->cpl[c];
+    base[PLACE_BORDER] = a->pp;
+    const int mask = (1 << PLACE_SHIFT) - 1;
+    for (int k = 0; k < p->count; k++)
+        base[p->to[k] >> PLACE_SHIFT][p->to[k] & mask] += E[p->from[k]];
+    if (a->touched[0])
+        for (int k = 0; k < p->count; k++)
+            mark(a, base[p->to[k] >> PLACE_SHIFT] + (p->to[k] & mask));
+}
+
+void dm_arrow_add_matrix(dm_arrow *a, const int *idx, int m, const double *E)
+{
+    dm_arrow_plan p;
+    dm_arrow_plan_make(&a->lay, idx, m, &p);
+    dm_arrow_add_planned(a, &p, E);
 }
 
 double dm_arrow_get(const dm_arrow *a, int i, int j)

@@ -142,8 +142,9 @@ dm_model *dm_model_alloc(const dm_robot *robot, int na, int nb, dm_error *err)
     arrow_layout(md, &md->layout);
     md->nelem = 3 * (na + 2 * nb);
     md->elem = calloc((size_t)md->nelem, sizeof *md->elem);
+    md->plan = malloc((size_t)md->nelem * sizeof *md->plan);
     md->F_gravity = calloc((size_t)md->n, sizeof *md->F_gravity);
-    int rc = md->elem && md->F_gravity ? DM_OK : DM_ENOMEM;
+    int rc = md->elem && md->plan && md->F_gravity ? DM_OK : DM_ENOMEM;
     if (!rc)
         rc = dm_arrow_init(&md->K, &md->layout, NULL);
     if (!rc)
@@ -169,6 +170,7 @@ void dm_model_free(dm_model *md)
     if (!md)
         return;
     free(md->elem);
+    free(md->plan);
     dm_arrow_release(&md->M);
     dm_arrow_release(&md->K);
     dm_arrow_pattern_release(&md->pattern);
@@ -394,7 +396,7 @@ static int build_rod(dm_model *md, int i, int s, dm_element *e, dm_error *err)
  * non-zeros: a free node's S is the identity, a rod end's holds its rigid
  * offset and two rotation axes. */
 typedef struct {
-    int m, nnz;
+    int m, nnz, identity; /* identity: S = I (12 x 12) */
     int idx[2 * DM_NODEMAP_MAX];
     unsigned char row[12 * DM_NODEMAP_MAX], col[12 * DM_NODEMAP_MAX];
     double v[12 * DM_NODEMAP_MAX];
@@ -415,6 +417,9 @@ static void reduction_of(const dm_element *e, reduction *S)
                 }
         }
     }
+    S->identity = S->m == 12 && S->nnz == 12;
+    for (int k = 0; k < S->nnz && S->identity; k++)
+        S->identity = S->row[k] == k && S->col[k] == k && S->v[k] == 1;
 }
 
 /* G = T' X T for the element rotation T = diag(L, L, L, L) (L = lambda,
@@ -447,9 +452,17 @@ static void to_global(const double L[9], const double X[144], double G[144])
 
 /* X[idx, idx] += S' G S: an element matrix in the global frame (G = T' Xe
  * T, to_global) reduced through the non-zeros of S. */
-static void scatter(dm_arrow *X, const double G[144], const reduction *S)
+static void scatter(dm_arrow *X, const double G[144], const reduction *S, const dm_arrow_plan *plan)
 {
     enum { MM = 2 * DM_NODEMAP_MAX };
+    if (S->identity) { /* two free nodes: E = G, column-major */
+        double E[144];
+        for (int c = 0; c < 12; c++)
+            for (int r = 0; r < 12; r++)
+                E[c * 12 + r] = G[r * 12 + c];
+        dm_arrow_add_planned(X, plan, E);
+        return;
+    }
     double GS[12][MM] = {{0}}, E[MM * MM] = {0};
     int m = S->m;
     for (int k = 0; k < S->nnz; k++) /* GS = G S */
@@ -458,7 +471,7 @@ static void scatter(dm_arrow *X, const double G[144], const reduction *S)
     for (int k = 0; k < S->nnz; k++) /* E = S' GS, column-major */
         for (int b = 0; b < m; b++)
             E[b * m + S->col[k]] += S->v[k] * GS[S->row[k]][b];
-    dm_arrow_add_matrix(X, S->idx, m, E);
+    dm_arrow_add_planned(X, plan, E);
 }
 
 void dm_model_add_element_loads(const dm_model *md, const dm_element *e, int q,
@@ -490,12 +503,6 @@ void dm_model_add_element_loads(const dm_model *md, const dm_element *e, int q,
         for (int j = 0; j < S.nnz; j++)
             Fl[S.idx[S.col[j]]] += S.v[j] * fg[S.row[j]];
     }
-}
-
-void dm_model_add_element_load(const dm_model *md, const dm_element *e, const double a12[12],
-                               double *F)
-{
-    dm_model_add_element_loads(md, e, 1, a12, F);
 }
 
 /* Rigid platform (mass, inertia about P) plus the payload point mass at
@@ -575,7 +582,7 @@ static int add_geometric_stiffness(dm_model *md, dm_error *err)
         double G[144];
         dm_beam_geometric(p, p->EA * du / e->length_m, e->length_m, KG);
         to_global(e->lambda, KG, G);
-        scatter(&md->K, G, &S);
+        scatter(&md->K, G, &S, &md->plan[k]);
     }
     return DM_OK;
 }
@@ -601,6 +608,22 @@ static void global_matrices(const dm_model *md, const dm_element *e, element_cac
     c->member = (int)e->member;
     c->length_m = e->length_m;
     memcpy(c->lambda, e->lambda, sizeof c->lambda);
+}
+
+/* F += S' G_M g: an element's consistent gravity load, from its global
+ * mass matrix (dm_model_add_element_loads's T' M_e T a, with T' M_e T
+ * already at hand). */
+static void add_gravity(const double GM[144], const double g12[12], const reduction *S, double *F)
+{
+    double fg[12];
+    for (int r = 0; r < 12; r++) {
+        double s = 0;
+        for (int k = 0; k < 12; k++)
+            s += GM[r * 12 + k] * g12[k];
+        fg[r] = s;
+    }
+    for (int j = 0; j < S->nnz; j++)
+        F[S->idx[S->col[j]]] += S->v[j] * fg[S->row[j]];
 }
 
 int dm_model_build(dm_model *md, const dm_pose *pose, dm_error *err)
@@ -631,9 +654,11 @@ int dm_model_build(dm_model *md, const dm_pose *pose, dm_error *err)
         reduction S;
         reduction_of(el, &S);
         global_matrices(md, el, &cache);
-        scatter(&md->K, cache.K, &S);
-        scatter(&md->M, cache.M, &S);
-        dm_model_add_element_load(md, el, g12, md->F_gravity);
+        if (first) /* the DOF numbering, so the plans, are the same at every pose */
+            dm_arrow_plan_make(&md->layout, S.idx, S.m, &md->plan[k]);
+        scatter(&md->K, cache.K, &S, &md->plan[k]);
+        scatter(&md->M, cache.M, &S, &md->plan[k]);
+        add_gravity(cache.M, g12, &S, md->F_gravity);
     }
     add_platform(md);
     add_root_springs_and_elbow_masses(md);
