@@ -480,6 +480,23 @@ static void run_tiles(const sweep_ctx *c, tile_plan *p, volatile sig_atomic_t *s
     res->done = done;
 }
 
+/* The anchors, with a worker per thread. */
+static int build_anchors(sweep_ctx *c, dm_error *err)
+{
+    int nw = c->nthreads, rc = DM_OK, made = 0;
+    sweep_worker *w = calloc((size_t)nw, sizeof *w);
+    if (!w)
+        return dm_fail(err, DM_ENOMEM, "out of memory for sweep workers");
+    while (made < nw && !(rc = worker_alloc(c, &w[made], err)))
+        made++;
+    if (!rc)
+        rc = dm_sweep_anchors_build(c, w, nw, err);
+    for (int i = 0; i < made; i++)
+        worker_free(&w[i]);
+    free(w);
+    return rc;
+}
+
 static void fill_stats(const tile_plan *p, const tile_result *r, const dm_grid *g,
                        dm_sweep_stats *stats)
 {
@@ -513,11 +530,8 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
     if (!rc)
         rc = plan_tiles(&c, &plan, err);
     /* anchors only when there is work: a finished shard costs nothing */
-    sweep_worker w0;
-    if (!rc && plan.present < plan.mine && !*stop && !(rc = worker_alloc(&c, &w0, err))) {
-        rc = dm_sweep_anchors_build(&c, &w0, err);
-        worker_free(&w0);
-    }
+    if (!rc && plan.present < plan.mine && !*stop)
+        rc = build_anchors(&c, err);
     if (!rc) {
         run_tiles(&c, &plan, stop, &res);
         rc = res.rc;

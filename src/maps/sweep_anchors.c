@@ -1,6 +1,7 @@
 /* Mode tracking's anchors: a coarse lattice of reference poses whose mode
  * families and solver seeds every point of the sweep starts from, so that
  * a point's values depend on the grid alone (see sweep_impl.h). */
+#include <assert.h>
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
@@ -70,11 +71,17 @@ static void anchor_lattice(const sweep_ctx *c, int m[3])
 
 /* A coarse lattice (at most 16 per axis) of reference poses. Families are
  * the k lowest modes at the root (the anchor nearest the robot's home),
- * followed to every other reachable anchor by MAC, serially:
- * the result is fixed before any tile runs. Memory: at most 4096 anchors. */
-int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, dm_error *err)
+ * followed to every other reachable anchor by MAC, before any tile runs.
+ * The breadth-first search goes one wave at a time: the anchors a wave
+ * reaches are claimed serially, each by the first anchor of the wave next
+ * to it (the order of a serial search), then computed in parallel, each
+ * from its claimant's seed: the lattice, bit for bit, does not depend on
+ * the number of threads (one that fails may be reached again by the next
+ * wave). Memory: at most 4096 anchors. */
+int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, int nw, dm_error *err)
 {
-    int m[3], n = c->n, k = c->k;
+    int m[3], n = c->n, k = c->k, rc = DM_OK;
+    assert(nw >= 1);
     c->seed_len = dm_modal_seed_size(w->an->modal);
     anchor_lattice(c, m);
     c->nanchor = m[0] * m[1] * m[2];
@@ -135,24 +142,46 @@ int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, dm_error *err)
             queue[tail++] = nb;
             from = nb;
         }
-    while (head < tail) {
+    int *parent = malloc(sizeof(int) * c->nanchor), *child = malloc(sizeof(int) * c->nanchor);
+    unsigned char *claimed = calloc((size_t)c->nanchor, 1), *done = malloc((size_t)c->nanchor);
+    if (!parent || !child || !claimed || !done)
+        rc = dm_fail(err, DM_ENOMEM, "out of memory for mode tracking");
+    while (!rc && head < tail) {
         anchor_progress(c, tail, reachable, 0);
-        int id = queue[head++], a[3] = {id / (m[1] * m[2]), (id / m[2]) % m[1], id % m[2]};
-        for (int d = 0; d < 2; d++)
-            for (int s = -1; s <= 1; s += 2) {
-                int b[3] = {a[0], a[1], a[2]};
-                b[d] += s;
-                if (b[d] < 0 || b[d] >= m[d])
-                    continue;
-                int nb = anchor_index(c, m, b);
-                if (reach[nb] && !c->anchor_ok[nb] && follow(c, w, id, nb))
-                    queue[tail++] = nb;
-            }
+        int wave = tail, nclaim = 0;
+        for (; head < wave; head++) { /* claims in the serial search's order */
+            int id = queue[head], a[3] = {id / (m[1] * m[2]), (id / m[2]) % m[1], id % m[2]};
+            for (int d = 0; d < 2; d++)
+                for (int s = -1; s <= 1; s += 2) {
+                    int b[3] = {a[0], a[1], a[2]};
+                    b[d] += s;
+                    if (b[d] < 0 || b[d] >= m[d])
+                        continue;
+                    int nb = anchor_index(c, m, b);
+                    if (reach[nb] && !c->anchor_ok[nb] && !claimed[nb]) {
+                        claimed[nb] = 1;
+                        parent[nclaim] = id;
+                        child[nclaim++] = nb;
+                    }
+                }
+        }
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nw)
+        for (int j = 0; j < nclaim; j++)
+            done[j] = (unsigned char)follow(c, &w[omp_get_thread_num()], parent[j], child[j]);
+        for (int j = 0; j < nclaim; j++) {
+            if (done[j])
+                queue[tail++] = child[j];
+            claimed[child[j]] = done[j]; /* a failed one may be reached again */
+        }
     }
+    free(parent);
+    free(child);
+    free(claimed);
+    free(done);
     anchor_progress(c, tail, reachable, 1);
     free(queue);
     free(reach);
-    return DM_OK;
+    return rc;
 }
 
 int dm_sweep_anchors_nearest(const sweep_ctx *c, const double P[3])

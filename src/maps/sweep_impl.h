@@ -112,8 +112,9 @@ int dm_sweep_store_prepare(sweep_ctx *c, const char *path, dm_error *err);
 
 /* ---- sweep_anchors.c -------------------------------------------------------- */
 
-/* Build the lattice of anchors (serially, with worker w). */
-int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, dm_error *err);
+/* Build the lattice of anchors with the nw workers w[0 .. nw-1] (one per
+ * thread): the same lattice for any nw. */
+int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, int nw, dm_error *err);
 /* The nearest anchor whose families are known, or -1. */
 int dm_sweep_anchors_nearest(const sweep_ctx *c, const double P[3]);
 /* Anchor a's solver seed (c->seed_len bytes). */
