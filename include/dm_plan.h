@@ -64,9 +64,9 @@ typedef struct dm_plan_result {
     int neffect, nparam;
     dm_plan_effect effect[DM_PLAN_MAXEFF];
     double noise;
-    double logdet, logdet_random;       /* planned; mean over random designs */
+    double logdet, logdet_random;       /* planned; median over random designs */
     double sigma[DM_DIAG_MAXP];         /* expected 1-sigma per parameter, its unit */
-    double sigma_random[DM_DIAG_MAXP];  /* the same for random candidates (rms over draws) */
+    double sigma_random[DM_DIAG_MAXP];  /* the same for random candidates (median over draws) */
     /* per effect: the smallest magnitude the planned experiment sees at 5
      * sigma, alone against the robot file (springs: the largest stiffness;
      * geometry errors: the size along the assumed direction; damping: the

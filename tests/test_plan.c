@@ -162,6 +162,14 @@ static void look_alikes_are_reported(void **state)
     assert_int_equal(r.npair, 1);
     assert_true(r.pair[0].alike);
     assert_true(r.pair[0].angle_deg < 1.0);
+    /* the random paths' 1-sigma is their median: typical paths determine
+     * each radius to about what the plan does, within 30x, although some
+     * of them barely determine it at all (an rms over the paths gave 1e4
+     * to 1e5 times the plan's, set by their round-off) */
+    for (int j = 0; j < r.nparam; j++) {
+        print_message("%d: planned %.3g random %.3g\n", j, r.sigma[j], r.sigma_random[j]);
+        assert_true(r.sigma_random[j] < 30 * r.sigma[j]);
+    }
     dm_plan_free(&r);
 }
 

@@ -136,8 +136,8 @@ static void print_plan(const dm_robot *rb, const dm_plan_result *r)
            rb->name, dm_data_kind_name(d->kind), d->kind == DM_DATA_TRACKER ? "run" : "survey",
            d->npose, d->kind == DM_DATA_TRACKER ? "samples" : "poses", r->ncandidates,
            d->kind == DM_DATA_TRACKER ? "paths" : "poses", r->noise, unit_of(r));
-    printf("design    D-optimal: information %.3gx that of random candidates per parameter\n"
-           "          (log det F %.4g against %.4g on average)\n",
+    printf("design    D-optimal: information %.3gx that of the median random candidate per "
+           "parameter\n          (log det F %.4g against %.4g)\n",
            exp((r->logdet - r->logdet_random) / p), r->logdet, r->logdet_random);
     if (d->kind == DM_DATA_TRACKER)
         printf("path      %s\n", r->path);

@@ -298,15 +298,47 @@ static double design_sigma(const double *info, const int *sel, int n, int p, dou
     return ld;
 }
 
+static int ascending(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* The median of v[0 .. n-1] (n >= 1; v is sorted in place). */
+static double median(double *v, int n)
+{
+    assert(n >= 1);
+    qsort(v, (size_t)n, sizeof *v, ascending);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/* The random candidates' figures: the median log det over the ok designs
+ * (ld[d]) and, per parameter, the median 1-sigma (sig[d][j]); medians, not
+ * means: a random design that barely determines the parameters has a near
+ * singular information matrix whose smallest eigenvalue, set by the
+ * predictions' round-off, would sway a mean (docs/diagnosis.md). */
+static double random_medians(double *ld, double (*sig)[DM_DIAG_MAXP], int ok, int p,
+                             double *sig_median)
+{
+    double col[RANDOM_DRAWS > NPATH ? RANDOM_DRAWS : NPATH];
+    assert(ok <= (int)(sizeof col / sizeof col[0]));
+    for (int j = 0; j < p; j++) {
+        for (int d = 0; d < ok; d++)
+            col[d] = sig[d][j];
+        sig_median[j] = ok ? median(col, ok) : INFINITY;
+    }
+    return ok ? median(ld, ok) : -INFINITY;
+}
+
 /* The same for random designs: n distinct units drawn RANDOM_DRAWS times;
- * rms 1-sigma and mean log det over the draws that determine everything. */
+ * median 1-sigma and log det over the draws that determine everything. */
 static double random_sigma(const double *info, int nunit, int p, int n, uint64_t seed,
                            double *sig)
 {
     assert(n >= 0 && n <= nunit && p <= DM_DIAG_MAXP);
     dm_rng rng = {seed * 0x9E3779B97F4A7C15ull + 7};
     int *sel = malloc(sizeof(int) * nunit), ok = 0;
-    double var[DM_DIAG_MAXP] = {0}, ld = 0;
+    double lds[RANDOM_DRAWS], sigs[RANDOM_DRAWS][DM_DIAG_MAXP];
     for (int d = 0; sel && d < RANDOM_DRAWS; d++) {
         for (int u = 0; u < nunit; u++)
             sel[u] = u;
@@ -316,18 +348,12 @@ static double random_sigma(const double *info, int nunit, int p, int n, uint64_t
             sel[i] = sel[k];
             sel[k] = t;
         }
-        double s[DM_DIAG_MAXP], l = design_sigma(info, sel, n, p, s);
-        if (!isfinite(l))
-            continue;
-        ok++;
-        ld += l;
-        for (int j = 0; j < p; j++)
-            var[j] += s[j] * s[j];
+        double l = design_sigma(info, sel, n, p, sigs[ok]);
+        if (isfinite(l))
+            lds[ok++] = l;
     }
-    for (int j = 0; j < p; j++)
-        sig[j] = ok ? sqrt(var[j] / ok) : INFINITY;
     free(sel);
-    return ok ? ld / ok : -INFINITY;
+    return random_medians(lds, sigs, ok, p, sig);
 }
 
 /* ---- candidates -------------------------------------------------------------------- */
@@ -623,8 +649,7 @@ static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_erro
         dm_dataset_free(&d);
     }
     int best = -1, ok = 0;
-    double var[DM_DIAG_MAXP] = {0};
-    r->logdet_random = 0;
+    double lds[NPATH], sigs[NPATH][DM_DIAG_MAXP];
     for (int k = 0; k < NPATH; k++) {
         if (status[k] && status[k] != DM_EUNREACHABLE)
             return err ? (*err = perr[k], perr[k].code) : status[k];
@@ -633,10 +658,8 @@ static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_erro
         r->ncandidates++;
         if (!isfinite(ld[k]))
             continue;
-        ok++;
-        r->logdet_random += ld[k];
-        for (int j = 0; j < p; j++)
-            var[j] += sig[k][j] * sig[k][j];
+        lds[ok] = ld[k];
+        memcpy(sigs[ok++], sig[k], sizeof sig[k]);
         if (best < 0 || ld[k] > ld[best])
             best = k;
     }
@@ -645,11 +668,9 @@ static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_erro
     if (best < 0)
         return dm_fail(err, DM_EINVAL, "no path of the family determines these effects");
     r->logdet = ld[best];
-    r->logdet_random /= ok;
-    for (int j = 0; j < p; j++) {
+    r->logdet_random = random_medians(lds, sigs, ok, p, r->sigma_random);
+    for (int j = 0; j < p; j++)
         r->sigma[j] = sig[best][j];
-        r->sigma_random[j] = sqrt(var[j] / ok);
-    }
     path_spec(m->rb, best, n, r->path, sizeof r->path);
     int rc = path_samples(m->rb, r->path, n, noise, &r->design, err);
     snprintf(r->design.source, sizeof r->design.source, "planned tracker run");
