@@ -69,33 +69,10 @@ static void anchor_lattice(const sweep_ctx *c, int m[3])
     }
 }
 
-/* A coarse lattice (at most 16 per axis) of reference poses. Families are
- * the k lowest modes at the root (the anchor nearest the robot's home),
- * followed to every other reachable anchor by MAC, before any tile runs.
- * The breadth-first search goes one wave at a time: the anchors a wave
- * reaches are claimed serially, each by the first anchor of the wave next
- * to it (the order of a serial search), then computed in parallel, each
- * from its claimant's seed: the lattice, bit for bit, does not depend on
- * the number of threads (one that fails may be reached again by the next
- * wave). Memory: at most 4096 anchors. */
-int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, int nw, dm_error *err)
+/* Place the anchors on the grid: reach[id] says which are reachable;
+ * returns the reachable one nearest the robot's home (-1: none). */
+static int place_anchors(sweep_ctx *c, const int m[3], int *reach)
 {
-    int m[3], n = c->n, k = c->k, rc = DM_OK;
-    assert(nw >= 1);
-    c->seed_len = dm_modal_seed_size(w->an->modal);
-    anchor_lattice(c, m);
-    c->nanchor = m[0] * m[1] * m[2];
-    c->anchor_P = calloc((size_t)c->nanchor, sizeof *c->anchor_P);
-    c->anchor_ok = calloc((size_t)c->nanchor, sizeof *c->anchor_ok);
-    c->anchor_phi = calloc((size_t)c->nanchor * n * k, sizeof(double));
-    c->anchor_seed = c->seed_len ? calloc((size_t)c->nanchor, c->seed_len) : NULL;
-    int *queue = malloc(sizeof(int) * c->nanchor), *reach = calloc((size_t)c->nanchor, sizeof(int));
-    if (!c->anchor_P || !c->anchor_ok || !c->anchor_phi || !queue || !reach ||
-        (c->seed_len && !c->anchor_seed)) {
-        free(queue);
-        free(reach);
-        return dm_fail(err, DM_ENOMEM, "out of memory for mode tracking");
-    }
     int root = -1;
     double best = INFINITY;
     for (int a0 = 0; a0 < m[0]; a0++)
@@ -115,26 +92,27 @@ int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, int nw, dm_error *err)
                     root = id;
                 }
             }
-    /* Continuation tree: up and down the root's column first (one height
-     * step at a time), then breadth first within each horizontal layer from
-     * that column, so families cross between heights in one place only. */
-    int head = 0, tail = 0;
-    long reachable = 0;
-    for (int i = 0; i < c->nanchor; i++)
-        reachable += reach[i];
-    if (root >= 0) {
-        dm_pose_result res;
-        dm_modal_forget(w->an->modal); /* the root starts cold */
-        if (!dm_analysis_run(w->an, c->anchor_P[root], c->kc, &res, NULL)) {
-            memcpy(c->anchor_phi + (size_t)root * n * k, res.modes->phi, sizeof(double) * n * k);
-            if (c->seed_len)
-                dm_modal_seed_save(w->an->modal, dm_sweep_anchors_seed(c, root));
-            c->anchor_ok[root] = 1;
-            queue[tail++] = root;
-        }
-    }
+    return root;
+}
+
+/* The root (cold) and, one height step at a time, its column up and down,
+ * serially: into the queue, whose new tail is returned. */
+static int root_column(sweep_ctx *c, sweep_worker *w, const int m[3], const int *reach, int root,
+                       int *queue)
+{
+    int tail = 0;
+    size_t block = (size_t)c->n * c->k;
+    dm_pose_result res;
+    dm_modal_forget(w->an->modal); /* the root starts cold */
+    if (dm_analysis_run(w->an, c->anchor_P[root], c->kc, &res, NULL))
+        return 0;
+    memcpy(c->anchor_phi + root * block, res.modes->phi, sizeof(double) * block);
+    if (c->seed_len)
+        dm_modal_seed_save(w->an->modal, dm_sweep_anchors_seed(c, root));
+    c->anchor_ok[root] = 1;
+    queue[tail++] = root;
     int r0 = root / (m[1] * m[2]), r1 = (root / m[2]) % m[1], r2 = root % m[2];
-    for (int dir = -1; dir <= 1 && root >= 0; dir += 2)
+    for (int dir = -1; dir <= 1; dir += 2)
         for (int a2 = r2 + dir, from = root; a2 >= 0 && a2 < m[2]; a2 += dir) {
             int b[3] = {r0, r1, a2}, nb = anchor_index(c, m, b);
             if (!reach[nb] || !follow(c, w, from, nb))
@@ -142,14 +120,26 @@ int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, int nw, dm_error *err)
             queue[tail++] = nb;
             from = nb;
         }
+    return tail;
+}
+
+/* Breadth first within each horizontal layer from the queued anchors, one
+ * wave at a time: the anchors a wave reaches are claimed serially, each by
+ * the first anchor of the wave next to it (the order of a serial search),
+ * then computed in parallel on the nw workers, each from its claimant's
+ * seed; one that fails may be reached again by the next wave. */
+static int grow_layers(sweep_ctx *c, sweep_worker *w, int nw, const int m[3], const int *reach,
+                       int *queue, int tail, long reachable, dm_error *err)
+{
     int *parent = malloc(sizeof(int) * c->nanchor), *child = malloc(sizeof(int) * c->nanchor);
     unsigned char *claimed = calloc((size_t)c->nanchor, 1), *done = malloc((size_t)c->nanchor);
-    if (!parent || !child || !claimed || !done)
-        rc = dm_fail(err, DM_ENOMEM, "out of memory for mode tracking");
-    while (!rc && head < tail) {
+    int rc = parent && child && claimed && done
+                 ? DM_OK
+                 : dm_fail(err, DM_ENOMEM, "out of memory for mode tracking");
+    for (int head = 0; !rc && head < tail;) {
         anchor_progress(c, tail, reachable, 0);
         int wave = tail, nclaim = 0;
-        for (; head < wave; head++) { /* claims in the serial search's order */
+        for (; head < wave; head++) {
             int id = queue[head], a[3] = {id / (m[1] * m[2]), (id / m[2]) % m[1], id % m[2]};
             for (int d = 0; d < 2; d++)
                 for (int s = -1; s <= 1; s += 2) {
@@ -171,7 +161,7 @@ int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, int nw, dm_error *err)
         for (int j = 0; j < nclaim; j++) {
             if (done[j])
                 queue[tail++] = child[j];
-            claimed[child[j]] = done[j]; /* a failed one may be reached again */
+            claimed[child[j]] = done[j];
         }
     }
     free(parent);
@@ -179,6 +169,40 @@ int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, int nw, dm_error *err)
     free(claimed);
     free(done);
     anchor_progress(c, tail, reachable, 1);
+    return rc;
+}
+
+/* A coarse lattice (at most 16 per axis) of reference poses. Families are
+ * the k lowest modes at the root (the anchor nearest the robot's home),
+ * followed to every other reachable anchor by MAC, before any tile runs:
+ * up and down the root's column first (one height step at a time), then
+ * breadth first within each horizontal layer from that column, so
+ * families cross between heights in one place only. The lattice, bit for
+ * bit, does not depend on the number of workers (grow_layers). Memory: at
+ * most 4096 anchors. */
+int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, int nw, dm_error *err)
+{
+    int m[3];
+    assert(nw >= 1);
+    c->seed_len = dm_modal_seed_size(w->an->modal);
+    anchor_lattice(c, m);
+    c->nanchor = m[0] * m[1] * m[2];
+    c->anchor_P = calloc((size_t)c->nanchor, sizeof *c->anchor_P);
+    c->anchor_ok = calloc((size_t)c->nanchor, sizeof *c->anchor_ok);
+    c->anchor_phi = calloc((size_t)c->nanchor * c->n * c->k, sizeof(double));
+    c->anchor_seed = c->seed_len ? calloc((size_t)c->nanchor, c->seed_len) : NULL;
+    int *queue = malloc(sizeof(int) * c->nanchor), *reach = calloc((size_t)c->nanchor, sizeof(int));
+    int rc = DM_OK;
+    if (!c->anchor_P || !c->anchor_ok || !c->anchor_phi || !queue || !reach ||
+        (c->seed_len && !c->anchor_seed))
+        rc = dm_fail(err, DM_ENOMEM, "out of memory for mode tracking");
+    int root = rc ? -1 : place_anchors(c, m, reach);
+    long reachable = 0;
+    for (int i = 0; !rc && i < c->nanchor; i++)
+        reachable += reach[i];
+    int tail = root >= 0 ? root_column(c, w, m, reach, root, queue) : 0;
+    if (!rc)
+        rc = grow_layers(c, w, nw, m, reach, queue, tail, reachable, err);
     free(queue);
     free(reach);
     return rc;
