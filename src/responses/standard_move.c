@@ -83,10 +83,13 @@ struct dm_move_ws {
      * window), structure of arrays a11, a12, a21, a22 of nmax each */
     double *trans[2];
     unsigned char have[2][MAX_LEVEL + 1];
-    candidate *cand;                     /* MAX_INTERVALS + 1 */
-    double *cand_pool;
+    candidate *cand[2];                  /* two stores of MAX_INTERVALS + 1 (the move's
+                                            halves are both scanned before either is
+                                            refined) */
+    double *cand_pool[2];
     double *stack;                       /* MAX_LEVEL + 2 levels x 4 states of nmax */
-    double *blocks;                      /* bounds per block of the coarse scan (state_bounds) */
+    double *blocks[2];                   /* bounds per block of the coarse scan (state_bounds),
+                                            per store */
     double *scan;                        /* 4 x nmax: two states of the coarse scan */
 };
 
@@ -111,14 +114,17 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
         w->pool = malloc(sizeof(double) * carried_len(kmax) * MAXDIR);
         w->trans[0] = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 1));
         w->trans[1] = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 1));
-        w->cand = malloc(sizeof(candidate) * (MAX_INTERVALS + 1));
-        w->cand_pool = malloc(sizeof(double) * 2 * nmax * (MAX_INTERVALS + 1));
+        for (int st = 0; st < 2; st++) {
+            w->cand[st] = malloc(sizeof(candidate) * (MAX_INTERVALS + 1));
+            w->cand_pool[st] = malloc(sizeof(double) * 2 * nmax * (MAX_INTERVALS + 1));
+            w->blocks[st] = malloc(sizeof(double) * 2 * (nmax + 1) * (MAX_INTERVALS / 16 + 1));
+        }
         w->stack = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 2));
         w->scan = malloc(sizeof(double) * 4 * nmax);
-        w->blocks = malloc(sizeof(double) * 2 * (nmax + 1) * (MAX_INTERVALS / 16 + 1));
     }
     if (!w || !w->G || !w->r || !w->R || !w->MR || !w->KR || !w->X || !w->Y || !w->pool || !w->trans[0] ||
-        !w->trans[1] || !w->cand || !w->cand_pool || !w->stack || !w->scan || !w->blocks) {
+        !w->trans[1] || !w->cand[0] || !w->cand[1] || !w->cand_pool[0] || !w->cand_pool[1] || !w->stack ||
+        !w->scan || !w->blocks[0] || !w->blocks[1]) {
         dm_move_free(w);
         dm_fail(err, DM_ENOMEM, "out of memory for the standard move");
         return NULL;
@@ -132,8 +138,10 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
             *arr[i] = p; /* 9 <= 10 arrays of kmax + MAXRITZ */
     }
     for (int i = 0; i <= MAX_INTERVALS; i++) {
-        w->cand[i].q = w->cand_pool + (size_t)2 * w->nmax * i;
-        w->cand[i].v = w->cand[i].q + w->nmax;
+        for (int st = 0; st < 2; st++) {
+            w->cand[st][i].q = w->cand_pool[st] + (size_t)2 * w->nmax * i;
+            w->cand[st][i].v = w->cand[st][i].q + w->nmax;
+        }
     }
     return w;
 }
@@ -152,11 +160,13 @@ void dm_move_free(dm_move_ws *w)
     free(w->pool);
     free(w->trans[0]);
     free(w->trans[1]);
-    free(w->cand);
-    free(w->cand_pool);
+    for (int st = 0; st < 2; st++) {
+        free(w->cand[st]);
+        free(w->cand_pool[st]);
+        free(w->blocks[st]);
+    }
     free(w->stack);
     free(w->scan);
-    free(w->blocks);
     free(w);
 }
 
@@ -514,6 +524,7 @@ typedef struct {
     double tol;        /* settling band (window of a damped robot), else < 0 */
     double L, tL;      /* largest |y| found, and when */
     const double *bounds;  /* those a refinement uses (state_bounds) */
+    int store;         /* where its scan keeps candidates and bounds (0, 1) */
 } phase;
 
 static double step_of(const phase *ph, int level) { return ldexp(ph->base, -level); }
@@ -744,7 +755,7 @@ typedef struct {
 #define BLOCK 16
 static double *block_bounds(const phase *ph, int b)
 {
-    return ph->w->blocks + (size_t)2 * (ph->w->nmax + 1) * b;
+    return ph->w->blocks[ph->store] + (size_t)2 * (ph->w->nmax + 1) * b;
 }
 
 /* The coarse scan of a phase from state (q, v), left at the phase's end
@@ -787,7 +798,7 @@ static int scan_phase(phase *ph, double *q, double *v, scan_result *sr)
         double bound = interval_bound(&prev, &cur, H / 2, &s);
         int settle = ph->tol >= 0 && bound > ph->tol && i - 1 >= sr->last_above;
         if (bound > ph->L * (1 + MAX_REL) || settle) {
-            candidate *cd = &w->cand[sr->ncand++];
+            candidate *cd = &w->cand[ph->store][sr->ncand++];
             cd->node = i - 1;
             cd->bound = bound;
             cd->a = prev;
@@ -814,35 +825,49 @@ static void use_block(phase *ph, const candidate *cd)
     ph->bounds = block_bounds(ph, cd->node / BLOCK);
 }
 
-/* The phase's maximum of |y| (into ph->L, ph->tL), and, with a band, the
- * last instant after its start at which |y| exceeds it (0: never;
- * INFINITY: at the end still). */
-static double extremes(phase *ph, double *q, double *v)
-{
+/* A phase's coarse scan, kept for its refinements. */
+typedef struct {
+    int level;
     scan_result sr;
-    int level = scan_phase(ph, q, v, &sr);
-    double H = step_of(ph, level);
-    for (int k = 0; k < sr.ncand; k++) {
-        const candidate *cd = &ph->w->cand[k];
+} scanned;
+
+static void scan(phase *ph, double *q, double *v, scanned *s)
+{
+    s->level = scan_phase(ph, q, v, &s->sr);
+}
+
+/* Refine the scan's candidates that may exceed the largest value found
+ * (ph->L, ph->tL: of this phase or an earlier one). */
+static void refine_maxima(phase *ph, const scanned *s)
+{
+    double H = step_of(ph, s->level);
+    for (int k = 0; k < s->sr.ncand; k++) {
+        const candidate *cd = &ph->w->cand[ph->store][k];
         if (!(cd->bound > ph->L * (1 + MAX_REL)))
             continue;
         use_block(ph, cd);
-        refine_max(ph, level, cd->node * H, cd->q, cd->v, &cd->a, &cd->b);
+        refine_max(ph, s->level, cd->node * H, cd->q, cd->v, &cd->a, &cd->b);
     }
-    if (ph->tol < 0)
-        return -1;
-    if (!sr.stopped && sr.end_value > ph->tol)
+}
+
+/* The last instant after the phase's start at which |y| exceeds its band
+ * (0: never; INFINITY: at the end still). */
+static double settling(phase *ph, const scanned *s)
+{
+    const scan_result *sr = &s->sr;
+    double H = step_of(ph, s->level);
+    if (!sr->stopped && sr->end_value > ph->tol)
         return INFINITY;
-    for (int k = sr.ncand - 1; k >= 0; k--) { /* latest first */
-        const candidate *cd = &ph->w->cand[k];
-        if (cd->node < sr.last_above || !(cd->bound > ph->tol))
+    for (int k = sr->ncand - 1; k >= 0; k--) { /* latest first */
+        const candidate *cd = &ph->w->cand[ph->store][k];
+        if (cd->node < sr->last_above || !(cd->bound > ph->tol))
             continue;
         use_block(ph, cd);
-        double r = latest_above(ph, level, cd->node * H, cd->q, cd->v, &cd->a, &cd->b);
+        double r = latest_above(ph, s->level, cd->node * H, cd->q, cd->v, &cd->a, &cd->b);
         if (r >= 0)
             return r;
     }
-    return sr.last_above < 0 ? 0.0 : sr.last_above * H;
+    return sr->last_above < 0 ? 0.0 : sr->last_above * H;
 }
 
 /* Start a phase of load a: each mode's free motion is now about its
@@ -874,20 +899,35 @@ static void one_move(dm_move_ws *w, carried *c, double alpha, double beta, const
     }
     memset(w->have, 0, sizeof w->have);
     double A = o->amax_ms2;
-    phase ph = {w, c, 0, 0.5 * o->tau_s, 0, {0, 0, 0}, -1, 0, 0, NULL};
-    start_phase(&ph, c, 0, A);
-    extremes(&ph, c->q, c->v);
-    ph.t0 = 0.5 * o->tau_s;
-    start_phase(&ph, c, A, -A);
-    extremes(&ph, c->q, c->v);
-    res->peak_m = ph.L;
-    res->peak_t_s = ph.tL;
-    phase win = {w, c, 1, o->window_s, 0, {0, 0, 0}, damped ? o->tol_m : -1, 0, 0, NULL};
+    /* the move's halves are both scanned before either is refined, the
+     * second (where the peak usually is: the deceleration adds to the
+     * ringing) first: the larger maximum found first prunes the other
+     * half's candidates without refining them */
+    phase first = {w, c, 0, 0.5 * o->tau_s, 0, {0, 0, 0}, -1, 0, 0, NULL, 0};
+    phase second = first;
+    scanned s1, s2;
+    start_phase(&first, c, 0, A);
+    scan(&first, c->q, c->v, &s1);
+    second.t0 = 0.5 * o->tau_s;
+    second.store = 1;
+    second.L = first.L;
+    second.tL = first.tL;
+    start_phase(&second, c, A, -A);
+    scan(&second, c->q, c->v, &s2);
+    refine_maxima(&second, &s2);
+    first.L = second.L;
+    first.tL = second.tL;
+    refine_maxima(&first, &s1);
+    res->peak_m = first.L;
+    res->peak_t_s = first.tL;
+    phase win = {w, c, 1, o->window_s, 0, {0, 0, 0}, damped ? o->tol_m : -1, 0, 0, NULL, 0};
+    scanned sw;
     start_phase(&win, c, -A, 0);
-    double settle = extremes(&win, c->q, c->v);
+    scan(&win, c->q, c->v, &sw);
+    refine_maxima(&win, &sw);
     res->residual_m = win.L;
     res->residual_t_s = win.tL;
-    res->settling_s = damped ? settle : INFINITY;
+    res->settling_s = damped ? settling(&win, &sw) : INFINITY;
 }
 
 int dm_standard_moves(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
