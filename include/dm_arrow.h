@@ -80,15 +80,10 @@ void dm_arrow_pattern_release(dm_arrow_pattern *p);
  * (asserted). */
 void dm_arrow_add(dm_arrow *a, int i, int j, double v);
 
-/* A(idx[r], idx[c]) += E[c m + r] for an element's m x m contribution E,
- * m <= DM_ARROW_PLAN_DOFS (entries of the half that A does not store are
- * not read). */
-void dm_arrow_add_matrix(dm_arrow *a, const int *idx, int m, const double *E);
-
-/* Where an element's m x m contribution goes (m <= DM_ARROW_PLAN_DOFS):
- * for each entry of the stored half, its index in E and its place in any
- * matrix of the layout. An assembly that adds the same elements at every
- * pose works its plans out once (dm_arrow_add_matrix per call). */
+/* Where an element's m x m contribution E goes (m <= DM_ARROW_PLAN_DOFS,
+ * its DOFs idx): for each entry of the stored half, its index in E and
+ * its place in any matrix of the layout. An assembly adds the same
+ * elements at every pose, so it works its plans out once. */
 #define DM_ARROW_PLAN_DOFS 16
 typedef struct dm_arrow_plan {
     int count;
@@ -98,7 +93,8 @@ typedef struct dm_arrow_plan {
 
 void dm_arrow_plan_make(const dm_arrow_layout *lay, const int *idx, int m, dm_arrow_plan *p);
 
-/* A(idx[r], idx[c]) += E[c m + r] through a plan made for idx. */
+/* A(idx[r], idx[c]) += E[c m + r] through a plan made for idx (entries
+ * of the half that A does not store are not read). */
 void dm_arrow_add_planned(dm_arrow *a, const dm_arrow_plan *p, const double *E);
 
 /* A(i, j) of the full matrix (0 outside the pattern). */
