@@ -332,6 +332,14 @@ static inline int slice_width(int left)
     default: KERNEL(1); break;                                                                     \
     }
 
+/* Run KERNEL(W) on each slice of q columns: o, the slice's first column,
+ * and W, its width, in scope. */
+#define FOR_SLICES(q, KERNEL)                                                                      \
+    for (int o = 0, w; o < (q); o += w) {                                                          \
+        w = slice_width((q) - o);                                                                  \
+        BY_WIDTH(w, KERNEL)                                                                        \
+    }
+
 /* y_i += a x_j over w values */
 INLINE void axpy_w(double *restrict y, double a, const double *restrict x, int w)
 {
@@ -392,16 +400,13 @@ INLINE void band_mult_full(const double *ab, int n, int kd, const double *X, dou
 VECTOR_CLONES static void band_mult(const double *ab, int n, int kd, const dm_arrow_pattern *pat,
                                     int c, const double *X, double *Y, int q)
 {
-    for (int o = 0, w; o < q; o += w) {
-        w = slice_width(q - o);
 #define KERNEL(W)                                                                                  \
     if (pat)                                                                                       \
         band_mult_slice(ab, n, kd + 1, pat->colptr[c], pat->rows[c], X + o, Y + o, q, W);         \
     else                                                                                           \
         band_mult_full(ab, n, kd, X + o, Y + o, q, W)
-        BY_WIDTH(w, KERNEL)
+    FOR_SLICES(q, KERNEL)
 #undef KERNEL
-    }
 }
 
 /* Y_c += C_c X_P and Y_P += C_c' X_c over a slice; C_c's entries k (row
@@ -429,20 +434,9 @@ VECTOR_CLONES static void coupling_mult(const dm_arrow *a, int c, const double *
     double *yc = Y + (size_t)lay->off[c] * q, *yp = Y + (size_t)lay->border * q;
     const int *index = a->pattern ? a->pattern->cpl[c] : NULL;
     int count = a->pattern ? a->pattern->ncpl[c] : nb * NP;
-    for (int o = 0, w; o < q; o += w) {
-        w = slice_width(q - o);
 #define KERNEL(W) coupling_slice(a->cpl[c], nb, index, count, xc + o, xp + o, yc + o, yp + o, q, W)
-        BY_WIDTH(w, KERNEL)
+    FOR_SLICES(q, KERNEL)
 #undef KERNEL
-    }
-}
-
-/* y_i += a x_j over q values (the 6 x 6 border's small loops) */
-static inline void axpy_q(double *restrict y, double a, const double *restrict x, int q)
-{
-#pragma omp simd
-    for (int r = 0; r < q; r++)
-        y[r] += a * x[r];
 }
 
 void dm_arrow_mult(const dm_arrow *a, const double *X, int q, double *Y)
@@ -460,7 +454,7 @@ void dm_arrow_mult(const dm_arrow *a, const double *X, int q, double *Y)
     }
     for (int m = 0; m < NP; m++)
         for (int l = 0; l < NP; l++)
-            axpy_q(yp + (size_t)m * q, a->pp[l * NP + m], xp + (size_t)l * q, q);
+            axpy_w(yp + (size_t)m * q, a->pp[l * NP + m], xp + (size_t)l * q, q);
 }
 
 void dm_arrow_axpby(dm_arrow *dst, const dm_arrow *a, double sigma, const dm_arrow *b)
@@ -686,12 +680,9 @@ INLINE void chol_solve_slice(const dm_arrow_chol *f, double *X, int q, int w)
 
 VECTOR_CLONES static void chol_solve(const dm_arrow_chol *f, double *X, int q)
 {
-    for (int o = 0, w; o < q; o += w) {
-        w = slice_width(q - o);
 #define KERNEL(W) chol_solve_slice(f, X + o, q, W)
-        BY_WIDTH(w, KERNEL)
+    FOR_SLICES(q, KERNEL)
 #undef KERNEL
-    }
 }
 
 void dm_arrow_chol_solve(const dm_arrow_chol *f, double *X, int q)

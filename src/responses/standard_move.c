@@ -752,7 +752,9 @@ static int coarse_level(const phase *ph, const double *b)
     return level;
 }
 
+/* A phase's coarse scan, kept for its refinements. */
 typedef struct {
+    int level;                      /* of its intervals */
     int ncand, last_above, stopped; /* last node above the band (-1: none) */
     double end_value;               /* |y| at the phase's end */
 } scan_result;
@@ -767,7 +769,7 @@ static double *block_bounds(const phase *ph, int b)
 /* The coarse scan of a phase from state (q, v), left at the phase's end
  * state (unless the scan stopped early): samples, and the intervals that
  * may hold a larger value or the last excursion beyond the band. */
-static int scan_phase(phase *ph, double *q, double *v, scan_result *sr)
+static void scan_phase(phase *ph, double *q, double *v, scan_result *sr)
 {
     dm_move_ws *w = ph->w;
     int nmax = w->nmax, nm = ph->c->nm;
@@ -821,7 +823,7 @@ static int scan_phase(phase *ph, double *q, double *v, scan_result *sr)
     sr->end_value = sr->stopped ? 0 : dm_norm3(prev.y);
     memcpy(q, qa, sizeof(double) * nm);
     memcpy(v, va, sizeof(double) * nm);
-    return level;
+    sr->level = level;
 }
 
 /* Refinements use the bounds of the candidate's block (valid from its
@@ -831,23 +833,12 @@ static void use_block(phase *ph, const candidate *cd)
     ph->bounds = block_bounds(ph, cd->node / BLOCK);
 }
 
-/* A phase's coarse scan, kept for its refinements. */
-typedef struct {
-    int level;
-    scan_result sr;
-} scanned;
-
-static void scan(phase *ph, double *q, double *v, scanned *s)
-{
-    s->level = scan_phase(ph, q, v, &s->sr);
-}
-
 /* Refine the scan's candidates that may exceed the largest value found
  * (ph->L, ph->tL: of this phase or an earlier one). */
-static void refine_maxima(phase *ph, const scanned *s)
+static void refine_maxima(phase *ph, const scan_result *s)
 {
     double H = step_of(ph, s->level);
-    for (int k = 0; k < s->sr.ncand; k++) {
+    for (int k = 0; k < s->ncand; k++) {
         const candidate *cd = &ph->w->cand[ph->store][k];
         if (!(cd->bound > ph->L * (1 + MAX_REL)))
             continue;
@@ -858,10 +849,9 @@ static void refine_maxima(phase *ph, const scanned *s)
 
 /* The last instant after the phase's start at which |y| exceeds its band
  * (0: never; INFINITY: at the end still). */
-static double settling(phase *ph, const scanned *s)
+static double settling(phase *ph, const scan_result *sr)
 {
-    const scan_result *sr = &s->sr;
-    double H = step_of(ph, s->level);
+    double H = step_of(ph, sr->level);
     if (!sr->stopped && sr->end_value > ph->tol)
         return INFINITY;
     for (int k = sr->ncand - 1; k >= 0; k--) { /* latest first */
@@ -869,7 +859,7 @@ static double settling(phase *ph, const scanned *s)
         if (cd->node < sr->last_above || !(cd->bound > ph->tol))
             continue;
         use_block(ph, cd);
-        double r = latest_above(ph, s->level, cd->node * H, cd->q, cd->v, &cd->a, &cd->b);
+        double r = latest_above(ph, sr->level, cd->node * H, cd->q, cd->v, &cd->a, &cd->b);
         if (r >= 0)
             return r;
     }
@@ -911,15 +901,15 @@ static void one_move(dm_move_ws *w, carried *c, double alpha, double beta, const
      * half's candidates without refining them */
     phase first = {w, c, 0, 0.5 * o->tau_s, 0, {0, 0, 0}, -1, 0, 0, NULL, 0};
     phase second = first;
-    scanned s1, s2;
+    scan_result s1, s2;
     start_phase(&first, c, 0, A);
-    scan(&first, c->q, c->v, &s1);
+    scan_phase(&first, c->q, c->v, &s1);
     second.t0 = 0.5 * o->tau_s;
     second.store = 1;
     second.L = first.L;
     second.tL = first.tL;
     start_phase(&second, c, A, -A);
-    scan(&second, c->q, c->v, &s2);
+    scan_phase(&second, c->q, c->v, &s2);
     refine_maxima(&second, &s2);
     first.L = second.L;
     first.tL = second.tL;
@@ -927,9 +917,9 @@ static void one_move(dm_move_ws *w, carried *c, double alpha, double beta, const
     res->peak_m = first.L;
     res->peak_t_s = first.tL;
     phase win = {w, c, 1, o->window_s, 0, {0, 0, 0}, damped ? o->tol_m : -1, 0, 0, NULL, 0};
-    scanned sw;
+    scan_result sw;
     start_phase(&win, c, -A, 0);
-    scan(&win, c->q, c->v, &sw);
+    scan_phase(&win, c->q, c->v, &sw);
     refine_maxima(&win, &sw);
     res->residual_m = win.L;
     res->residual_t_s = win.tL;
