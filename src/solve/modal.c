@@ -979,7 +979,7 @@ const char *dm_direction_name(int d)
     return d >= 0 && d < 6 ? names[d] : "?";
 }
 
-/* M-products of the references: a[f + kr j] = ref_f' M phi_j, and
+/* M-products of the references: a[j + kc f] = phi_j' M ref_f, and
  * norms2[f] = ref_f' M ref_f. work: 2 n kr doubles. */
 static void reference_products(const double *ref, int kr, const dm_modes *mo, int kc,
                                const dm_model *md, double *a, double *norms2, double *work)
@@ -990,9 +990,12 @@ static void reference_products(const double *ref, int kr, const dm_modes *mo, in
         for (int r = 0; r < n; r++)
             R[(size_t)r * kr + i] = ref[(size_t)i * n + r];
     dm_model_mult_M(md, R, kr, MR);
-    /* MR interleaved == column-major kr x n */
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, kr, kc, n, 1.0, MR, kr, mo->phi, n, 0.0,
-                a, kr);
+    /* MR interleaved == column-major kr x n; a = phi' MR'. (The product
+     * the other way round, MR phi, makes OpenBLAS's OpenMP build allocate
+     * at every call inside a parallel region: the per-pose path does not
+     * allocate.) */
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasTrans, kc, kr, n, 1.0, mo->phi, n, MR, kr, 0.0,
+                a, kc);
     for (int i = 0; i < kr; i++)
         norms2[i] = cblas_ddot(n, R + i, kr, MR + i, kr);
 }
@@ -1015,7 +1018,7 @@ void dm_modal_track(const double *ref, int kr, const dm_modes *mo, int kc, const
         for (int c = 0; c < nclu; c++) {
             double s = 0;
             for (int j = first[c]; j < first[c + 1]; j++)
-                s += a[f + (size_t)kr * j] * a[f + (size_t)kr * j];
+                s += a[j + (size_t)kc * f] * a[j + (size_t)kc * f];
             cm[f][c] = s / norms2[f];
         }
     for (int c = 0; c < nclu; c++)
@@ -1052,7 +1055,7 @@ void dm_modal_track(const double *ref, int kr, const dm_modes *mo, int kc, const
         double *dst = shapes + (size_t)f * n, s2 = 0;
         memset(dst, 0, sizeof(double) * n);
         for (int j = first[of[f]]; j < first[of[f] + 1]; j++) {
-            double c = a[f + (size_t)kr * j];
+            double c = a[j + (size_t)kc * f];
             s2 += c * c;
             cblas_daxpy(n, c, mo->phi + (size_t)j * n, 1, dst, 1);
         }
