@@ -87,6 +87,15 @@ size_t dm_modal_seed_size(const dm_modal *ws);
 int dm_modal_seed_save(const dm_modal *ws, void *seed);
 void dm_modal_seed_load(dm_modal *ws, const void *seed);
 
+/* Start the next solve between seeds: from `seed`, moved a fraction
+ * frac[d] (0 < frac <= 1) of the way toward each of toward[0 .. count)
+ * (seeds of poses one step away along different axes; a seed of another
+ * subspace size is skipped), which the solve works out once it has the
+ * model (see interpolate() in modal.c). */
+#define DM_MODAL_TOWARD 3
+void dm_modal_seed_load_toward(dm_modal *ws, const void *seed, const void *const toward[],
+                               const double frac[], int count);
+
 /* How a cold solve of the subspace method starts: from a block of
  * pseudo-random vectors (always the same) iterated to convergence, or
  * from the dense solver's lowest pairs; either way the Sturm count proves

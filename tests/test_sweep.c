@@ -140,6 +140,54 @@ static int same_tree(const char *a, const char *b)
     return system(cmd) == 0;
 }
 
+/* A line of 40 points has 16 anchors: the points between them start
+ * between their seeds (dm_sweep_anchors_toward). Their values equal the
+ * single-pose analysis to 1e-9, and a point's numbers depend on the grid
+ * only: tiles of 16 and of 7 points (cutting the anchors' intervals
+ * elsewhere) give the same values, bit for bit. */
+#define LINE "x=-0.2:0.2:40,y=0.01,z=-0.45"
+static void points_between_anchors(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    assert_int_equal(dm_robot_load("han2011", &rb, NULL), 0);
+    dm_sweep_opts o;
+    dm_sweep_opts_default(&o);
+    o.na = o.nb = 2;
+    o.k = 6;
+    o.threads = 2;
+    o.tile[0] = 16, o.tile[1] = 1, o.tile[2] = 1;
+    char *a = tmpdir(), *b = tmpdir();
+    run_sweep(&rb, LINE, &o, a);
+    o.tile[0] = 7;
+    run_sweep(&rb, LINE, &o, b);
+    static double f[40 * 6], fb[40 * 6], t[40 * 6], tb[40 * 6], m[40 * 3], mb[40 * 3];
+    read_all(a, "frequencies_hz", f, 8);
+    read_all(b, "frequencies_hz", fb, 8);
+    read_all(a, "frequencies_tracked_hz", t, 8);
+    read_all(b, "frequencies_tracked_hz", tb, 8);
+    read_all(a, "move_peak_m", m, 8);
+    read_all(b, "move_peak_m", mb, 8);
+    assert_memory_equal(f, fb, sizeof f);
+    assert_memory_equal(t, tb, sizeof t);
+    assert_memory_equal(m, mb, sizeof m);
+    dm_grid g;
+    assert_int_equal(dm_grid_parse(LINE, &g, NULL), 0);
+    dm_analysis *an = dm_analysis_alloc(&rb, 2, 2, 10, DM_EIGEN_PARTIAL, NULL);
+    for (int p = 0; p < 40; p++) {
+        int idx[3] = {p, 0, 0};
+        double P[3];
+        dm_pose_result res;
+        dm_grid_position(&g, idx, P);
+        assert_int_equal(dm_analysis_run(an, P, 10, &res, NULL), 0);
+        for (int j = 0; j < 6; j++)
+            assert_rel(f[6 * p + j], res.modes->freq_hz[j], 1e-9, "point %d f%d", p, j + 1);
+    }
+    dm_analysis_free(an);
+    rmtree(a);
+    rmtree(b);
+}
+
 static void threads_resume_and_refusal(void **state)
 {
     (void)state;
@@ -240,6 +288,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(values_equal_single_pose_analysis),
+        cmocka_unit_test(points_between_anchors),
         cmocka_unit_test(threads_resume_and_refusal),
         cmocka_unit_test(shards_make_the_same_store),
     };

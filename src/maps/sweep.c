@@ -97,14 +97,18 @@ static void point_nan(dm_point_result *r, int status)
         r->compliance_dir[j] = r->move_peak[j] = r->move_residual[j] = r->move_settling[j] = nan;
 }
 
-static void analyse_point(const sweep_ctx *c, sweep_worker *w, const double P[3], dm_point_result *r)
+static void analyse_point(const sweep_ctx *c, sweep_worker *w, const int idx[3], const double P[3],
+                          dm_point_result *r)
 {
     dm_pose_result res;
     point_nan(r, DM_POINT_OK);
     int an = dm_sweep_anchors_nearest(c, P);
-    if (an >= 0 && c->seed_len)
-        dm_modal_seed_load(w->an->modal, dm_sweep_anchors_seed(c, an));
-    else
+    if (an >= 0 && c->seed_len) {
+        const void *toward[3];
+        double frac[3];
+        int nt = dm_sweep_anchors_toward(c, an, idx, toward, frac);
+        dm_modal_seed_load_toward(w->an->modal, dm_sweep_anchors_seed(c, an), toward, frac, nt);
+    } else
         dm_modal_forget(w->an->modal); /* no anchor reached: cold */
     int rc = dm_analysis_run(w->an, P, c->kc, &res, NULL);
     if (rc) {
@@ -168,9 +172,10 @@ static void tolerance_point(const sweep_ctx *c, const double P[3], dm_point_resu
     r->dominant_source = t.dominant;
 }
 
-static void compute_point(const sweep_ctx *c, sweep_worker *w, const double P[3], dm_point_result *r)
+static void compute_point(const sweep_ctx *c, sweep_worker *w, const int idx[3], const double P[3],
+                          dm_point_result *r)
 {
-    analyse_point(c, w, P, r);
+    analyse_point(c, w, idx, P, r);
     if (c->o.tolerance)
         tolerance_point(c, P, r);
 }
@@ -265,7 +270,7 @@ static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts
                 double P[3];
                 dm_point_result r;
                 dm_grid_position(c->grid, idx, P);
-                compute_point(c, w, P, &r);
+                compute_point(c, w, idx, P, &r);
                 store_point(c, w, ((size_t)i0 * c->tile[1] + i1) * c->tile[2] + i2, &r);
                 counts[r.status == DM_POINT_NOT_COMPUTED ? 3 : r.status]++;
             }

@@ -75,9 +75,11 @@ typedef struct sweep_ctx {
     int nthreads;       /* over tiles */
     dm_store store;
     /* anchors (read-only once built): each point starts its eigen solve
-     * from its nearest anchor's seed and is tracked against that anchor's
-     * families, so a point depends on nothing computed before it */
+     * from its nearest anchor's seed, moved toward the next anchors along
+     * the lattice's axes, and is tracked against that anchor's families,
+     * so a point depends on nothing computed before it */
     int nanchor;
+    int anchor_m[3];     /* the lattice: anchors per axis */
     double (*anchor_P)[3];
     int *anchor_ok;
     double *anchor_phi;  /* nanchor x (n x k): the families' shapes */
@@ -119,6 +121,12 @@ int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, int nw, dm_error *err)
 int dm_sweep_anchors_nearest(const sweep_ctx *c, const double P[3]);
 /* Anchor a's solver seed (c->seed_len bytes). */
 unsigned char *dm_sweep_anchors_seed(const sweep_ctx *c, int a);
+/* The seeds that the start of the point at grid index idx, nearest anchor
+ * a, moves toward: along each axis on which the point lies between a and
+ * the next anchor (solved), that one's seed and how far along; returns
+ * how many (0..3). */
+int dm_sweep_anchors_toward(const sweep_ctx *c, int a, const int idx[3], const void *toward[3],
+                            double frac[3]);
 /* Match the k families with shapes ref to the modes by MAC, clusters as
  * subspaces (w->assign), their next shapes into dst (may be ref). */
 void dm_sweep_anchors_track(const sweep_ctx *c, sweep_worker *w, const double *ref,
