@@ -7,7 +7,8 @@
  *      dsygvd (all) of the same M and K;
  *   2. eigenvalue error against an extended-precision reference;
  *   3. sweep throughput on 1 and 2 threads and what it implies for 1e6
- *      poses; trajectories; tracker diagnoses; one fit's evaluations with
+ *      poses, and on 2 threads over a 256 x 256 grid (a large map's anchor
+ *      lattice); trajectories; tracker diagnoses; one fit's evaluations with
  *      the prediction workspace reused against one made per evaluation;
  *   4. peak memory (max RSS) of two sweeps whose grids differ 10x.
  * Nothing is asserted: timings are not tests. */
@@ -514,6 +515,12 @@ int main(int argc, char **argv)
             if (th == 2)
                 printf("   2 threads / 1 thread: %.2f\n", r / r1);
         }
+        /* a large map's anchors: 32 per axis, 8 grid points apart (the
+         * 64 x 64 grid above has 16, 4 apart, and 1/16 of its poses) */
+        double rl = sweep_rate("x=-0.3:0.3:256,y=-0.3:0.3:256,z=-0.5", 4, 2, &pts);
+        printf("   sweep chen2018 mesh 4,4: %ld points (a large map's anchor lattice), 2 threads: "
+               "%7.1f poses/s (1e6 poses: %.1f min)\n",
+               pts, rl, 1e6 / rl / 60);
         shard_throughput("x=-0.3:0.3:32,y=-0.3:0.3:32,z=-0.5", 32 * 32);
     }
     if (wanted(argc, argv, "4")) {
