@@ -11,15 +11,17 @@
 #include "sweep_impl.h"
 
 /* Anchors per axis: one per POINTS_PER_ANCHOR grid points, at least
- * ANCHORS_MIN (every point of a smaller axis), at most ANCHORS_MAX. A
- * point starts between the seeds of the anchors around it, whose error
- * falls with the square of their spacing: on chen2018's 256 x 256 grid
- * over +-0.3 m, 32 anchors per axis (19 mm apart) instead of 16 make the
- * sweep 8.7 % faster, their own solves included (1 024 instead of 256 for
- * 65 536 points). More would cost each shard of a cluster job its share
- * (every shard builds the whole lattice; docs/cluster.md). */
+ * ANCHORS_MIN (every point of a smaller axis), at most ANCHORS_MAX, and
+ * fewer while the lattice would exceed ANCHOR_BYTES. A point starts
+ * between the seeds of the anchors around it, whose error falls with the
+ * square of their spacing. chen2018 over +-0.3 m, 2 threads, the anchors'
+ * own solves included: on 256 x 256 points 32 per axis (19 mm apart)
+ * instead of 16 made the sweep 8.7 % faster; on 512 x 512, the cap's ~54
+ * (11 mm) instead of 32, 9.2 % (99.2 instead of 109.3 s; peak memory 120
+ * instead of 49 MB). Every shard of a cluster job builds the whole
+ * lattice (docs/cluster.md). */
 #define ANCHORS_MIN 16
-#define ANCHORS_MAX 32
+#define ANCHORS_MAX 64
 #define POINTS_PER_ANCHOR 8
 
 
@@ -214,7 +216,7 @@ static int grow_layers(sweep_ctx *c, sweep_worker *w, int nw, const int m[3], co
     return rc;
 }
 
-/* A coarse lattice (16 to 32 per axis, see ANCHORS_MIN) of reference poses. Families are
+/* A coarse lattice (16 to 64 per axis, see ANCHORS_MIN) of reference poses. Families are
  * the k lowest modes at the root (the anchor nearest the robot's home),
  * followed to every other reachable anchor by MAC, before any tile runs:
  * up and down the root's column first (one height step at a time), then
