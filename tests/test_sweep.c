@@ -71,6 +71,15 @@ static void read_all(const char *dir, const char *name, void *out, size_t elem_b
     dm_store_release(&st);
 }
 
+/* Default options but the mesh (na = nb), modes and tile (t0 x t1 x 1). */
+static void sweep_options(dm_sweep_opts *o, int mesh, int k, int t0, int t1)
+{
+    dm_sweep_opts_default(o);
+    o->na = o->nb = mesh;
+    o->k = k;
+    o->tile[0] = t0, o->tile[1] = t1, o->tile[2] = 1;
+}
+
 /* 7 x 5 x 2 grid that runs past the workspace edge at one end */
 #define SPEC "x=-0.3:1.2:7,y=-0.2:0.2:5,z=-0.6:-0.45:2"
 #define NPTS (7 * 5 * 2)
@@ -81,10 +90,7 @@ static void values_equal_single_pose_analysis(void **state)
     dm_robot rb;
     assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
     dm_sweep_opts o;
-    dm_sweep_opts_default(&o);
-    o.na = o.nb = 2;
-    o.k = 6;
-    o.tile[0] = 3, o.tile[1] = 2, o.tile[2] = 1; /* edge tiles are partial */
+    sweep_options(&o, 2, 6, 3, 2); /* edge tiles are partial */
     char *dir = tmpdir();
     run_sweep(&rb, SPEC, &o, dir);
     static double f[NPTS * 6], e[NPTS * 6], cm[NPTS], tr[NPTS * 6];
@@ -152,11 +158,8 @@ static void points_between_anchors(void **state)
     dm_robot rb;
     assert_int_equal(dm_robot_load("han2011", &rb, NULL), 0);
     dm_sweep_opts o;
-    dm_sweep_opts_default(&o);
-    o.na = o.nb = 2;
-    o.k = 6;
+    sweep_options(&o, 2, 6, 16, 1);
     o.threads = 2;
-    o.tile[0] = 16, o.tile[1] = 1, o.tile[2] = 1;
     char *a = tmpdir(), *b = tmpdir();
     run_sweep(&rb, LINE, &o, a);
     o.tile[0] = 7;
@@ -194,10 +197,7 @@ static void threads_resume_and_refusal(void **state)
     dm_robot rb;
     assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
     dm_sweep_opts o;
-    dm_sweep_opts_default(&o);
-    o.na = o.nb = 1;
-    o.k = 5;
-    o.tile[0] = 2, o.tile[1] = 2, o.tile[2] = 1;
+    sweep_options(&o, 1, 5, 2, 2);
     char *one = tmpdir(), *two = tmpdir();
     o.threads = 1;
     run_sweep(&rb, SPEC, &o, one);
@@ -248,10 +248,7 @@ static void shards_make_the_same_store(void **state)
     dm_robot rb;
     assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
     dm_sweep_opts o;
-    dm_sweep_opts_default(&o);
-    o.na = o.nb = 1;
-    o.k = 5;
-    o.tile[0] = 2, o.tile[1] = 2, o.tile[2] = 1;
+    sweep_options(&o, 1, 5, 2, 2);
     o.threads = 1;
     char *one = tmpdir(), *parts = tmpdir();
     run_sweep(&rb, SPEC, &o, one);
