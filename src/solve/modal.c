@@ -306,19 +306,25 @@ int dm_modal_seed_save(const dm_modal *ws, void *seed)
     return 1;
 }
 
-void dm_modal_seed_load(dm_modal *ws, const void *seed)
+/* A seed's subspace size q; its block into X (n x q, interleaved). */
+static int seed_unpack(const dm_modal *ws, const void *seed, double *X)
 {
     const double *head = seed;
-    if (!uses_subspace(ws))
-        return;
     int q = (int)head[0];
     assert(q >= 1 && q <= ws->qmax);
-    const float *X = (const float *)(head + 1 + ws->qmax);
-    ws->q = q;
-    ws->nl = 0;
-    memcpy(ws->theta, head + 1, sizeof(double) * q);
+    const float *S = (const float *)(head + 1 + ws->qmax);
     for (size_t i = 0; i < (size_t)ws->n * q; i++)
-        ws->X[i] = X[i];
+        X[i] = S[i];
+    return q;
+}
+
+void dm_modal_seed_load(dm_modal *ws, const void *seed)
+{
+    if (!uses_subspace(ws))
+        return;
+    ws->q = seed_unpack(ws, seed, ws->X);
+    ws->nl = 0;
+    memcpy(ws->theta, (const double *)seed + 1, sizeof(double) * ws->q);
     ws->have_start = 1;
     ws->nhist = 0;
     ws->ntoward = 0;
@@ -333,15 +339,11 @@ void dm_modal_seed_load_toward(dm_modal *ws, const void *seed, const void *const
     if (!uses_subspace(ws))
         return;
     for (int d = 0; d < count; d++) {
-        const double *head = toward[d];
         /* another size of subspace (a seed left by a cold start) spans
          * other modes: no line between them */
-        if ((int)head[0] != ws->q || !(frac[d] > 0 && frac[d] <= 1))
+        if ((int)((const double *)toward[d])[0] != ws->q || !(frac[d] > 0 && frac[d] <= 1))
             continue;
-        const float *X = (const float *)(head + 1 + ws->qmax);
-        double *dst = ws->toward[ws->ntoward];
-        for (size_t i = 0; i < (size_t)ws->n * ws->q; i++)
-            dst[i] = X[i];
+        seed_unpack(ws, toward[d], ws->toward[ws->ntoward]);
         ws->tfrac[ws->ntoward++] = frac[d];
     }
     if (ws->ntoward) {
