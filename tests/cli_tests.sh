@@ -94,6 +94,12 @@ expect 0 "trajectory csv" "$DM" trajectory --robot zheng2017 --path "$SHORT" --m
 contains out "written"
 if [ "$(wc -l <"$TMP/run.csv")" -eq 52 ] && head -1 "$TMP/run.csv" | grep -q "^t_s,x_m,y_m,z_m,dx_m"; then ok; else bad "run.csv shape"; fi
 if ls "$TMP"/run.csv.tmp.* >/dev/null 2>&1; then bad "temporary file left"; else ok; fi
+# the all-modes reference's solves run ahead on --threads: the same file on 1 and 3
+expect 0 "trajectory on 1 thread" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --threads 1 --out "$TMP/run1.csv"
+expect 0 "trajectory on 3 threads" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --threads 3 --out "$TMP/run3.csv"
+if cmp -s "$TMP/run1.csv" "$TMP/run3.csv" && cmp -s "$TMP/run1.csv" "$TMP/run.csv"; then ok; else bad "trajectory differs with --threads"; fi
+expect 1 "trajectory --threads 0" "$DM" trajectory --robot zheng2017 --path "$SHORT" --threads 0
+contains err "--threads takes a whole number"
 expect 3 "han vertical circle leaves the workspace" "$DM" trajectory --robot han2011 --path han2011-vertical-printed --out "$TMP/none.csv"
 contains err "first unreachable at t = 0 s"
 if [ -e "$TMP/none.csv" ] || ls "$TMP"/none.csv.tmp.* >/dev/null 2>&1; then bad "half-written output"; else ok; fi

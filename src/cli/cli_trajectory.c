@@ -3,6 +3,7 @@
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,7 +20,7 @@ static const char HELP[] =
     "                           [--no-quasi-static] [--from-rest] [--no-reference]\n"
     "                           [--mesh NA,NB] [--tool X,Y,Z] [--force FX,FY,FZ]\n"
     "                           [--set SECTION.KEY=V]... [--force-long] [--rigid] [--no-budget]\n"
-    "                           [--axes-rotation DEG[,DEG...]]\n"
+    "                           [--axes-rotation DEG[,DEG...]] [--threads N]\n"
     "                           [--out FILE.csv] [--json]\n"
     "\n"
     "Normal-coordinate integration along a trajectory (docs/model.md §4): the\n"
@@ -47,6 +48,9 @@ static const char HELP[] =
     "  --no-reference   skip the all-modes run that measures the truncation error\n"
     "                   (for an undamped robot both runs of that figure get a light\n"
     "                   damping, beta = 1e-4 s, and the output says so)\n"
+    "  --threads N      threads for the all-modes reference (default: all cores):\n"
+    "                   its eigen solves of the next steps run beside the current\n"
+    "                   ones; the result does not depend on it\n"
     "  --mesh NA,NB     elements per arm and rod (default: the robot file's)\n"
     "  --set K=V        override a robot-file key (repeatable)\n"
     "  --force FX,FY,FZ constant external force at the platform centre, N (also in\n"
@@ -94,7 +98,7 @@ static int parse(int argc, char **argv, traj_opts *t)
         {"mesh", 1, 0, 'm'}, {"tool", 1, 0, 't'}, {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'},
         {"set", 1, 0, 's'}, {"force", 1, 0, 'F'}, {"force-long", 0, 0, 'L'},
         {"rigid", 0, 0, 'G'}, {"no-budget", 0, 0, 'B'}, {"axes-rotation", 1, 0, 'X'},
-        {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"threads", 1, 0, 'T'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     int c;
     double v[2];
     memset(t, 0, sizeof *t);
@@ -133,6 +137,10 @@ static int parse(int argc, char **argv, traj_opts *t)
                 return EXIT_USAGE;
             break;
         case 'n': t->o.reference = 0; break;
+        case 'T':
+            if (dm_cli_parse_int(optarg, 1, 1024, &t->o.threads))
+                return dm_cli_usage("trajectory", "--threads takes a whole number >= 1", optarg);
+            break;
         case 'k':
             if (!strcmp(optarg, "all"))
                 t->o.k = 0;
@@ -548,11 +556,14 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
 
 int dm_cli_trajectory(int argc, char **argv)
 {
+    int all_cores = omp_get_max_threads(); /* before BLAS is made serial (it sets OpenMP's too) */
     dm_cli_serial_blas();
     traj_opts t;
     int rc = parse(argc, argv, &t);
     if (rc)
         return rc;
+    if (!t.o.threads)
+        t.o.threads = all_cores;
     dm_robot rb;
     dm_trajectory tr;
     dm_error err;

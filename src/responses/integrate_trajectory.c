@@ -3,6 +3,7 @@
 #include <assert.h>
 #include <cblas.h>
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -33,7 +34,9 @@ typedef struct {
     dm_integ_opts o;
     int n, k, ksolve; /* ksolve: modes solved per step (retained or reported) */
     dm_model *md;
-    dm_modal *modal, *modal_all;
+    dm_modal *modal;
+    int threads;         /* of the all-modes reference's solves */
+    struct ref_ahead *ahead; /* the reference's modes, solved ahead */
     dm_static *statics;
     dm_stepper *stepper, *ref_stepper;
     /* an undamped robot's truncation figure: k modes and all modes, both
@@ -53,11 +56,15 @@ typedef struct {
     double *phi_prev, *Xi, *Yi;
 } run_ws;
 
+struct ref_ahead;
+static struct ref_ahead *ahead_alloc(const run_ws *w, dm_error *err);
+static void ahead_free(struct ref_ahead *ra);
+
 static void free_ws(run_ws *w)
 {
     dm_model_free(w->md);
     dm_modal_free(w->modal);
-    dm_modal_free(w->modal_all);
+    ahead_free(w->ahead);
     dm_static_free(w->statics);
     dm_stepper_free(w->stepper);
     dm_stepper_free(w->ref_stepper);
@@ -93,8 +100,8 @@ static int alloc_ws(run_ws *w, dm_error *err)
     if (!w->stepper)
         return err ? err->code : DM_ENOMEM;
     if (o->reference) {
-        w->modal_all = dm_modal_alloc(w->md, n, DM_EIGEN_ALL, err);
-        w->ref_stepper = w->modal_all ? dm_stepper_alloc(n, n, DM_ODE_CLOSED_FORM, 0, 0, err) : NULL;
+        w->ahead = ahead_alloc(w, err);
+        w->ref_stepper = w->ahead ? dm_stepper_alloc(n, n, DM_ODE_CLOSED_FORM, 0, 0, err) : NULL;
         if (!w->ref_stepper)
             return err ? err->code : DM_ENOMEM;
         if (w->rb->rayleigh_alpha == 0 && w->rb->rayleigh_beta == 0 && w->k < n) {
@@ -277,16 +284,22 @@ typedef struct {
     double axes[DM_INTEG_MAXAXES][3];
 } run_stats;
 
+/* The pose commanded at t0, its padding zeroed (poses are compared
+ * bytewise: the same pose bit for bit gives the same model and modes). */
+static int step_pose(const run_ws *w, double t0, dm_pose *pose, dm_error *err)
+{
+    double P[3], v[3], a[3];
+    dm_traj_eval(w->tr, t0, P, v, a);
+    memset(pose, 0, sizeof *pose);
+    return pose_at(w, P, a, pose, err);
+}
+
 /* The model, factor and modes at the pose commanded at t0 (a step at the
  * very same pose as the last one keeps them). */
 static int freeze(run_ws *w, double t0, dm_error *err)
 {
-    double P[3], v[3], a[3];
     dm_pose pose;
-    dm_traj_eval(w->tr, t0, P, v, a);
-    memset(&pose, 0, sizeof pose); /* compared bytewise below */
-    int rc = pose_at(w, P, a, &pose, err);
-    /* the same pose bit for bit gives the same model, modes and factor */
+    int rc = step_pose(w, t0, &pose, err);
     int fresh = !w->have_frozen || memcmp(&pose, &w->frozen, sizeof pose);
     if (!fresh) /* a pause: the steps after it start a new path */
         dm_modal_follow_path(w->modal, 1);
@@ -296,8 +309,6 @@ static int freeze(run_ws *w, double t0, dm_error *err)
         if (!rc) rc = dm_static_factor(w->statics, w->md, err);
         if (!rc) w->coupling_log10 = dm_coupling_index_log10(w->statics);
         if (!rc) rc = dm_modal_solve(w->modal, w->md, w->statics, w->ksolve, &w->mo, err);
-        if (!rc && w->ref_stepper)
-            rc = dm_modal_solve(w->modal_all, w->md, NULL, w->n, &w->mo_all, err);
         w->frozen = pose;
         w->have_frozen = !rc;
     }
@@ -328,6 +339,136 @@ static void step_times(const run_ws *w, long j, long nsteps, double *t0, double 
     *t1 = j + 1 == nsteps ? w->tr->duration_s : (j + 1) * w->o.dt_s;
 }
 
+/* ---- the all-modes reference, solved ahead on the run's threads ----------
+ *
+ * The reference's dense eigen solve (every mode by dsygvd, O(n^3): 4.4 ms
+ * of a 5.1 ms step at 210 DOF) depends on the step's pose alone, not on
+ * the state carried from step to step. So while one thread runs a batch
+ * of steps, the others solve the next batch's poses into a second buffer,
+ * each with a model and a dense workspace of its own. A solve is the same
+ * call on the same matrices whichever thread makes it, so the results do
+ * not depend on the thread count (tested bitwise). */
+
+#define AHEAD_PER_THREAD 4         /* steps per batch and thread: balances the batch's
+                                      main steps (one thread) against its solves */
+#define AHEAD_BYTES (64.0 * 1024 * 1024) /* both buffers at most (8 steps at 1 000 DOF) */
+
+typedef struct {
+    dm_modes mo;  /* omega_rad_s and phi (n x n) of the step's pose */
+    int same;     /* the step before is at the same pose: its modes */
+    int rc;       /* of the solve */
+    dm_error err;
+} ref_slot;
+
+typedef struct ref_ahead {
+    int nt, cap;         /* threads; steps per batch */
+    ref_slot *buf[2];    /* batches b and b + 1, cap each */
+    dm_model **md;       /* nt each */
+    dm_modal **modal;
+    double *pool;
+} ref_ahead;
+
+static void ahead_free(ref_ahead *ra)
+{
+    if (!ra)
+        return;
+    for (int t = 0; ra->md && t < ra->nt; t++)
+        dm_model_free(ra->md[t]);
+    for (int t = 0; ra->modal && t < ra->nt; t++)
+        dm_modal_free(ra->modal[t]);
+    free(ra->md), free(ra->modal), free(ra->buf[0]), free(ra->pool);
+    free(ra);
+}
+
+static int ahead_cap(int nt, int n)
+{
+    double slot = sizeof(double) * ((double)n * n + n);
+    double cap = fmin(AHEAD_PER_THREAD * nt, fmax(1.0, floor(AHEAD_BYTES / (2 * slot))));
+    return (int)cap;
+}
+
+static ref_ahead *ahead_alloc(const run_ws *w, dm_error *err)
+{
+    int n = w->n;
+    ref_ahead *ra = calloc(1, sizeof *ra);
+    int ok = ra != NULL;
+    if (ok) {
+        ra->nt = w->threads > 0 ? w->threads : 1;
+        ra->cap = ahead_cap(ra->nt, n);
+        ra->md = calloc((size_t)ra->nt, sizeof *ra->md);
+        ra->modal = calloc((size_t)ra->nt, sizeof *ra->modal);
+        ra->buf[0] = calloc(2 * (size_t)ra->cap, sizeof(ref_slot));
+        ra->pool = malloc(sizeof(double) * 2 * ra->cap * ((size_t)n * n + n));
+        ok = ra->md && ra->modal && ra->buf[0] && ra->pool;
+    }
+    for (int t = 0; ok && t < ra->nt; t++) {
+        ra->md[t] = dm_model_alloc(w->rb, w->md->na, w->md->nb, err);
+        ra->modal[t] = ra->md[t] ? dm_modal_alloc(ra->md[t], n, DM_EIGEN_ALL, err) : NULL;
+        if (!ra->modal[t]) {
+            ahead_free(ra);
+            return NULL;
+        }
+    }
+    if (!ok) {
+        ahead_free(ra);
+        dm_fail(err, DM_ENOMEM, "out of memory for the all-modes reference");
+        return NULL;
+    }
+    ra->buf[1] = ra->buf[0] + ra->cap;
+    double *p = ra->pool;
+    for (int i = 0; i < 2 * ra->cap; i++, p += (size_t)n * n + n) {
+        ref_slot *s = &ra->buf[0][i];
+        s->mo.n = s->mo.k = n;
+        s->mo.omega_rad_s = p;
+        s->mo.phi = p + n;
+    }
+    return ra;
+}
+
+/* Step j's modes into its slot (batch j / cap), on thread t. */
+static void ahead_solve(const run_ws *w, ref_ahead *ra, int t, long j, long nsteps)
+{
+    ref_slot *s = &ra->buf[j / ra->cap % 2][j % ra->cap];
+    double t0, t1, tp;
+    dm_pose pose, prev;
+    step_times(w, j, nsteps, &t0, &t1);
+    dm_error_clear(&s->err);
+    s->rc = step_pose(w, t0, &pose, &s->err);
+    s->same = 0;
+    if (!s->rc && j % ra->cap > 0) { /* a batch's first step always solves */
+        step_times(w, j - 1, nsteps, &tp, &t1);
+        s->same = !step_pose(w, tp, &prev, NULL) && !memcmp(&pose, &prev, sizeof pose);
+    }
+    if (s->rc || s->same)
+        return;
+    const dm_modes *mo;
+    s->rc = dm_model_build(ra->md[t], &pose, &s->err);
+    if (!s->rc)
+        s->rc = dm_modal_solve(ra->modal[t], ra->md[t], NULL, w->n, &mo, &s->err);
+    if (!s->rc) {
+        memcpy(s->mo.omega_rad_s, mo->omega_rad_s, sizeof(double) * w->n);
+        memcpy(s->mo.phi, mo->phi, sizeof(double) * w->n * w->n);
+    }
+}
+
+/* Step j's modes, solved ahead. */
+static int ahead_take(run_ws *w, long j, dm_error *err)
+{
+    ref_ahead *ra = w->ahead;
+    ref_slot *b = ra->buf[j / ra->cap % 2];
+    long i = j % ra->cap;
+    while (b[i].same)
+        i--;
+    assert(i >= 0);
+    if (b[i].rc) {
+        if (err)
+            *err = b[i].err;
+        return b[i].rc;
+    }
+    w->mo_all = &b[i].mo;
+    return DM_OK;
+}
+
 static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, run_stats *rs,
                 dm_error *err)
 {
@@ -336,6 +477,8 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     double h = t1 - t0;
     dm_integ_sample s;
     int rc = freeze(w, t0, err);
+    if (!rc && w->ahead)
+        rc = ahead_take(w, j, err);
     const dm_modes *mo = w->mo;
     if (!rc && j == 0) {
         rc = initial_state(w, err);
@@ -690,7 +833,8 @@ size_t dm_integ_history_bytes(const dm_trajectory *tr, const dm_integ_opts *o, i
 }
 
 static int integrate(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
-                     dm_integ_sink sink, void *user, dm_integ_summary *sum, dm_error *err);
+                     int threads, dm_integ_sink sink, void *user, dm_integ_summary *sum,
+                     dm_error *err);
 
 /* BLAS on one thread for the run (dm_threads.h): its matrices have 48-430
  * rows, where BLAS threads spin more than they compute (chen2018's
@@ -698,14 +842,43 @@ static int integrate(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
 int dm_integrate_trajectory(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
                             dm_integ_sink sink, void *user, dm_integ_summary *sum, dm_error *err)
 {
+    /* (counted before BLAS and OpenMP's default go to one thread; inside
+     * another stage's parallel region the run has one) */
+    int threads = omp_in_parallel() ? 1 : dm_threads_count(o->threads);
     dm_threads_saved saved = dm_threads_serial_blas();
-    int rc = integrate(rb, tr, o, sink, user, sum, err);
+    int rc = integrate(rb, tr, o, threads, sink, user, sum, err);
     dm_threads_restore(saved);
     return rc;
 }
 
+/* The steps in batches of the reference's: batch b's steps on one thread
+ * while the others (and that one, once done) solve batch b + 1's modes;
+ * b = -1 solves the first batch alone. */
+static int run_ahead(run_ws *w, long nsteps, dm_integ_sink sink, void *user, run_stats *rs,
+                     dm_error *err)
+{
+    ref_ahead *ra = w->ahead;
+    long cap = ra->cap;
+    int rc = DM_OK;
+    for (long b = -1; !rc && b * cap < nsteps; b++) {
+        long j0 = b < 0 ? 0 : b * cap, j1 = b < 0 ? 0 : (j0 + cap < nsteps ? j0 + cap : nsteps);
+        long s0 = (b + 1) * cap, s1 = s0 + cap < nsteps ? s0 + cap : nsteps;
+        long items = 1 + (s1 > s0 ? s1 - s0 : 0);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(ra->nt)
+        for (long i = 0; i < items; i++) {
+            if (i == 0) /* (rc is this item's alone until the loop ends) */
+                for (long j = j0; !rc && j < j1; j++)
+                    rc = step(w, j, nsteps, sink, user, rs, err);
+            else
+                ahead_solve(w, ra, omp_get_thread_num(), s0 + i - 1, nsteps);
+        }
+    }
+    return rc;
+}
+
 static int integrate(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
-                     dm_integ_sink sink, void *user, dm_integ_summary *sum, dm_error *err)
+                     int threads, dm_integ_sink sink, void *user, dm_integ_summary *sum,
+                     dm_error *err)
 {
     long nsteps;
     int rc = check_run(rb, tr, o, &nsteps, err);
@@ -713,10 +886,12 @@ static int integrate(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
         return rc;
     if (o->method == DM_ODE_CLOSED_FORM && !o->reference)
         return run_modal(rb, tr, o, nsteps, sink, user, sum, NULL, err);
-    run_ws w = {.rb = rb, .tr = tr, .o = *o};
+    run_ws w = {.rb = rb, .tr = tr, .o = *o, .threads = threads};
     run_stats rs = {0};
     rc = alloc_ws(&w, err);
-    for (long j = 0; !rc && j < nsteps; j++)
+    if (!rc && w.ahead)
+        rc = run_ahead(&w, nsteps, sink, user, &rs, err);
+    for (long j = 0; !rc && !w.ahead && j < nsteps; j++)
         rc = step(&w, j, nsteps, sink, user, &rs, err);
     if (!rc) {
         summarise(o, w.n, w.k, nsteps, tr->duration_s, &rs, rb->rayleigh_alpha,
