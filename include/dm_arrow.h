@@ -135,6 +135,11 @@ int dm_arrow_chol_factor(dm_arrow_chol *f, const dm_arrow *a, dm_error *err);
 /* X = A^-1 X in place for an interleaved block of q vectors. */
 void dm_arrow_chol_solve(const dm_arrow_chol *f, double *X, int q);
 
+/* Its two halves: X = L^-1 X and X = L^-T X (a reduction to standard
+ * form, L^-1 K L^-T, with the factor of M). */
+void dm_arrow_chol_forward(const dm_arrow_chol *f, double *X, int q);
+void dm_arrow_chol_backward(const dm_arrow_chol *f, double *X, int q);
+
 /* (A^-1) restricted to the border: S^-1 (6 x 6, column-major, symmetric). */
 int dm_arrow_chol_border_inverse(const dm_arrow_chol *f, double Sinv[36]);
 

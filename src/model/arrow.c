@@ -609,8 +609,8 @@ INLINE void band_backward(const double *L, int n, int kd, const int *colend, dou
     }
 }
 
-/* The 6 x 6 border: x = LS^-T LS^-1 x */
-INLINE void border_solve(const double *LS, double *xp, int q, int w)
+/* x_P = LS^-1 x_P and x_P = LS^-T x_P: the border's two triangular solves */
+INLINE void border_forward_solve(const double *LS, double *xp, int q, int w)
 {
     for (int j = 0; j < NP; j++) {
         double *xj = xp + (size_t)j * q, inv = 1.0 / LS[j * NP + j];
@@ -620,6 +620,10 @@ INLINE void border_solve(const double *LS, double *xp, int q, int w)
         for (int r = 0; r < w; r++)
             xj[r] *= inv;
     }
+}
+
+INLINE void border_backward_solve(const double *LS, double *xp, int q, int w)
+{
     for (int j = NP - 1; j >= 0; j--) {
         double *xj = xp + (size_t)j * q, inv = 1.0 / LS[j * NP + j];
         for (int l = j + 1; l < NP; l++)
@@ -658,24 +662,40 @@ INLINE void border_backward(const double *W, int nb, int first, const double *xp
                 axpy_w(xc + (size_t)i * q, -W[i + (size_t)m * nb], xp + (size_t)m * q, w);
 }
 
-/* The whole solve for the w columns of a slice (columns are independent). */
-INLINE void chol_solve_slice(const dm_arrow_chol *f, double *X, int q, int w)
+/* X = L^-1 X (forward: y_c = L_c^-1 x_c, x_P -= W_c' y_c, x_P = LS^-1 x_P)
+ * and X = L^-T X (backward: x_P = LS^-T x_P, x_c = L_c^-T (y_c - W_c x_P))
+ * for the w columns of a slice (columns are independent). */
+INLINE void chol_forward_slice(const dm_arrow_chol *f, double *X, int q, int w)
 {
     const dm_arrow_layout *lay = &f->lay;
     double *xp = X + (size_t)lay->border * q;
-    for (int c = 0; c < NB; c++) { /* forward: y_c = L_c^-1 x_c, x_P -= W_c' y_c */
+    for (int c = 0; c < NB; c++) {
         double *xc = X + (size_t)lay->off[c] * q;
         const int *colend = f->pattern ? f->pattern->colend[c] : NULL;
         band_forward(f->band[c], lay->nb[c], lay->kd[c], colend, xc, q, w);
         border_forward(f->W[c], lay->nb[c], f->w_first[c], xc, xp, q, w);
     }
-    border_solve(f->LS, xp, q, w);
-    for (int c = 0; c < NB; c++) { /* backward: x_c = L_c^-T (y_c - W_c x_P) */
+    border_forward_solve(f->LS, xp, q, w);
+}
+
+INLINE void chol_backward_slice(const dm_arrow_chol *f, double *X, int q, int w)
+{
+    const dm_arrow_layout *lay = &f->lay;
+    double *xp = X + (size_t)lay->border * q;
+    border_backward_solve(f->LS, xp, q, w);
+    for (int c = 0; c < NB; c++) {
         double *xc = X + (size_t)lay->off[c] * q;
         const int *colend = f->pattern ? f->pattern->colend[c] : NULL;
         border_backward(f->W[c], lay->nb[c], f->w_first[c], xp, xc, q, w);
         band_backward(f->band[c], lay->nb[c], lay->kd[c], colend, xc, q, w);
     }
+}
+
+/* The whole solve, X = L^-T L^-1 X. */
+INLINE void chol_solve_slice(const dm_arrow_chol *f, double *X, int q, int w)
+{
+    chol_forward_slice(f, X, q, w);
+    chol_backward_slice(f, X, q, w);
 }
 
 VECTOR_CLONES static void chol_solve(const dm_arrow_chol *f, double *X, int q)
@@ -689,6 +709,32 @@ void dm_arrow_chol_solve(const dm_arrow_chol *f, double *X, int q)
 {
     assert(q >= 1);
     chol_solve(f, X, q);
+}
+
+VECTOR_CLONES static void chol_forward(const dm_arrow_chol *f, double *X, int q)
+{
+#define KERNEL(W) chol_forward_slice(f, X + o, q, W)
+    FOR_SLICES(q, KERNEL)
+#undef KERNEL
+}
+
+VECTOR_CLONES static void chol_backward(const dm_arrow_chol *f, double *X, int q)
+{
+#define KERNEL(W) chol_backward_slice(f, X + o, q, W)
+    FOR_SLICES(q, KERNEL)
+#undef KERNEL
+}
+
+void dm_arrow_chol_forward(const dm_arrow_chol *f, double *X, int q)
+{
+    assert(q >= 1);
+    chol_forward(f, X, q);
+}
+
+void dm_arrow_chol_backward(const dm_arrow_chol *f, double *X, int q)
+{
+    assert(q >= 1);
+    chol_backward(f, X, q);
 }
 
 int dm_arrow_chol_border_inverse(const dm_arrow_chol *f, double Sinv[36])

@@ -38,6 +38,7 @@ struct dm_modal {
     double *swork;
     lapack_int *siwork, slwork, sliwork;
     dm_arrow_ldl ldl;        /* Sturm counts */
+    dm_arrow_chol mchol;     /* DM_EIGEN_ALL_ARROW: the factor of M */
     int follow;              /* poses along a path: extrapolate the start */
     int nhist;               /* earlier solutions in hist (0..2) */
     double *hist[2];         /* the blocks of the last solves but one and two */
@@ -123,9 +124,14 @@ static int uses_subspace(const dm_modal *ws)
            (ws->method == DM_EIGEN_PARTIAL && ws->n > DM_MODAL_DENSE_MAX && ws->qmax > ws->kmax + 1);
 }
 
+static int all_pairs(const dm_modal *ws)
+{
+    return ws->method == DM_EIGEN_ALL || ws->method == DM_EIGEN_ALL_ARROW;
+}
+
 static int small_model(const dm_modal *ws)
 {
-    return ws->method != DM_EIGEN_ALL && ws->n <= DM_SMALL_MODEL;
+    return !all_pairs(ws) && ws->n <= DM_SMALL_MODEL;
 }
 
 /* ---- allocation ------------------------------------------------------------ */
@@ -138,6 +144,9 @@ static int query_dense(dm_modal *ws)
     if (ws->method == DM_EIGEN_ALL)
         info = LAPACKE_dsygvd_work(LAPACK_COL_MAJOR, 1, 'V', 'U', n, ws->A, n, ws->B, n,
                                    ws->w, &wq, -1, &iq, -1);
+    else if (ws->method == DM_EIGEN_ALL_ARROW)
+        info = LAPACKE_dsyevd_work(LAPACK_COL_MAJOR, 'V', 'L', n, ws->B, n, ws->w, &wq, -1, &iq,
+                                   -1);
     else
         info = LAPACKE_dsyevr_work(LAPACK_COL_MAJOR, 'V', 'I', 'U', n, ws->A, n, 0, 0, 1, k,
                                    0.0, &m, ws->w, ws->Z, n, ws->isuppz, &wq, -1, &iq, -1);
@@ -169,7 +178,7 @@ static int query_subspace(dm_modal *ws)
 static int alloc_dense(dm_modal *ws)
 {
     int n = ws->n;
-    size_t nn = (size_t)n * n, nz = ws->method == DM_EIGEN_ALL ? nn : (size_t)n * ws->kdense;
+    size_t nn = (size_t)n * n, nz = all_pairs(ws) ? nn : (size_t)n * ws->kdense;
     ws->A = malloc(nn * sizeof(double));
     ws->B = malloc(nn * sizeof(double));
     ws->Z = malloc(nz * sizeof(double));
@@ -242,6 +251,8 @@ dm_modal *dm_modal_alloc(const dm_model *md, int kmax, dm_eigen_method method, d
                  : DM_ENOMEM;
         if (!rc && uses_subspace(ws))
             rc = alloc_subspace(ws, md);
+        if (!rc && ws->method == DM_EIGEN_ALL_ARROW)
+            rc = dm_arrow_chol_init(&ws->mchol, &md->layout, NULL);
     }
     if (rc) {
         dm_modal_free(ws);
@@ -265,6 +276,7 @@ void dm_modal_free(dm_modal *ws)
     for (size_t i = 0; i < sizeof p / sizeof p[0]; i++)
         free(p[i]);
     dm_arrow_ldl_release(&ws->ldl);
+    dm_arrow_chol_release(&ws->mchol);
     free(ws);
 }
 
@@ -458,8 +470,42 @@ static int solve_partial(dm_modal *ws, int k, dm_error *err)
     return DM_OK;
 }
 
+/* dst = src' (n x n) */
+static void transpose(int n, const double *src, double *dst)
+{
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++)
+            dst[(size_t)i * n + j] = src[(size_t)j * n + i];
+}
+
+/* Every pair, with M = L L' by the block-arrow factor: C = L^-1 K L^-T
+ * by two forward solves (the rows of the dense K, then of (L^-1 K)', are
+ * interleaved blocks of n vectors), C = Z Lambda Z' by dsyevd, and
+ * Phi = L^-T Z (Phi' M Phi = Z' Z = I). */
+static int solve_all_arrow(dm_modal *ws, const dm_model *md, dm_error *err)
+{
+    int n = ws->n;
+    if (dm_arrow_chol_factor(&ws->mchol, &md->M, NULL))
+        return dm_fail(err, DM_ENUMERIC, "mass matrix not positive definite");
+    dm_arrow_to_dense(&md->K, ws->A); /* symmetric: its rows are its columns */
+    dm_arrow_chol_forward(&ws->mchol, ws->A, n);
+    transpose(n, ws->A, ws->B);
+    dm_arrow_chol_forward(&ws->mchol, ws->B, n);
+    lapack_int info = LAPACKE_dsyevd_work(LAPACK_COL_MAJOR, 'V', 'L', n, ws->B, n, ws->w,
+                                          ws->work, ws->lwork, ws->iwork, ws->liwork);
+    if (info)
+        return dm_fail(err, DM_ENUMERIC, "dsyevd failed (info %d): no convergence", (int)info);
+    transpose(n, ws->B, ws->A); /* Z's columns as an interleaved block */
+    dm_arrow_chol_backward(&ws->mchol, ws->A, n);
+    transpose(n, ws->A, ws->Z);
+    ws->modes.phi = ws->Z;
+    return DM_OK;
+}
+
 static int solve_dense(dm_modal *ws, const dm_model *md, int k, dm_error *err)
 {
+    if (ws->method == DM_EIGEN_ALL_ARROW)
+        return solve_all_arrow(ws, md, err);
     dm_model_dense(md, ws->A, ws->B);
     return ws->method == DM_EIGEN_ALL ? solve_all(ws, err) : solve_partial(ws, k, err);
 }
