@@ -22,7 +22,8 @@ typedef enum {
     DM_EIGEN_ALL = 1,
     /* The k lowest pairs on the dense matrices: Cholesky of M, dsygst,
      * dsyevr on the index range (up to 96 DOF dsterf for the eigenvalues
-     * and dstein for k vectors), back-substitution. */
+     * and dstein for k vectors), back-substitution; beyond max(20, n / 8)
+     * pairs, where selecting them costs more, DM_EIGEN_ALL_ARROW's way. */
     DM_EIGEN_DENSE = 2,
     /* DM_EIGEN_PARTIAL's subspace iteration at any size (tests, bench). */
     DM_EIGEN_SUBSPACE = 3,

@@ -129,6 +129,22 @@ static int all_pairs(const dm_modal *ws)
     return ws->method == DM_EIGEN_ALL || ws->method == DM_EIGEN_ALL_ARROW;
 }
 
+/* Selected pairs (dsyevr, or dsterf and dstein) cost more than every pair
+ * by the block-arrow reduction (solve_all_arrow) beyond this many, or n / 8
+ * (measured at 48-426 DOF: the two cross at 14-20 pairs up to 210 DOF,
+ * near 55 at 426; at 426 DOF and all pairs selected it is 6x slower):
+ * the dense path takes more pairs that way. */
+#define DENSE_SELECT_MAX 20
+
+static int select_max(int n) { return n / 8 > DENSE_SELECT_MAX ? n / 8 : DENSE_SELECT_MAX; }
+
+/* The dense path for k pairs reduces with the block-arrow factor of M. */
+static int arrow_all(const dm_modal *ws, int k)
+{
+    return ws->method == DM_EIGEN_ALL_ARROW ||
+           (ws->method != DM_EIGEN_ALL && k > select_max(ws->n));
+}
+
 static int small_model(const dm_modal *ws)
 {
     return !all_pairs(ws) && ws->n <= DM_SMALL_MODEL;
@@ -144,14 +160,17 @@ static int query_dense(dm_modal *ws)
     if (ws->method == DM_EIGEN_ALL)
         info = LAPACKE_dsygvd_work(LAPACK_COL_MAJOR, 1, 'V', 'U', n, ws->A, n, ws->B, n,
                                    ws->w, &wq, -1, &iq, -1);
-    else if (ws->method == DM_EIGEN_ALL_ARROW)
-        info = LAPACKE_dsyevd_work(LAPACK_COL_MAJOR, 'V', 'L', n, ws->B, n, ws->w, &wq, -1, &iq,
-                                   -1);
     else
         info = LAPACKE_dsyevr_work(LAPACK_COL_MAJOR, 'V', 'I', 'U', n, ws->A, n, 0, 0, 1, k,
                                    0.0, &m, ws->w, ws->Z, n, ws->isuppz, &wq, -1, &iq, -1);
     ws->lwork = (lapack_int)wq + 1;
     ws->liwork = iq;
+    if (!info && arrow_all(ws, k)) { /* dsyevd's room too */
+        info = LAPACKE_dsyevd_work(LAPACK_COL_MAJOR, 'V', 'L', n, ws->B, n, ws->w, &wq, -1, &iq,
+                                   -1);
+        ws->lwork = fmax(ws->lwork, wq + 1);
+        ws->liwork = ws->liwork > iq ? ws->liwork : iq;
+    }
     if (!info && small_model(ws)) { /* dsytrd, dormtr, dstein (5n, n) need room too */
         info = LAPACKE_dsytrd_work(LAPACK_COL_MAJOR, 'U', n, ws->A, n, ws->w, ws->w, ws->w, &wq, -1);
         ws->lwork = fmax(ws->lwork, wq + 1);
@@ -251,7 +270,7 @@ dm_modal *dm_modal_alloc(const dm_model *md, int kmax, dm_eigen_method method, d
                  : DM_ENOMEM;
         if (!rc && uses_subspace(ws))
             rc = alloc_subspace(ws, md);
-        if (!rc && ws->method == DM_EIGEN_ALL_ARROW)
+        if (!rc && arrow_all(ws, ws->kdense))
             rc = dm_arrow_chol_init(&ws->mchol, &md->layout, NULL);
     }
     if (rc) {
@@ -478,11 +497,12 @@ static void transpose(int n, const double *src, double *dst)
             dst[(size_t)i * n + j] = src[(size_t)j * n + i];
 }
 
-/* Every pair, with M = L L' by the block-arrow factor: C = L^-1 K L^-T
- * by two forward solves (the rows of the dense K, then of (L^-1 K)', are
- * interleaved blocks of n vectors), C = Z Lambda Z' by dsyevd, and
- * Phi = L^-T Z (Phi' M Phi = Z' Z = I). */
-static int solve_all_arrow(dm_modal *ws, const dm_model *md, dm_error *err)
+/* The k lowest pairs from every pair, with M = L L' by the block-arrow
+ * factor: C = L^-1 K L^-T by two forward solves (the rows of the dense K,
+ * then of (L^-1 K)', are interleaved blocks of n vectors), C = Z Lambda Z'
+ * by dsyevd, and Phi = L^-T Z for the k wanted columns of Z (Phi' M Phi =
+ * Z' Z = I). */
+static int solve_all_arrow(dm_modal *ws, const dm_model *md, int k, dm_error *err)
 {
     int n = ws->n;
     if (dm_arrow_chol_factor(&ws->mchol, &md->M, NULL))
@@ -495,17 +515,21 @@ static int solve_all_arrow(dm_modal *ws, const dm_model *md, dm_error *err)
                                           ws->work, ws->lwork, ws->iwork, ws->liwork);
     if (info)
         return dm_fail(err, DM_ENUMERIC, "dsyevd failed (info %d): no convergence", (int)info);
-    transpose(n, ws->B, ws->A); /* Z's columns as an interleaved block */
-    dm_arrow_chol_backward(&ws->mchol, ws->A, n);
-    transpose(n, ws->A, ws->Z);
+    for (int i = 0; i < n; i++) /* Z's k columns as an interleaved block */
+        for (int j = 0; j < k; j++)
+            ws->A[(size_t)i * k + j] = ws->B[i + (size_t)j * n];
+    dm_arrow_chol_backward(&ws->mchol, ws->A, k);
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < k; j++)
+            ws->Z[i + (size_t)j * n] = ws->A[(size_t)i * k + j];
     ws->modes.phi = ws->Z;
     return DM_OK;
 }
 
 static int solve_dense(dm_modal *ws, const dm_model *md, int k, dm_error *err)
 {
-    if (ws->method == DM_EIGEN_ALL_ARROW)
-        return solve_all_arrow(ws, md, err);
+    if (arrow_all(ws, k))
+        return solve_all_arrow(ws, md, k, err);
     dm_model_dense(md, ws->A, ws->B);
     return ws->method == DM_EIGEN_ALL ? solve_all(ws, err) : solve_partial(ws, k, err);
 }
