@@ -438,6 +438,46 @@ static void all_pairs_with_arrow_reduction(void **state)
     }
 }
 
+/* The default method iterates a subspace for up to max(24, n / 5) modes
+ * and beyond takes every pair densely (chen2018, 210 DOF: 42 modes by
+ * subspace iteration, 43 the dense way, bit for bit DM_EIGEN_ALL_ARROW's). */
+static void many_modes_take_the_dense_path(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    load_robot("chen2018", NULL, &rb);
+    dm_model *md = dm_model_alloc(&rb, 4, 4, NULL);
+    dm_static *st = dm_static_alloc(md, NULL);
+    dm_pose pose;
+    assert_int_equal(dm_kin_pose(&rb, rb.home_m, &pose, NULL), 0);
+    assert_int_equal(dm_model_build(md, &pose, NULL), 0);
+    assert_int_equal(dm_static_factor(st, md, NULL), 0);
+    assert_int_equal(md->n, 210);
+    const int ks[2] = {42, 43};
+    dm_modal *all = dm_modal_alloc(md, md->n, DM_EIGEN_ALL_ARROW, NULL);
+    const dm_modes *ma, *mo;
+    assert_int_equal(dm_modal_solve(all, md, NULL, md->n, &ma, NULL), 0);
+    for (int i = 0; i < 2; i++) {
+        dm_modal *ws = dm_modal_alloc(md, ks[i], DM_EIGEN_PARTIAL, NULL);
+        dm_modal_stats stats;
+        assert_int_equal(dm_modal_solve(ws, md, st, ks[i], &mo, NULL), 0);
+        dm_modal_last_stats(ws, &stats);
+        if (i == 0) {
+            assert_true(stats.iterations > 0);
+            for (int j = 0; j < ks[i]; j++)
+                assert_rel(mo->omega_rad_s[j], ma->omega_rad_s[j], 1e-9, "mode %d", j + 1);
+        } else {
+            assert_int_equal(stats.iterations, 0);
+            assert_memory_equal(mo->omega_rad_s, ma->omega_rad_s, sizeof(double) * ks[i]);
+            assert_memory_equal(mo->phi, ma->phi, sizeof(double) * md->n * ks[i]);
+        }
+        dm_modal_free(ws);
+    }
+    dm_modal_free(all);
+    dm_static_free(st);
+    dm_model_free(md);
+}
+
 /* Along a line of poses 10 mm apart, the warm-started solve (from the
  * previous pose) equals the cold one (dense start at every pose) to 1e-12
  * in every eigenvalue, and the warm start is what was used. */
@@ -781,6 +821,7 @@ int main(void)
         cmocka_unit_test(mesh_convergence),
         cmocka_unit_test(subspace_solver_against_extended_precision),
         cmocka_unit_test(all_pairs_with_arrow_reduction),
+        cmocka_unit_test(many_modes_take_the_dense_path),
         cmocka_unit_test(warm_and_cold_agree),
         cmocka_unit_test(path_extrapolation_agrees_and_saves),
         cmocka_unit_test(missed_mode_is_caught),

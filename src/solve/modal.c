@@ -118,10 +118,18 @@ static int subspace_max(int n, int k)
  * slower beyond n ~ 100 (see make bench). */
 #define DM_SMALL_MODEL 96
 
+/* DM_EIGEN_PARTIAL iterates a subspace for up to this many modes, or n / 5:
+ * beyond, its block of 2k + 4 vectors costs more than every pair by the
+ * dense path (measured along zheng2017's trajectory at 210 DOF, per step:
+ * 40 modes 2.0 ms, 60 modes 5.1, 80 modes 7.4, every pair 3.0). */
+#define SUBSPACE_KMAX 24
+
 static int uses_subspace(const dm_modal *ws)
 {
+    int kmax = ws->n / 5 > SUBSPACE_KMAX ? ws->n / 5 : SUBSPACE_KMAX;
     return ws->method == DM_EIGEN_SUBSPACE ||
-           (ws->method == DM_EIGEN_PARTIAL && ws->n > DM_MODAL_DENSE_MAX && ws->qmax > ws->kmax + 1);
+           (ws->method == DM_EIGEN_PARTIAL && ws->n > DM_MODAL_DENSE_MAX && ws->kmax <= kmax &&
+            ws->qmax > ws->kmax + 1);
 }
 
 static int all_pairs(const dm_modal *ws)
