@@ -281,8 +281,9 @@ static int discard(void *user, const dm_integ_sample *s)
     return 0;
 }
 
-/* A paper trajectory's run: threads = 0 without the all-modes reference,
- * else with it (the default run) on that many threads. Returns seconds. */
+/* A paper trajectory's run on |threads| threads: with the all-modes
+ * reference (the default run) for threads > 0, without it for < 0.
+ * Returns seconds. */
 static double trajectory_time(const char *preset, int threads)
 {
     dm_robot rb;
@@ -293,19 +294,20 @@ static double trajectory_time(const char *preset, int threads)
     dm_traj_make(preset, &rb, &tr, NULL);
     dm_integ_opts_default(&o);
     o.reference = threads > 0;
-    o.threads = threads;
+    o.threads = abs(threads);
     double t0 = now_s();
     int rc = dm_integrate_trajectory(&rb, &tr, &o, discard, NULL, &sum, NULL);
     double dt = now_s() - t0;
-    if (threads)
+    if (threads > 0)
         printf("   %-9s paper trajectory, default run (all-modes reference), %d thread%s: %6.2f s "
                "(%4.0f us per step)%s\n",
                preset, threads, threads > 1 ? "s" : " ", dt, 1e6 * dt / (rc ? 1 : sum.steps),
                rc ? " FAILED" : "");
     else
-        printf("   %-9s paper trajectory, %ld steps of 1 ms, 10 modes, CVODE: %6.2f s (%4.0f us "
-               "per step)%s\n",
-               preset, sum.steps, dt, 1e6 * dt / (rc ? 1 : sum.steps), rc ? " FAILED" : "");
+        printf("   %-9s paper trajectory, %ld steps of 1 ms, 10 modes, CVODE, %d thread%s: %6.2f s "
+               "(%4.0f us per step)%s\n",
+               preset, sum.steps, -threads, threads < -1 ? "s" : " ", dt,
+               1e6 * dt / (rc ? 1 : sum.steps), rc ? " FAILED" : "");
     dm_traj_free(&tr);
     return dt;
 }
@@ -504,7 +506,8 @@ int main(int argc, char **argv)
     if (wanted(argc, argv, "3")) {
         printf("\n3. throughput (the serial commands first: a sweep leaves OpenMP at its threads)\n");
         for (int p = 0; p < 3; p++)
-            trajectory_time(presets[p], 0);
+            for (int t = 1; t <= 2; t++)
+                trajectory_time(presets[p], -t);
         double tr1 = trajectory_time("zheng2017", 1), tr2 = trajectory_time("zheng2017", 2);
         printf("   2 threads / 1 thread: %.2f\n", tr1 / tr2);
         diagnosis_time(1, "p2p:from=-0.03,-0.02,-0.41;to=0.03,0.02,-0.39;duration=0.05;"

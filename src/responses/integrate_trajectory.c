@@ -54,6 +54,18 @@ typedef struct {
     /* closed-form runs in modal coordinates (see "histories"): the last
      * step's modes, and Phi_prev and M Phi_prev interleaved (dm_arrow.h) */
     double *phi_prev, *Xi, *Yi;
+    /* what a step takes from its pose (see "frames"): two, so that one
+     * thread can make the next step's while another runs this one */
+    struct frame {
+        dm_model *md;
+        dm_static *statics;
+        double coupling_log10;
+        dm_modes mo;   /* copies of the modes: omega, freq, phi */
+        double *buf;
+        int rc;
+        dm_error err;
+    } fr[2];
+    int pipelined; /* a thread of its own makes the frames */
 } run_ws;
 
 struct ref_ahead;
@@ -81,6 +93,10 @@ static void free_ws(run_ws *w)
     free(w->phi_prev);
     free(w->Xi);
     free(w->Yi);
+    dm_model_free(w->fr[1].md); /* frame 0's are w->md and w->statics */
+    dm_static_free(w->fr[1].statics);
+    free(w->fr[0].buf);
+    free(w->fr[1].buf);
 }
 
 static int alloc_ws(run_ws *w, dm_error *err)
@@ -470,6 +486,87 @@ static int ahead_take(run_ws *w, long j, dm_error *err)
     return DM_OK;
 }
 
+/* ---- frames: what a step takes from its pose ---------------------------
+ *
+ * A step's model, the factor of its K, Zheng's coupling index and its
+ * modes depend on its pose and, through the warm start, on the modes of
+ * the steps before: not on the state integrated from step to step. So one
+ * thread can make step j + 1's frame while another integrates step j
+ * (run_pipelined): the same calls in the same order as one thread makes
+ * them, so the same numbers. A step at the very same pose as the one
+ * before rebuilds the model and the factor (the same bits) and copies the
+ * modes: the modes it would have kept. */
+
+static int frames_alloc(run_ws *w, dm_error *err)
+{
+    int n = w->n, k = w->ksolve;
+    w->fr[0].md = w->md;
+    w->fr[0].statics = w->statics;
+    w->fr[1].md = dm_model_alloc(w->rb, w->md->na, w->md->nb, err);
+    w->fr[1].statics = w->fr[1].md ? dm_static_alloc(w->fr[1].md, err) : NULL;
+    if (!w->fr[1].statics)
+        return err ? err->code : DM_ENOMEM;
+    for (int i = 0; i < 2; i++) {
+        struct frame *f = &w->fr[i];
+        if (!(f->buf = malloc(sizeof(double) * ((size_t)n * k + 2 * (size_t)k))))
+            return dm_fail(err, DM_ENOMEM, "out of memory for the trajectory run");
+        f->mo.n = n, f->mo.k = k;
+        f->mo.omega_rad_s = f->buf, f->mo.freq_hz = f->buf + k, f->mo.phi = f->buf + 2 * k;
+    }
+    return DM_OK;
+}
+
+static void copy_modes(dm_modes *dst, const dm_modes *src, int n, int k)
+{
+    memcpy(dst->omega_rad_s, src->omega_rad_s, sizeof(double) * k);
+    memcpy(dst->freq_hz, src->freq_hz, sizeof(double) * k);
+    memcpy(dst->phi, src->phi, sizeof(double) * n * k);
+}
+
+/* Step j's frame into fr[j % 2] (the other holds step j - 1's). */
+static void prepare(run_ws *w, long j, long nsteps)
+{
+    struct frame *f = &w->fr[j % 2];
+    const struct frame *before = &w->fr[(j + 1) % 2];
+    double t0, t1;
+    dm_pose pose;
+    step_times(w, j, nsteps, &t0, &t1);
+    dm_error_clear(&f->err);
+    f->rc = step_pose(w, t0, &pose, &f->err);
+    int fresh = !w->have_frozen || memcmp(&pose, &w->frozen, sizeof pose);
+    if (!fresh) /* a pause: the steps after it start a new path */
+        dm_modal_follow_path(w->modal, 1);
+    if (!f->rc) f->rc = dm_model_build(f->md, &pose, &f->err);
+    if (!f->rc) f->rc = dm_static_factor(f->statics, f->md, &f->err);
+    if (!f->rc) f->coupling_log10 = dm_coupling_index_log10(f->statics);
+    if (!f->rc && fresh) {
+        const dm_modes *mo;
+        f->rc = dm_modal_solve(w->modal, f->md, f->statics, w->ksolve, &mo, &f->err);
+        if (!f->rc)
+            copy_modes(&f->mo, mo, w->n, w->ksolve);
+    } else if (!f->rc) {
+        copy_modes(&f->mo, &before->mo, w->n, w->ksolve);
+    }
+    w->frozen = pose;
+    w->have_frozen = !f->rc;
+}
+
+/* Step j's frame becomes the run's model, factor and modes. */
+static int take_frame(run_ws *w, long j, dm_error *err)
+{
+    const struct frame *f = &w->fr[j % 2];
+    if (f->rc) {
+        if (err)
+            *err = f->err;
+        return f->rc;
+    }
+    w->md = f->md;
+    w->statics = f->statics;
+    w->coupling_log10 = f->coupling_log10;
+    w->mo = &f->mo;
+    return DM_OK;
+}
+
 static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, run_stats *rs,
                 dm_error *err)
 {
@@ -477,7 +574,9 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     step_times(w, j, nsteps, &t0, &t1);
     double h = t1 - t0;
     dm_integ_sample s;
-    int rc = freeze(w, t0, err);
+    if (!w->pipelined)
+        prepare(w, j, nsteps);
+    int rc = take_frame(w, j, err);
     if (!rc && w->ahead)
         rc = ahead_take(w, j, err);
     const dm_modes *mo = w->mo;
@@ -877,6 +976,33 @@ static int run_ahead(run_ws *w, long nsteps, dm_integ_sink sink, void *user, run
     return rc;
 }
 
+/* Without the reference, on two threads: the first makes step j + 1's
+ * frame while the other integrates step j. fail[] alternates so that a
+ * thread reading step j's outcome after the barrier never sees step
+ * j + 1's being written. */
+static int run_pipelined(run_ws *w, long nsteps, dm_integ_sink sink, void *user, run_stats *rs,
+                         dm_error *err)
+{
+    int fail[2] = {DM_OK, DM_OK};
+    w->pipelined = 1;
+    prepare(w, 0, nsteps);
+#pragma omp parallel num_threads(2)
+    {
+        int t = omp_get_thread_num(), last = omp_get_num_threads() - 1;
+        for (long j = 0; j < nsteps; j++) {
+            if (t == 0 && j + 1 < nsteps)
+                prepare(w, j + 1, nsteps);
+            if (t == last)
+                fail[j % 2] = step(w, j, nsteps, sink, user, rs, err);
+#pragma omp barrier
+            if (fail[j % 2])
+                break;
+        }
+    }
+    w->pipelined = 0;
+    return fail[0] ? fail[0] : fail[1];
+}
+
 static int integrate(const dm_robot *rb, const dm_trajectory *tr, const dm_integ_opts *o,
                      int threads, dm_integ_sink sink, void *user, dm_integ_summary *sum,
                      dm_error *err)
@@ -890,10 +1016,18 @@ static int integrate(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
     run_ws w = {.rb = rb, .tr = tr, .o = *o, .threads = threads};
     run_stats rs = {0};
     rc = alloc_ws(&w, err);
+    if (!rc)
+        rc = frames_alloc(&w, err);
     if (!rc && w.ahead)
         rc = run_ahead(&w, nsteps, sink, user, &rs, err);
-    for (long j = 0; !rc && !w.ahead && j < nsteps; j++)
+    else if (!rc && threads > 1)
+        rc = run_pipelined(&w, nsteps, sink, user, &rs, err);
+    for (long j = 0; !rc && !w.ahead && threads < 2 && j < nsteps; j++)
         rc = step(&w, j, nsteps, sink, user, &rs, err);
+    if (w.fr[0].md) { /* frame 0's are the run's own (free_ws) */
+        w.md = w.fr[0].md;
+        w.statics = w.fr[0].statics;
+    }
     if (!rc) {
         summarise(o, w.n, w.k, nsteps, tr->duration_s, &rs, rb->rayleigh_alpha,
                   rb->rayleigh_beta, sum);
