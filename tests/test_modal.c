@@ -327,9 +327,12 @@ static void check_pose(const dm_robot *rb, int mesh, const double P[3], int k)
     dm_analysis_free(ad);
 }
 
-static void subspace_solver_against_extended_precision(void **state)
+/* A check on 3 presets x meshes 1, 4, 8 at random poses, then with every
+ * effect on at mesh 4. */
+typedef void pose_check(const dm_robot *rb, int mesh, const double P[3]);
+
+static void on_test_poses(pose_check *check)
 {
-    (void)state;
     const char *names[] = {"chen2018", "zheng2017", "han2011"};
     const int meshes[] = {1, 4, 8};
     for (int r = 0; r < 3; r++)
@@ -338,15 +341,26 @@ static void subspace_solver_against_extended_precision(void **state)
             load_robot(names[r], NULL, &rb);
             double P[3];
             random_pose(&rb, 3 * r + m, P);
-            check_pose(&rb, meshes[m], P, 14);
+            check(&rb, meshes[m], P);
         }
     for (int r = 0; r < 3; r++) { /* every effect on */
         dm_robot rb;
         double P[3];
         load_robot(names[r], ALL_EFFECTS, &rb);
         random_pose(&rb, 40 + r, P);
-        check_pose(&rb, 4, P, 14);
+        check(&rb, 4, P);
     }
+}
+
+static void check_pose_14(const dm_robot *rb, int mesh, const double P[3])
+{
+    check_pose(rb, mesh, P, 14);
+}
+
+static void subspace_solver_against_extended_precision(void **state)
+{
+    (void)state;
+    on_test_poses(check_pose_14);
 }
 
 /* All pairs reduced with the block-arrow factor of M (the trajectories'
@@ -419,23 +433,7 @@ static void check_all_arrow(const dm_robot *rb, int mesh, const double P[3])
 static void all_pairs_with_arrow_reduction(void **state)
 {
     (void)state;
-    const char *names[] = {"chen2018", "zheng2017", "han2011"};
-    const int meshes[] = {1, 4, 8};
-    for (int r = 0; r < 3; r++)
-        for (int m = 0; m < 3; m++) {
-            dm_robot rb;
-            double P[3];
-            load_robot(names[r], NULL, &rb);
-            random_pose(&rb, 3 * r + m, P);
-            check_all_arrow(&rb, meshes[m], P);
-        }
-    for (int r = 0; r < 3; r++) { /* every effect on */
-        dm_robot rb;
-        double P[3];
-        load_robot(names[r], ALL_EFFECTS, &rb);
-        random_pose(&rb, 40 + r, P);
-        check_all_arrow(&rb, 4, P);
-    }
+    on_test_poses(check_all_arrow);
 }
 
 /* The default method iterates a subspace for up to max(24, n / 5) modes
