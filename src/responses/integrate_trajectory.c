@@ -310,24 +310,38 @@ static int step_pose(const run_ws *w, double t0, dm_pose *pose, dm_error *err)
     return pose_at(w, P, a, pose, err);
 }
 
+/* Whether the pose differs from the last one frozen; where it does not (a
+ * pause), the steps after it start a new path. */
+static int fresh_pose(run_ws *w, const dm_pose *pose)
+{
+    int fresh = !w->have_frozen || memcmp(pose, &w->frozen, sizeof *pose);
+    if (!fresh)
+        dm_modal_follow_path(w->modal, 1);
+    return fresh;
+}
+
+/* The model at a pose, the factor of its K, Zheng's coupling index and,
+ * with solve, the modes. */
+static int freeze_at(run_ws *w, const dm_pose *pose, dm_model *md, dm_static *st,
+                     double *coupling_log10, const dm_modes **mo, int solve, dm_error *err)
+{
+    int rc = dm_model_build(md, pose, err);
+    if (!rc) rc = dm_static_factor(st, md, err);
+    if (!rc) *coupling_log10 = dm_coupling_index_log10(st);
+    if (!rc && solve) rc = dm_modal_solve(w->modal, md, st, w->ksolve, mo, err);
+    w->frozen = *pose;
+    w->have_frozen = !rc;
+    return rc;
+}
+
 /* The model, factor and modes at the pose commanded at t0 (a step at the
  * very same pose as the last one keeps them). */
 static int freeze(run_ws *w, double t0, dm_error *err)
 {
     dm_pose pose;
     int rc = step_pose(w, t0, &pose, err);
-    int fresh = !w->have_frozen || memcmp(&pose, &w->frozen, sizeof pose);
-    if (!fresh) /* a pause: the steps after it start a new path */
-        dm_modal_follow_path(w->modal, 1);
-    if (!rc && fresh) {
-        w->have_frozen = 0;
-        rc = dm_model_build(w->md, &pose, err);
-        if (!rc) rc = dm_static_factor(w->statics, w->md, err);
-        if (!rc) w->coupling_log10 = dm_coupling_index_log10(w->statics);
-        if (!rc) rc = dm_modal_solve(w->modal, w->md, w->statics, w->ksolve, &w->mo, err);
-        w->frozen = pose;
-        w->have_frozen = !rc;
-    }
+    if (fresh_pose(w, &pose) && !rc)
+        rc = freeze_at(w, &pose, w->md, w->statics, &w->coupling_log10, &w->mo, 1, err);
     return rc;
 }
 
@@ -361,10 +375,10 @@ static void step_times(const run_ws *w, long j, long nsteps, double *t0, double 
  * block-arrow factor of M: 3.3 ms of a 4 ms step at 210 DOF) depends on
  * the step's pose alone, not on the state carried from step to step. So
  * while one thread runs a batch of steps, the others solve the next
- * batch's poses into a second buffer,
- * each with a model and a dense workspace of its own. A solve is the same
- * call on the same matrices whichever thread makes it, so the results do
- * not depend on the thread count (tested bitwise). */
+ * batch's poses into a second buffer, each with a model and a dense
+ * workspace of its own. A solve is the same call on the same matrices
+ * whichever thread makes it, so the results do not depend on the thread
+ * count (tested bitwise). */
 
 #define AHEAD_PER_THREAD 4         /* steps per batch and thread: balances the batch's
                                       main steps (one thread) against its solves */
@@ -527,28 +541,17 @@ static void copy_modes(dm_modes *dst, const dm_modes *src, int n, int k)
 static void prepare(run_ws *w, long j, long nsteps)
 {
     struct frame *f = &w->fr[j % 2];
-    const struct frame *before = &w->fr[(j + 1) % 2];
     double t0, t1;
     dm_pose pose;
+    const dm_modes *mo = &w->fr[(j + 1) % 2].mo; /* kept at the pose before */
     step_times(w, j, nsteps, &t0, &t1);
     dm_error_clear(&f->err);
     f->rc = step_pose(w, t0, &pose, &f->err);
-    int fresh = !w->have_frozen || memcmp(&pose, &w->frozen, sizeof pose);
-    if (!fresh) /* a pause: the steps after it start a new path */
-        dm_modal_follow_path(w->modal, 1);
-    if (!f->rc) f->rc = dm_model_build(f->md, &pose, &f->err);
-    if (!f->rc) f->rc = dm_static_factor(f->statics, f->md, &f->err);
-    if (!f->rc) f->coupling_log10 = dm_coupling_index_log10(f->statics);
-    if (!f->rc && fresh) {
-        const dm_modes *mo;
-        f->rc = dm_modal_solve(w->modal, f->md, f->statics, w->ksolve, &mo, &f->err);
-        if (!f->rc)
-            copy_modes(&f->mo, mo, w->n, w->ksolve);
-    } else if (!f->rc) {
-        copy_modes(&f->mo, &before->mo, w->n, w->ksolve);
-    }
-    w->frozen = pose;
-    w->have_frozen = !f->rc;
+    int fresh = fresh_pose(w, &pose);
+    if (!f->rc)
+        f->rc = freeze_at(w, &pose, f->md, f->statics, &f->coupling_log10, &mo, fresh, &f->err);
+    if (!f->rc)
+        copy_modes(&f->mo, mo, w->n, w->ksolve);
 }
 
 /* Step j's frame becomes the run's model, factor and modes. */
