@@ -38,7 +38,8 @@ struct dm_modal {
     double *swork;
     lapack_int *siwork, slwork, sliwork;
     dm_arrow_ldl ldl;        /* Sturm counts */
-    dm_arrow_chol mchol;     /* DM_EIGEN_ALL_ARROW: the factor of M */
+    dm_arrow_chol mchol;     /* the factor of M, where the dense path takes every
+                                pair by the block-arrow reduction (arrow_all) */
     int follow;              /* poses along a path: extrapolate the start */
     int nhist;               /* earlier solutions in hist (0..2) */
     double *hist[2];         /* the blocks of the last solves but one and two */
