@@ -131,9 +131,9 @@ typedef struct dm_integ_opts {
     int reference;       /* also run all modes (closed form) for the truncation error */
     int threads;         /* 0: OpenMP's default (all cores). The reference's
                             eigen solves run ahead on this many threads;
-                            without the reference, 2 or more make each step's
-                            model and modes beside the integration of the step
-                            before. The results do not depend on it */
+                            without the reference, with 2 or more each step's
+                            modes are solved beside the integration of the
+                            step before. The results do not depend on it */
     int na, nb;          /* mesh (0: the robot's) */
     double tool_m[3];    /* tool point offset from P, platform axes */
     double force_n[3];   /* constant external force at P (part of the initial

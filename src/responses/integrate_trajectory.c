@@ -54,9 +54,11 @@ typedef struct {
     /* closed-form runs in modal coordinates (see "histories"): the last
      * step's modes, and Phi_prev and M Phi_prev interleaved (dm_arrow.h) */
     double *phi_prev, *Xi, *Yi;
-    /* what a step takes from its pose (see "frames"): two, so that one
-     * thread can make the next step's while another runs this one */
+    /* what a step takes from its pose (see "frames"): three, so that one
+     * thread can solve the next step's modes while another runs this step
+     * and builds the model of the step after */
     struct frame {
+        dm_pose pose;
         dm_model *md;
         dm_static *statics;
         double coupling_log10;
@@ -64,7 +66,7 @@ typedef struct {
         double *buf;
         int rc;
         dm_error err;
-    } fr[2];
+    } fr[3];
     int pipelined; /* a thread of its own makes the frames */
 } run_ws;
 
@@ -93,10 +95,13 @@ static void free_ws(run_ws *w)
     free(w->phi_prev);
     free(w->Xi);
     free(w->Yi);
-    dm_model_free(w->fr[1].md); /* frame 0's are w->md and w->statics */
-    dm_static_free(w->fr[1].statics);
-    free(w->fr[0].buf);
-    free(w->fr[1].buf);
+    for (int i = 0; i < 3; i++) {
+        if (i > 0) { /* frame 0's are w->md and w->statics */
+            dm_model_free(w->fr[i].md);
+            dm_static_free(w->fr[i].statics);
+        }
+        free(w->fr[i].buf);
+    }
 }
 
 static int alloc_ws(run_ws *w, dm_error *err)
@@ -320,17 +325,13 @@ static int fresh_pose(run_ws *w, const dm_pose *pose)
     return fresh;
 }
 
-/* The model at a pose, the factor of its K, Zheng's coupling index and,
- * with solve, the modes. */
-static int freeze_at(run_ws *w, const dm_pose *pose, dm_model *md, dm_static *st,
-                     double *coupling_log10, const dm_modes **mo, int solve, dm_error *err)
+/* The model at a pose, the factor of its K and Zheng's coupling index. */
+static int build_at(const dm_pose *pose, dm_model *md, dm_static *st, double *coupling_log10,
+                    dm_error *err)
 {
     int rc = dm_model_build(md, pose, err);
     if (!rc) rc = dm_static_factor(st, md, err);
     if (!rc) *coupling_log10 = dm_coupling_index_log10(st);
-    if (!rc && solve) rc = dm_modal_solve(w->modal, md, st, w->ksolve, mo, err);
-    w->frozen = *pose;
-    w->have_frozen = !rc;
     return rc;
 }
 
@@ -340,8 +341,12 @@ static int freeze(run_ws *w, double t0, dm_error *err)
 {
     dm_pose pose;
     int rc = step_pose(w, t0, &pose, err);
-    if (fresh_pose(w, &pose) && !rc)
-        rc = freeze_at(w, &pose, w->md, w->statics, &w->coupling_log10, &w->mo, 1, err);
+    if (fresh_pose(w, &pose) && !rc) {
+        rc = build_at(&pose, w->md, w->statics, &w->coupling_log10, err);
+        if (!rc) rc = dm_modal_solve(w->modal, w->md, w->statics, w->ksolve, &w->mo, err);
+        w->frozen = pose;
+        w->have_frozen = !rc;
+    }
     return rc;
 }
 
@@ -502,26 +507,31 @@ static int ahead_take(run_ws *w, long j, dm_error *err)
 
 /* ---- frames: what a step takes from its pose ---------------------------
  *
- * A step's model, the factor of its K, Zheng's coupling index and its
- * modes depend on its pose and, through the warm start, on the modes of
- * the steps before: not on the state integrated from step to step. So one
- * thread can make step j + 1's frame while another integrates step j
- * (run_pipelined): the same calls in the same order as one thread makes
- * them, so the same numbers. A step at the very same pose as the one
- * before rebuilds the model and the factor (the same bits) and copies the
- * modes: the modes it would have kept. */
+ * A step's model, the factor of its K and Zheng's coupling index depend on
+ * its pose alone; its modes on its pose and, through the warm start, on
+ * the modes of the steps before: none of it on the state integrated from
+ * step to step. So on two threads (run_pipelined) one solves step j + 1's
+ * modes while the other integrates step j and then builds step j + 2's
+ * model: the same calls in the same order as one thread makes them, so
+ * the same numbers. A step at the very same pose as the one before
+ * rebuilds the model and the factor (the same bits) and copies the modes:
+ * the modes it would have kept. */
+
+#define NFRAMES 3
 
 static int frames_alloc(run_ws *w, dm_error *err)
 {
     int n = w->n, k = w->ksolve;
     w->fr[0].md = w->md;
     w->fr[0].statics = w->statics;
-    w->fr[1].md = dm_model_alloc(w->rb, w->md->na, w->md->nb, err);
-    w->fr[1].statics = w->fr[1].md ? dm_static_alloc(w->fr[1].md, err) : NULL;
-    if (!w->fr[1].statics)
-        return err ? err->code : DM_ENOMEM;
-    for (int i = 0; i < 2; i++) {
+    for (int i = 0; i < NFRAMES; i++) {
         struct frame *f = &w->fr[i];
+        if (i > 0) {
+            f->md = dm_model_alloc(w->rb, w->md->na, w->md->nb, err);
+            f->statics = f->md ? dm_static_alloc(f->md, err) : NULL;
+            if (!f->statics)
+                return err ? err->code : DM_ENOMEM;
+        }
         if (!(f->buf = malloc(sizeof(double) * ((size_t)n * k + 2 * (size_t)k))))
             return dm_fail(err, DM_ENOMEM, "out of memory for the trajectory run");
         f->mo.n = n, f->mo.k = k;
@@ -537,27 +547,37 @@ static void copy_modes(dm_modes *dst, const dm_modes *src, int n, int k)
     memcpy(dst->phi, src->phi, sizeof(double) * n * k);
 }
 
-/* Step j's frame into fr[j % 2] (the other holds step j - 1's). */
-static void prepare(run_ws *w, long j, long nsteps)
+/* Step j's pose, model, factor and coupling index into its frame. */
+static void build_frame(run_ws *w, long j, long nsteps)
 {
-    struct frame *f = &w->fr[j % 2];
+    struct frame *f = &w->fr[j % NFRAMES];
     double t0, t1;
-    dm_pose pose;
-    const dm_modes *mo = &w->fr[(j + 1) % 2].mo; /* kept at the pose before */
     step_times(w, j, nsteps, &t0, &t1);
     dm_error_clear(&f->err);
-    f->rc = step_pose(w, t0, &pose, &f->err);
-    int fresh = fresh_pose(w, &pose);
+    f->rc = step_pose(w, t0, &f->pose, &f->err);
     if (!f->rc)
-        f->rc = freeze_at(w, &pose, f->md, f->statics, &f->coupling_log10, &mo, fresh, &f->err);
+        f->rc = build_at(&f->pose, f->md, f->statics, &f->coupling_log10, &f->err);
+}
+
+/* Step j's modes into its frame (built): solved, warm from the steps
+ * before, or step j - 1's copied where the pose is the same. */
+static void solve_frame(run_ws *w, long j)
+{
+    struct frame *f = &w->fr[j % NFRAMES];
+    const dm_modes *mo = &w->fr[(j + NFRAMES - 1) % NFRAMES].mo;
+    int fresh = fresh_pose(w, &f->pose);
+    if (!f->rc && fresh)
+        f->rc = dm_modal_solve(w->modal, f->md, f->statics, w->ksolve, &mo, &f->err);
     if (!f->rc)
         copy_modes(&f->mo, mo, w->n, w->ksolve);
+    w->frozen = f->pose;
+    w->have_frozen = !f->rc;
 }
 
 /* Step j's frame becomes the run's model, factor and modes. */
 static int take_frame(run_ws *w, long j, dm_error *err)
 {
-    const struct frame *f = &w->fr[j % 2];
+    const struct frame *f = &w->fr[j % NFRAMES];
     if (f->rc) {
         if (err)
             *err = f->err;
@@ -577,8 +597,10 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     step_times(w, j, nsteps, &t0, &t1);
     double h = t1 - t0;
     dm_integ_sample s;
-    if (!w->pipelined)
-        prepare(w, j, nsteps);
+    if (!w->pipelined) {
+        build_frame(w, j, nsteps);
+        solve_frame(w, j);
+    }
     int rc = take_frame(w, j, err);
     if (!rc && w->ahead)
         rc = ahead_take(w, j, err);
@@ -979,24 +1001,30 @@ static int run_ahead(run_ws *w, long nsteps, dm_integ_sink sink, void *user, run
     return rc;
 }
 
-/* Without the reference, on two threads: the first makes step j + 1's
- * frame while the other integrates step j. fail[] alternates so that a
- * thread reading step j's outcome after the barrier never sees step
- * j + 1's being written. */
+/* Without the reference, on two threads: the first solves step j + 1's
+ * modes while the other integrates step j and builds step j + 2's model.
+ * fail[] alternates so that a thread reading step j's outcome after the
+ * barrier never sees step j + 1's being written. */
 static int run_pipelined(run_ws *w, long nsteps, dm_integ_sink sink, void *user, run_stats *rs,
                          dm_error *err)
 {
     int fail[2] = {DM_OK, DM_OK};
     w->pipelined = 1;
-    prepare(w, 0, nsteps);
+    build_frame(w, 0, nsteps);
+    solve_frame(w, 0);
+    if (nsteps > 1)
+        build_frame(w, 1, nsteps);
 #pragma omp parallel num_threads(2)
     {
         int t = omp_get_thread_num(), last = omp_get_num_threads() - 1;
         for (long j = 0; j < nsteps; j++) {
             if (t == 0 && j + 1 < nsteps)
-                prepare(w, j + 1, nsteps);
-            if (t == last)
+                solve_frame(w, j + 1);
+            if (t == last) {
                 fail[j % 2] = step(w, j, nsteps, sink, user, rs, err);
+                if (j + 2 < nsteps)
+                    build_frame(w, j + 2, nsteps);
+            }
 #pragma omp barrier
             if (fail[j % 2])
                 break;
