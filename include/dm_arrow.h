@@ -140,6 +140,12 @@ void dm_arrow_chol_solve(const dm_arrow_chol *f, double *X, int q);
 void dm_arrow_chol_forward(const dm_arrow_chol *f, double *X, int q);
 void dm_arrow_chol_backward(const dm_arrow_chol *f, double *X, int q);
 
+/* C = L^-1 A L^-T (n x n, dense, both triangles: symmetric, so row- and
+ * column-major alike), with f the factor of another matrix B = L L' of
+ * the same layout: the generalized problem A x = lambda B x in standard
+ * form. scratch: n x n. */
+void dm_arrow_chol_reduce(const dm_arrow_chol *f, const dm_arrow *a, double *C, double *scratch);
+
 /* (A^-1) restricted to the border: S^-1 (6 x 6, column-major, symmetric). */
 int dm_arrow_chol_border_inverse(const dm_arrow_chol *f, double Sinv[36]);
 

@@ -27,6 +27,7 @@
 #include "dm_model.h"
 #include "dm_modal.h"
 #include "dm_robot.h"
+#include "dm_spectrum.h"
 #include "dm_static.h"
 #include "dm_trajectory.h"
 
@@ -54,6 +55,12 @@ void dm_stepper_set_damping(dm_stepper *st, double alpha, double beta);
 int dm_stepper_advance(dm_stepper *st, const dm_model *model, const dm_modes *modes, int k,
                        const double *F0, const double *F1, double h, double *x, double *xd,
                        dm_error *err);
+
+/* The same with every mode of a spectrum, never formed (the all-modes
+ * reference): a stepper of kmax >= n modes, not DM_ODE_FULL. */
+int dm_stepper_advance_all(dm_stepper *st, const dm_model *model, dm_spectrum *spectrum,
+                           const double *F0, const double *F1, double h, double *x, double *xd,
+                           dm_error *err);
 
 /* One degree of freedom, exact: q'' + 2 z w q' + w^2 q = f0 + (f1 - f0) t/h,
  * advanced from (q, qd) over h. Any damping ratio z >= 0. */

@@ -30,6 +30,7 @@
 #include "dm_predict.h"
 #include "dm_synth.h"
 #include "dm_reference.h"
+#include "dm_spectrum.h"
 #include "dm_store.h"
 #include "dm_sweep.h"
 #include "dm_trajectory.h"
@@ -312,6 +313,47 @@ static double trajectory_time(const char *preset, int threads)
     return dt;
 }
 
+/* The all-modes reference's solve at a pose (every mode, kept factored:
+ * dm_spectrum) against DM_EIGEN_ALL_ARROW (every mode formed) and bare
+ * dsygvd on the same matrices; best of 10. */
+static void reference_solve_time(const char *preset, int mesh)
+{
+    dm_robot rb;
+    dm_pose pose;
+    dm_robot_load(preset, &rb, NULL);
+    dm_model *md = dm_model_alloc(&rb, mesh, mesh, NULL);
+    if (!md || dm_kin_pose(&rb, rb.home_m, &pose, NULL) || dm_model_build(md, &pose, NULL))
+        return;
+    int n = md->n;
+    dm_spectrum *sp = dm_spectrum_alloc(md, NULL);
+    dm_spectrum_solver *sv = dm_spectrum_solver_alloc(md, NULL);
+    dm_modal *all = dm_modal_alloc(md, n, DM_EIGEN_ALL_ARROW, NULL);
+    double *A = malloc(sizeof(double) * n * n), *B = malloc(sizeof(double) * n * n);
+    double *w = malloc(sizeof(double) * n);
+    double ts = INFINITY, ta = INFINITY, td = INFINITY;
+    const dm_modes *mo;
+    for (int r = 0; r < 10 && sp && sv && all && A && B && w; r++) {
+        double t0 = now_s();
+        dm_spectrum_solve(sp, md, sv, NULL);
+        ts = fmin(ts, now_s() - t0);
+        t0 = now_s();
+        dm_modal_solve(all, md, NULL, n, &mo, NULL);
+        ta = fmin(ta, now_s() - t0);
+        dm_model_dense(md, A, B);
+        t0 = now_s();
+        LAPACKE_dsygvd(LAPACK_COL_MAJOR, 1, 'V', 'U', n, A, n, B, n, w);
+        td = fmin(td, now_s() - t0);
+    }
+    printf("   %-9s %d,%d n=%3d all-modes reference per pose: spectrum %6.0f us = %.2f x dsygvd, "
+           "every mode formed %6.0f us = %.2f x, bare dsygvd %6.0f us\n",
+           preset, mesh, mesh, n, ts * 1e6, ts / td, ta * 1e6, ta / td, td * 1e6);
+    free(A), free(B), free(w);
+    dm_modal_free(all);
+    dm_spectrum_solver_free(sv);
+    dm_spectrum_free(sp);
+    dm_model_free(md);
+}
+
 /* The diagnosis docs' tracker case (a 0.05 s bang-bang move and 0.05 s of
  * ring-down, beta off) at the default mesh; and a 1 s record sampled at
  * 250 Hz (every 4th sample of a 1 kHz run). */
@@ -508,6 +550,9 @@ int main(int argc, char **argv)
         for (int p = 0; p < 3; p++)
             for (int t = 1; t <= 2; t++)
                 trajectory_time(presets[p], -t);
+        for (int p = 0; p < 3; p++)
+            reference_solve_time(presets[p], 4);
+        reference_solve_time("chen2018", 8);
         double tr1 = trajectory_time("zheng2017", 1), tr2 = trajectory_time("zheng2017", 2);
         printf("   2 threads / 1 thread: %.2f\n", tr1 / tr2);
         diagnosis_time(1, "p2p:from=-0.03,-0.02,-0.41;to=0.03,0.02,-0.39;duration=0.05;"

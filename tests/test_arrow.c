@@ -171,6 +171,48 @@ static void cholesky_solves_and_schur_complement(void **state)
     teardown_fixture(&f);
 }
 
+/* The pencil (A, B) in standard form, C = L^-1 A L^-T with B = L L': the
+ * same bits as two forward solves over all n columns (the reduction skips
+ * only the chains where a column is zero), and LAPACK's dpotrf + dsygst
+ * to 1e-13 of C's largest entry (Cholesky factors are unique, so both
+ * reduce with the same L; the difference is round-off). */
+static void reduction_to_standard_form(void **state)
+{
+    (void)state;
+    fixture f;
+    setup_fixture(&f, 23, 1);
+    int n = f.n;
+    dm_arrow_chol L;
+    assert_int_equal(dm_arrow_chol_init(&L, &f.lay, NULL), 0);
+    assert_int_equal(dm_arrow_chol_factor(&L, &f.b, NULL), 0);
+    double *C = malloc(sizeof(double) * n * n), *S = malloc(sizeof(double) * n * n);
+    double *T = malloc(sizeof(double) * n * n);
+    dm_arrow_chol_reduce(&L, &f.a, C, S);
+    memcpy(S, f.A, sizeof(double) * n * n);
+    dm_arrow_chol_forward(&L, S, n);
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++)
+            T[(size_t)i * n + j] = S[(size_t)j * n + i];
+    dm_arrow_chol_forward(&L, T, n);
+    assert_memory_equal(C, T, sizeof(double) * n * n);
+    double *Bf = malloc(sizeof(double) * n * n), cmax = 0;
+    memcpy(Bf, f.B, sizeof(double) * n * n);
+    memcpy(S, f.A, sizeof(double) * n * n);
+    assert_int_equal(LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', n, Bf, n), 0);
+    assert_int_equal(LAPACKE_dsygst(LAPACK_COL_MAJOR, 1, 'L', n, S, n, Bf, n), 0);
+    for (int i = 0; i < n * n; i++)
+        cmax = fmax(cmax, fabs(C[i]));
+    for (int j = 0; j < n; j++)
+        for (int i = j; i < n; i++) {
+            assert_abs(C[(size_t)j * n + i], S[(size_t)j * n + i], 1e-13 * cmax, "C (%d, %d)", i, j);
+            assert_abs(C[(size_t)i * n + j], C[(size_t)j * n + i], 1e-13 * cmax, "C' (%d, %d)", i,
+                       j);
+        }
+    dm_arrow_chol_release(&L);
+    free(C), free(S), free(T), free(Bf);
+    teardown_fixture(&f);
+}
+
 static void sturm_counts_match_eigenvalues(void **state)
 {
     (void)state;
@@ -206,6 +248,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(products_match_dense),
         cmocka_unit_test(cholesky_solves_and_schur_complement),
+        cmocka_unit_test(reduction_to_standard_form),
         cmocka_unit_test(sturm_counts_match_eigenvalues),
     };
     return cmocka_run_group_tests_name("arrow", tests, NULL, NULL);

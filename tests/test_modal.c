@@ -9,6 +9,7 @@
 
 #include "dm_analysis.h"
 #include "dm_reference.h"
+#include "dm_spectrum.h"
 
 typedef struct {
     const char *preset;
@@ -363,17 +364,90 @@ static void subspace_solver_against_extended_precision(void **state)
     on_test_poses(check_pose_14);
 }
 
-/* All pairs reduced with the block-arrow factor of M (the trajectories'
- * reference) against dsygvd and the extended-precision reference, 3
- * presets x meshes 1, 4, 8 (and every effect on at mesh 4): both dense
- * solvers are backward stable, each eigenvalue good to a few eps *
- * lambda_max (lambda_max / lambda_1 reaches 1e8 at mesh 8,8, so the
- * lowest modes only to ~1e-8 relative, dsygvd's as much). Tolerances:
- * eigenvalues within 64 eps lambda_max of dsygvd's and of the reference
- * (measured: 15 eps); Phi' M Phi = I to 1e-13 (measured 5e-15); the 14
- * lowest modes in their clusters' reference subspaces to within 64 eps
- * lambda_max / gap, as dsygvd's. The dense path for max(20, n / 8) + 1
- * pairs (beyond that it takes this reduction) gives the same, bit for bit. */
+/* What every-pair solvers are held to, against dsygvd (ma) and the
+ * extended-precision reference (lam, phi: kref pairs). */
+typedef struct {
+    const dm_robot *rb;
+    int mesh, n, kref;
+    const dm_modes *ma;
+    const ldbl *lam;
+    const double *phi, *M;
+} all_pairs_ref;
+
+static void check_every_pair(const all_pairs_ref *r, const char *what, const double *omega,
+                             const double *Phi)
+{
+    int n = r->n;
+    double lmax = omega[n - 1] * omega[n - 1], tol = 64 * DBL_EPSILON * lmax;
+    for (int j = 0; j < n; j++) {
+        double la = r->ma->omega_rad_s[j] * r->ma->omega_rad_s[j], lb = omega[j] * omega[j];
+        assert_abs(lb, la, tol, "%s %s mesh %d mode %d vs dsygvd", what, r->rb->name, r->mesh,
+                   j + 1);
+        if (j < 14)
+            assert_abs(lb, (double)r->lam[j], tol, "%s %s mesh %d mode %d vs extended precision",
+                       what, r->rb->name, r->mesh, j + 1);
+    }
+    double *MP = malloc(sizeof(double) * n * n);
+    cblas_dsymm(CblasColMajor, CblasLeft, CblasUpper, n, n, 1.0, r->M, n, Phi, n, 0.0, MP, n);
+    for (int j = 0; j < n; j++)
+        for (int l = 0; l < n; l++)
+            assert_abs(cblas_ddot(n, Phi + (size_t)l * n, 1, MP + (size_t)j * n, 1), l == j, 1e-13,
+                       "%s %s mesh %d Phi' M Phi (%d, %d)", what, r->rb->name, r->mesh, l, j);
+    for (int j = 0; j < 14; j++) {
+        double gap = INFINITY;
+        for (int l = 0; l < r->kref; l++)
+            if (fabsl(r->lam[l] - r->lam[j]) > 1e-3 * r->lam[j]) /* outside j's cluster */
+                gap = fmin(gap, fabs((double)(r->lam[l] - r->lam[j])));
+        double sin_angle = tol / gap;
+        double mac = cluster_mac(Phi + (size_t)j * n, r->phi, r->lam, j, r->kref, r->M, n);
+        assert_abs(mac, 1.0, fmax(sin_angle * sin_angle, 1e-13), "%s %s mesh %d mode %d subspace",
+                   what, r->rb->name, r->mesh, j + 1);
+    }
+    free(MP);
+}
+
+/* The spectrum's modes, Phi = expand(I), and its projection: Phi' M Phi
+ * by project(M Phi) = I to 1e-13, as the explicit one's. */
+static void check_spectrum(const all_pairs_ref *r, const dm_model *md)
+{
+    int n = r->n, q = DM_SPECTRUM_QMAX;
+    dm_spectrum *sp = dm_spectrum_alloc(md, NULL);
+    dm_spectrum_solver *sv = dm_spectrum_solver_alloc(md, NULL);
+    assert_int_equal(dm_spectrum_solve(sp, md, sv, NULL), 0);
+    assert_int_equal(dm_spectrum_size(sp), n);
+    double *Phi = calloc((size_t)n * n, sizeof(double)), *V = malloc(sizeof(double) * n * q);
+    for (int j = 0; j < n; j++)
+        Phi[(size_t)j * n + j] = 1;
+    for (int j = 0; j < n; j += q) /* in blocks of q, the last one short */
+        dm_spectrum_expand(sp, Phi + (size_t)j * n, j + q <= n ? q : n - j, Phi + (size_t)j * n);
+    check_every_pair(r, "spectrum", dm_spectrum_omega(sp), Phi);
+    for (int j = 0; j < n; j += q) {
+        int w = j + q <= n ? q : n - j;
+        cblas_dsymm(CblasColMajor, CblasLeft, CblasUpper, n, w, 1.0, r->M, n, Phi + (size_t)j * n,
+                    n, 0.0, V, n);
+        dm_spectrum_project(sp, V, w, V);
+        for (int c = 0; c < w; c++)
+            for (int i = 0; i < n; i++)
+                assert_abs(V[(size_t)c * n + i], i == j + c, 1e-13, "%s mesh %d project(M phi_%d)[%d]",
+                           r->rb->name, r->mesh, j + c, i);
+    }
+    free(Phi), free(V);
+    dm_spectrum_solver_free(sv);
+    dm_spectrum_free(sp);
+}
+
+/* All pairs reduced with the block-arrow factor of M (DM_EIGEN_ALL_ARROW,
+ * and the spectrum the trajectories' reference keeps factored) against
+ * dsygvd and the extended-precision reference, 3 presets x meshes 1, 4, 8
+ * (and every effect on at mesh 4): both dense solvers are backward stable,
+ * each eigenvalue good to a few eps * lambda_max (lambda_max / lambda_1
+ * reaches 1e8 at mesh 8,8, so the lowest modes only to ~1e-8 relative,
+ * dsygvd's as much). Tolerances: eigenvalues within 64 eps lambda_max of
+ * dsygvd's and of the reference (measured: 15 eps); Phi' M Phi = I to
+ * 1e-13 (measured 5e-15); the 14 lowest modes in their clusters'
+ * reference subspaces to within 64 eps lambda_max / gap, as dsygvd's. The
+ * dense path for max(20, n / 8) + 1 pairs (beyond that it takes this
+ * reduction) gives the same, bit for bit. */
 static void check_all_arrow(const dm_robot *rb, int mesh, const double P[3])
 {
     dm_analysis *an = dm_analysis_alloc(rb, mesh, mesh, 1, DM_EIGEN_ALL, NULL);
@@ -388,33 +462,13 @@ static void check_all_arrow(const dm_robot *rb, int mesh, const double P[3])
     assert_int_equal(dm_modal_solve(a, md, NULL, n, &ma, NULL), 0);
     assert_int_equal(dm_modal_solve(b, md, NULL, n, &mb, NULL), 0);
     double *K = malloc(sizeof(double) * n * n), *M = malloc(sizeof(double) * n * n);
-    double *phi = malloc(sizeof(double) * n * kref), *MP = malloc(sizeof(double) * n * n);
+    double *phi = malloc(sizeof(double) * n * kref);
     ldbl lam[32];
     dm_model_dense(md, K, M);
     assert_int_equal(dm_reference_eigen(K, M, n, kref, lam, phi), 0);
-    double lmax = mb->omega_rad_s[n - 1] * mb->omega_rad_s[n - 1], tol = 64 * DBL_EPSILON * lmax;
-    for (int j = 0; j < n; j++) {
-        double la = ma->omega_rad_s[j] * ma->omega_rad_s[j];
-        double lb = mb->omega_rad_s[j] * mb->omega_rad_s[j];
-        assert_abs(lb, la, tol, "%s mesh %d mode %d vs dsygvd", rb->name, mesh, j + 1);
-        if (j < 14)
-            assert_abs(lb, (double)lam[j], tol, "%s mesh %d mode %d vs extended precision",
-                       rb->name, mesh, j + 1);
-    }
-    cblas_dsymm(CblasColMajor, CblasLeft, CblasUpper, n, n, 1.0, M, n, mb->phi, n, 0.0, MP, n);
-    for (int j = 0; j < n; j++)
-        for (int l = 0; l < n; l++)
-            assert_abs(cblas_ddot(n, mb->phi + (size_t)l * n, 1, MP + (size_t)j * n, 1),
-                       l == j, 1e-13, "%s mesh %d Phi' M Phi (%d, %d)", rb->name, mesh, l, j);
-    for (int j = 0; j < 14; j++) {
-        double gap = INFINITY;
-        for (int l = 0; l < kref; l++)
-            if (fabsl(lam[l] - lam[j]) > 1e-3 * lam[j]) /* outside j's cluster */
-                gap = fmin(gap, fabs((double)(lam[l] - lam[j])));
-        double sin_angle = tol / gap, mac = cluster_mac(mb->phi + (size_t)j * n, phi, lam, j, kref, M, n);
-        assert_abs(mac, 1.0, fmax(sin_angle * sin_angle, 1e-13), "%s mesh %d mode %d subspace",
-                   rb->name, mesh, j + 1);
-    }
+    all_pairs_ref r = {rb, mesh, n, kref, ma, lam, phi, M};
+    check_every_pair(&r, "arrow", mb->omega_rad_s, mb->phi);
+    check_spectrum(&r, md);
     /* the dense path for more than max(20, n / 8) pairs takes the same
      * reduction: the same pairs, bit for bit */
     int kd = n / 8 + 1 > 21 ? n / 8 + 1 : 21;
@@ -423,7 +477,7 @@ static void check_all_arrow(const dm_robot *rb, int mesh, const double P[3])
     assert_int_equal(dm_modal_solve(c, md, NULL, kd, &mc, NULL), 0);
     assert_memory_equal(mc->omega_rad_s, mb->omega_rad_s, sizeof(double) * kd);
     assert_memory_equal(mc->phi, mb->phi, sizeof(double) * n * kd);
-    free(K), free(M), free(phi), free(MP);
+    free(K), free(M), free(phi);
     dm_modal_free(a);
     dm_modal_free(b);
     dm_modal_free(c);

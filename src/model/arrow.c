@@ -665,17 +665,22 @@ INLINE void border_backward(const double *W, int nb, int first, const double *xp
 /* X = L^-1 X (forward: y_c = L_c^-1 x_c, x_P -= W_c' y_c, x_P = LS^-1 x_P)
  * and X = L^-T X (backward: x_P = LS^-T x_P, x_c = L_c^-T (y_c - W_c x_P))
  * for the w columns of a slice (columns are independent). */
-INLINE void chol_forward_slice(const dm_arrow_chol *f, double *X, int q, int w)
+INLINE void chains_forward_slice(const dm_arrow_chol *f, int c0, int c1, double *X, int q, int w)
 {
     const dm_arrow_layout *lay = &f->lay;
     double *xp = X + (size_t)lay->border * q;
-    for (int c = 0; c < NB; c++) {
+    for (int c = c0; c < c1; c++) {
         double *xc = X + (size_t)lay->off[c] * q;
         const int *colend = f->pattern ? f->pattern->colend[c] : NULL;
         band_forward(f->band[c], lay->nb[c], lay->kd[c], colend, xc, q, w);
         border_forward(f->W[c], lay->nb[c], f->w_first[c], xc, xp, q, w);
     }
     border_forward_solve(f->LS, xp, q, w);
+}
+
+INLINE void chol_forward_slice(const dm_arrow_chol *f, double *X, int q, int w)
+{
+    chains_forward_slice(f, 0, NB, X, q, w);
 }
 
 INLINE void chol_backward_slice(const dm_arrow_chol *f, double *X, int q, int w)
@@ -725,6 +730,30 @@ VECTOR_CLONES static void chol_backward(const dm_arrow_chol *f, double *X, int q
 #undef KERNEL
 }
 
+/* The forward solve of columns o0 .. o1-1 of X (rows q apart) that are
+ * zero on every chain but c0 .. c1-1: the others' solves would leave them
+ * zero and add nothing to the border. */
+VECTOR_CLONES static void chains_forward(const dm_arrow_chol *f, int c0, int c1, double *X, int q,
+                                         int o0, int o1)
+{
+#define KERNEL(W) chains_forward_slice(f, c0, c1, X + o0 + o, q, W)
+    FOR_SLICES(o1 - o0, KERNEL)
+#undef KERNEL
+}
+
+/* X = L^-1 X for the n columns of X (n x n interleaved) whose column j is
+ * zero outside j's own chain and the border (the columns of a block-arrow
+ * matrix, and the rows of L^-1 of one: [L_c^-1 0] on a chain): a chain's
+ * solve visits its own columns and the border's, not all n. The same bits
+ * as dm_arrow_chol_forward(f, X, n). */
+static void forward_by_chain(const dm_arrow_chol *f, double *X)
+{
+    const dm_arrow_layout *lay = &f->lay;
+    for (int c = 0; c < NB; c++)
+        chains_forward(f, c, c + 1, X, lay->n, lay->off[c], lay->off[c] + lay->nb[c]);
+    chains_forward(f, 0, NB, X, lay->n, lay->border, lay->n);
+}
+
 void dm_arrow_chol_forward(const dm_arrow_chol *f, double *X, int q)
 {
     assert(q >= 1);
@@ -735,6 +764,18 @@ void dm_arrow_chol_backward(const dm_arrow_chol *f, double *X, int q)
 {
     assert(q >= 1);
     chol_backward(f, X, q);
+}
+
+void dm_arrow_chol_reduce(const dm_arrow_chol *f, const dm_arrow *a, double *C, double *scratch)
+{
+    int n = f->lay.n;
+    assert(a->lay.n == n);
+    dm_arrow_to_dense(a, scratch); /* symmetric: its rows are its columns */
+    forward_by_chain(f, scratch);
+    for (int i = 0; i < n; i++) /* (L^-1 A)' as n interleaved vectors */
+        for (int j = 0; j < n; j++)
+            C[(size_t)i * n + j] = scratch[(size_t)j * n + i];
+    forward_by_chain(f, C);
 }
 
 int dm_arrow_chol_border_inverse(const dm_arrow_chol *f, double Sinv[36])

@@ -57,7 +57,8 @@ struct dm_stepper {
     int n, kmax;
     dm_ode_method method;
     double rtol, atol;
-    double *Mx, *q, *qd, *f0, *f1, *omega, *zeta; /* modal buffers */
+    double *Mx;        /* n x 4: M x (then M xd, F0, F1 for a spectrum's projections) */
+    double *q, *qd, *f0, *f1, *omega, *zeta;      /* modal buffers */
     double *Minv_K, *b0, *b1, *Mfac;              /* full-model buffers */
     double alpha, beta, h;                        /* current step */
     int own_damping;                              /* alpha, beta set, not the robot's */
@@ -97,7 +98,7 @@ dm_stepper *dm_stepper_alloc(int n, int kmax, dm_ode_method method, double rtol,
         st->method = method;
         st->rtol = rtol;
         st->atol = atol;
-        st->Mx = malloc(sizeof(double) * n);
+        st->Mx = malloc(sizeof(double) * n * DM_SPECTRUM_QMAX);
         st->q = malloc(sizeof(double) * m);
         st->qd = malloc(sizeof(double) * m);
         st->f0 = malloc(sizeof(double) * m);
@@ -299,22 +300,11 @@ static void set_damping(dm_stepper *st, const dm_model *md)
     st->beta = md->robot->rayleigh_beta;
 }
 
-static int advance_modal(dm_stepper *st, const dm_model *md, const dm_modes *mo, int k,
-                         const double *F0, const double *F1, double h, double *x, double *xd,
-                         dm_error *err)
+/* The modal state (q, qd: k) over h under the modal loads f0 -> f1. */
+static int advance_q(dm_stepper *st, const double *omega, int k, double h, dm_error *err)
 {
-    int n = st->n;
-    const double *Phi = mo->phi;
-    set_damping(st, md);
-    /* q = Phi' M x, qd = Phi' M xd, f = Phi' F */
-    dm_model_mult_M(md, x, 1, st->Mx);
-    cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, st->Mx, 1, 0.0, st->q, 1);
-    dm_model_mult_M(md, xd, 1, st->Mx);
-    cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, st->Mx, 1, 0.0, st->qd, 1);
-    cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, F0, 1, 0.0, st->f0, 1);
-    cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, F1, 1, 0.0, st->f1, 1);
     for (int j = 0; j < k; j++) {
-        double w = mo->omega_rad_s[j];
+        double w = omega[j];
         st->omega[j] = w;
         st->zeta[j] = dm_rayleigh_zeta(st->alpha, st->beta, w);
     }
@@ -338,6 +328,26 @@ static int advance_modal(dm_stepper *st, const dm_model *md, const dm_modes *mo,
             st->qd[j] = y[2 * j + 1];
         }
     }
+    return DM_OK;
+}
+
+static int advance_modal(dm_stepper *st, const dm_model *md, const dm_modes *mo, int k,
+                         const double *F0, const double *F1, double h, double *x, double *xd,
+                         dm_error *err)
+{
+    int n = st->n;
+    const double *Phi = mo->phi;
+    set_damping(st, md);
+    /* q = Phi' M x, qd = Phi' M xd, f = Phi' F */
+    dm_model_mult_M(md, x, 1, st->Mx);
+    cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, st->Mx, 1, 0.0, st->q, 1);
+    dm_model_mult_M(md, xd, 1, st->Mx);
+    cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, st->Mx, 1, 0.0, st->qd, 1);
+    cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, F0, 1, 0.0, st->f0, 1);
+    cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, F1, 1, 0.0, st->f1, 1);
+    int rc = advance_q(st, mo->omega_rad_s, k, h, err);
+    if (rc)
+        return rc;
     cblas_dgemv(CblasColMajor, CblasNoTrans, n, k, 1.0, Phi, n, st->q, 1, 0.0, x, 1);
     cblas_dgemv(CblasColMajor, CblasNoTrans, n, k, 1.0, Phi, n, st->qd, 1, 0.0, xd, 1);
     return DM_OK;
@@ -366,6 +376,36 @@ static int advance_full(dm_stepper *st, const dm_model *md, const double *F0, co
         return rc;
     memcpy(x, y, sizeof(double) * n);
     memcpy(xd, y + n, sizeof(double) * n);
+    return DM_OK;
+}
+
+int dm_stepper_advance_all(dm_stepper *st, const dm_model *md, dm_spectrum *sp,
+                           const double *F0, const double *F1, double h, double *x, double *xd,
+                           dm_error *err)
+{
+    int n = st->n;
+    if (st->method == DM_ODE_FULL || st->kmax < n || dm_spectrum_size(sp) != n)
+        return dm_fail(err, DM_EINVAL, "integrator: a spectrum needs a modal stepper of every mode");
+    set_damping(st, md);
+    /* [q qd f0 f1] = Phi' [M x, M xd, F0, F1] in one pass over the factors */
+    double *V = st->Mx;
+    dm_model_mult_M(md, x, 1, V);
+    dm_model_mult_M(md, xd, 1, V + n);
+    memcpy(V + 2 * (size_t)n, F0, sizeof(double) * n);
+    memcpy(V + 3 * (size_t)n, F1, sizeof(double) * n);
+    dm_spectrum_project(sp, V, 4, V);
+    memcpy(st->q, V, sizeof(double) * n);
+    memcpy(st->qd, V + n, sizeof(double) * n);
+    memcpy(st->f0, V + 2 * (size_t)n, sizeof(double) * n);
+    memcpy(st->f1, V + 3 * (size_t)n, sizeof(double) * n);
+    int rc = advance_q(st, dm_spectrum_omega(sp), n, h, err);
+    if (rc)
+        return rc;
+    memcpy(V, st->q, sizeof(double) * n);
+    memcpy(V + n, st->qd, sizeof(double) * n);
+    dm_spectrum_expand(sp, V, 2, V);
+    memcpy(x, V, sizeof(double) * n);
+    memcpy(xd, V + n, sizeof(double) * n);
     return DM_OK;
 }
 

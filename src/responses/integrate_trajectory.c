@@ -50,7 +50,8 @@ typedef struct {
     dm_pose frozen;
     int have_frozen;
     double coupling_log10; /* of the frozen K */
-    const dm_modes *mo, *mo_all;
+    const dm_modes *mo;
+    dm_spectrum *all;     /* the reference's modes at the step's pose */
     /* closed-form runs in modal coordinates (see "histories"): the last
      * step's modes, and Phi_prev and M Phi_prev interleaved (dm_arrow.h) */
     double *phi_prev, *Xi, *Yi;
@@ -376,9 +377,9 @@ static void step_times(const run_ws *w, long j, long nsteps, double *t0, double 
 
 /* ---- the all-modes reference, solved ahead on the run's threads ----------
  *
- * The reference's dense eigen solve (every mode, O(n^3), reduced with the
- * block-arrow factor of M: 3.3 ms of a 4 ms step at 210 DOF) depends on
- * the step's pose alone, not on the state carried from step to step. So
+ * The reference's dense eigen solve (every mode, O(n^3), kept factored:
+ * dm_spectrum; 2.3 ms of a 2.8 ms step at 210 DOF) depends on the step's
+ * pose alone, not on the state carried from step to step. So
  * while one thread runs a batch of steps, the others solve the next
  * batch's poses into a second buffer, each with a model and a dense
  * workspace of its own. A solve is the same call on the same matrices
@@ -387,10 +388,10 @@ static void step_times(const run_ws *w, long j, long nsteps, double *t0, double 
 
 #define AHEAD_PER_THREAD 4         /* steps per batch and thread: balances the batch's
                                       main steps (one thread) against its solves */
-#define AHEAD_BYTES (64.0 * 1024 * 1024) /* both buffers at most (8 steps at 1 000 DOF) */
+#define AHEAD_BYTES (64.0 * 1024 * 1024) /* both buffers at most (4 steps at 1 000 DOF) */
 
 typedef struct {
-    dm_modes mo;  /* omega_rad_s and phi (n x n) of the step's pose */
+    dm_spectrum *sp; /* every mode of the step's pose */
     int same;     /* the step before is at the same pose: its modes */
     int rc;       /* of the solve */
     dm_error err;
@@ -400,8 +401,7 @@ typedef struct ref_ahead {
     int nt, cap;         /* threads; steps per batch */
     ref_slot *buf[2];    /* batches b and b + 1, cap each */
     dm_model **md;       /* nt each */
-    dm_modal **modal;
-    double *pool;
+    dm_spectrum_solver **solver;
 } ref_ahead;
 
 static void ahead_free(ref_ahead *ra)
@@ -410,15 +410,17 @@ static void ahead_free(ref_ahead *ra)
         return;
     for (int t = 0; ra->md && t < ra->nt; t++)
         dm_model_free(ra->md[t]);
-    for (int t = 0; ra->modal && t < ra->nt; t++)
-        dm_modal_free(ra->modal[t]);
-    free(ra->md), free(ra->modal), free(ra->buf[0]), free(ra->pool);
+    for (int t = 0; ra->solver && t < ra->nt; t++)
+        dm_spectrum_solver_free(ra->solver[t]);
+    for (int i = 0; ra->buf[0] && i < 2 * ra->cap; i++)
+        dm_spectrum_free(ra->buf[0][i].sp);
+    free(ra->md), free(ra->solver), free(ra->buf[0]);
     free(ra);
 }
 
 static int ahead_cap(int nt, int n)
 {
-    double slot = sizeof(double) * ((double)n * n + n);
+    double slot = sizeof(double) * (2.0 * n * n + 5.0 * n); /* a spectrum */
     double cap = fmin(AHEAD_PER_THREAD * nt, fmax(1.0, floor(AHEAD_BYTES / (2 * slot))));
     return (int)cap;
 }
@@ -432,32 +434,27 @@ static ref_ahead *ahead_alloc(const run_ws *w, dm_error *err)
         ra->nt = w->threads > 0 ? w->threads : 1;
         ra->cap = ahead_cap(ra->nt, n);
         ra->md = calloc((size_t)ra->nt, sizeof *ra->md);
-        ra->modal = calloc((size_t)ra->nt, sizeof *ra->modal);
+        ra->solver = calloc((size_t)ra->nt, sizeof *ra->solver);
         ra->buf[0] = calloc(2 * (size_t)ra->cap, sizeof(ref_slot));
-        ra->pool = malloc(sizeof(double) * 2 * ra->cap * ((size_t)n * n + n));
-        ok = ra->md && ra->modal && ra->buf[0] && ra->pool;
-    }
-    for (int t = 0; ok && t < ra->nt; t++) {
-        ra->md[t] = dm_model_alloc(w->rb, w->md->na, w->md->nb, err);
-        ra->modal[t] = ra->md[t] ? dm_modal_alloc(ra->md[t], n, DM_EIGEN_ALL_ARROW, err) : NULL;
-        if (!ra->modal[t]) {
-            ahead_free(ra);
-            return NULL;
-        }
+        ok = ra->md && ra->solver && ra->buf[0];
     }
     if (!ok) {
         ahead_free(ra);
         dm_fail(err, DM_ENOMEM, "out of memory for the all-modes reference");
         return NULL;
     }
-    ra->buf[1] = ra->buf[0] + ra->cap;
-    double *p = ra->pool;
-    for (int i = 0; i < 2 * ra->cap; i++, p += (size_t)n * n + n) {
-        ref_slot *s = &ra->buf[0][i];
-        s->mo.n = s->mo.k = n;
-        s->mo.omega_rad_s = p;
-        s->mo.phi = p + n;
+    for (int t = 0; ok && t < ra->nt; t++) {
+        ra->md[t] = dm_model_alloc(w->rb, w->md->na, w->md->nb, err);
+        ra->solver[t] = ra->md[t] ? dm_spectrum_solver_alloc(ra->md[t], err) : NULL;
+        ok = ra->solver[t] != NULL;
     }
+    for (int i = 0; ok && i < 2 * ra->cap; i++)
+        ok = (ra->buf[0][i].sp = dm_spectrum_alloc(w->md, err)) != NULL;
+    if (!ok) {
+        ahead_free(ra);
+        return NULL;
+    }
+    ra->buf[1] = ra->buf[0] + ra->cap;
     return ra;
 }
 
@@ -477,14 +474,9 @@ static void ahead_solve(const run_ws *w, ref_ahead *ra, int t, long j, long nste
     }
     if (s->rc || s->same)
         return;
-    const dm_modes *mo;
     s->rc = dm_model_build(ra->md[t], &pose, &s->err);
     if (!s->rc)
-        s->rc = dm_modal_solve(ra->modal[t], ra->md[t], NULL, w->n, &mo, &s->err);
-    if (!s->rc) {
-        memcpy(s->mo.omega_rad_s, mo->omega_rad_s, sizeof(double) * w->n);
-        memcpy(s->mo.phi, mo->phi, sizeof(double) * w->n * w->n);
-    }
+        s->rc = dm_spectrum_solve(s->sp, ra->md[t], ra->solver[t], &s->err);
 }
 
 /* Step j's modes, solved ahead. */
@@ -501,7 +493,7 @@ static int ahead_take(run_ws *w, long j, dm_error *err)
             *err = b[i].err;
         return b[i].rc;
     }
-    w->mo_all = &b[i].mo;
+    w->all = b[i].sp;
     return DM_OK;
 }
 
@@ -615,8 +607,8 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     }
     if (!rc) rc = loads_at(w, t0, t1, err);
     if (!rc && w->ref_stepper)
-        rc = dm_stepper_advance(w->ref_stepper, w->md, w->mo_all, w->n, w->F0, w->F1, h, w->xr,
-                                w->xrd, err);
+        rc = dm_stepper_advance_all(w->ref_stepper, w->md, w->all, w->F0, w->F1, h, w->xr,
+                                    w->xrd, err);
     if (!rc) rc = dm_stepper_advance(w->stepper, w->md, mo, w->k, w->F0, w->F1, h, w->x, w->xd, err);
     if (!rc && w->fig_stepper)
         rc = dm_stepper_advance(w->fig_stepper, w->md, mo, w->k, w->F0, w->F1, h, w->xf, w->xfd, err);

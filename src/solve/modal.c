@@ -498,28 +498,16 @@ static int solve_partial(dm_modal *ws, int k, dm_error *err)
     return DM_OK;
 }
 
-/* dst = src' (n x n) */
-static void transpose(int n, const double *src, double *dst)
-{
-    for (int i = 0; i < n; i++)
-        for (int j = 0; j < n; j++)
-            dst[(size_t)i * n + j] = src[(size_t)j * n + i];
-}
-
 /* The k lowest pairs from every pair, with M = L L' by the block-arrow
- * factor: C = L^-1 K L^-T by two forward solves (the rows of the dense K,
- * then of (L^-1 K)', are interleaved blocks of n vectors), C = Z Lambda Z'
- * by dsyevd, and Phi = L^-T Z for the k wanted columns of Z (Phi' M Phi =
+ * factor: C = L^-1 K L^-T (dm_arrow_chol_reduce), C = Z Lambda Z' by
+ * dsyevd, and Phi = L^-T Z for the k wanted columns of Z (Phi' M Phi =
  * Z' Z = I). */
 static int solve_all_arrow(dm_modal *ws, const dm_model *md, int k, dm_error *err)
 {
     int n = ws->n;
     if (dm_arrow_chol_factor(&ws->mchol, &md->M, NULL))
         return dm_fail(err, DM_ENUMERIC, "mass matrix not positive definite");
-    dm_arrow_to_dense(&md->K, ws->A); /* symmetric: its rows are its columns */
-    dm_arrow_chol_forward(&ws->mchol, ws->A, n);
-    transpose(n, ws->A, ws->B);
-    dm_arrow_chol_forward(&ws->mchol, ws->B, n);
+    dm_arrow_chol_reduce(&ws->mchol, &md->K, ws->B, ws->A);
     lapack_int info = LAPACKE_dsyevd_work(LAPACK_COL_MAJOR, 'V', 'L', n, ws->B, n, ws->w,
                                           ws->work, ws->lwork, ws->iwork, ws->liwork);
     if (info)
