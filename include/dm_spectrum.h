@@ -34,7 +34,10 @@ void dm_spectrum_solver_free(dm_spectrum_solver *sv);
 
 /* Every mode of the model as it is built. DM_ENUMERIC when M is not
  * positive definite, the tridiagonal solve does not converge, or an
- * eigenvalue is not positive (a mechanism). */
+ * eigenvalue is not positive (a mechanism). The spectrum keeps a pointer
+ * to the model's sparsity pattern (fixed at its first build): the model
+ * must outlive the spectrum's use, as a model rebuilt at other poses
+ * does. */
 int dm_spectrum_solve(dm_spectrum *sp, const dm_model *model, dm_spectrum_solver *sv,
                       dm_error *err);
 

@@ -378,7 +378,7 @@ static void step_times(const run_ws *w, long j, long nsteps, double *t0, double 
 /* ---- the all-modes reference, solved ahead on the run's threads ----------
  *
  * The reference's dense eigen solve (every mode, O(n^3), kept factored:
- * dm_spectrum; 2.3 ms of a 2.8 ms step at 210 DOF) depends on the step's
+ * dm_spectrum; 1.7-2.1 ms of a 2.3-2.7 ms step at 210 DOF) depends on the step's
  * pose alone, not on the state carried from step to step. So
  * while one thread runs a batch of steps, the others solve the next
  * batch's poses into a second buffer, each with a model and a dense

@@ -999,9 +999,10 @@ static void project_on(const dm_modal *ws, const double *H, const double *MX, do
  * the buffer's Ritz vectors carry unconverged parts of the modes above the
  * block, and a span that holds them passes them on to every column
  * projected on it (chen2018's circle at 210 DOF, whose 19th vector is a
- * mode with a near neighbour above: the wanted pairs started 1e-4 off
- * instead of 3e-7, 5.7 applications a step instead of 4). The buffer
- * columns start where they were. */
+ * mode with a near neighbour above: the wanted pairs started 1e-4 off, a
+ * block of 18 whose last vector converges with them 3e-7; 5.7
+ * applications a step, now 4). The buffer columns start where they
+ * were. */
 static void extrapolate(dm_modal *ws, const dm_model *md)
 {
     int n = ws->n, q = ws->q, m = ws->kc;
