@@ -67,6 +67,10 @@ struct dm_static;
 int dm_modal_solve(dm_modal *ws, const dm_model *model, const struct dm_static *factor, int k,
                    const dm_modes **modes, dm_error *err);
 
+/* omega = sqrt(lambda) for k eigenvalues; DM_ENUMERIC naming the first
+ * that is not positive (the structure is a mechanism). */
+int dm_modal_omega(const double *lambda, int k, double *omega, dm_error *err);
+
 /* The next solve starts cold (a sweep tile's first point: results must
  * not depend on which tile a thread did before). */
 void dm_modal_forget(dm_modal *ws);

@@ -1099,6 +1099,18 @@ static int solve_subspace(dm_modal *ws, const dm_model *md, const dm_static *fac
     return DM_OK;
 }
 
+int dm_modal_omega(const double *lambda, int k, double *omega, dm_error *err)
+{
+    for (int j = 0; j < k; j++) {
+        if (!(lambda[j] > 0))
+            return dm_fail(err, DM_ENUMERIC,
+                           "mode %d has eigenvalue %g <= 0: the structure is a mechanism", j + 1,
+                           lambda[j]);
+        omega[j] = sqrt(lambda[j]);
+    }
+    return DM_OK;
+}
+
 int dm_modal_solve(dm_modal *ws, const dm_model *md, const dm_static *factor, int k,
                    const dm_modes **modes, dm_error *err)
 {
@@ -1118,15 +1130,10 @@ int dm_modal_solve(dm_modal *ws, const dm_model *md, const dm_static *factor, in
         return rc;
     ws->modes.n = ws->n;
     ws->modes.k = k;
-    for (int j = 0; j < k; j++) {
-        double lam = ws->w[j];
-        if (!(lam > 0))
-            return dm_fail(err, DM_ENUMERIC,
-                           "mode %d has eigenvalue %g <= 0: the structure is a mechanism", j + 1,
-                           lam);
-        ws->modes.omega_rad_s[j] = sqrt(lam);
-        ws->modes.freq_hz[j] = sqrt(lam) / (2.0 * M_PI);
-    }
+    if ((rc = dm_modal_omega(ws->w, k, ws->modes.omega_rad_s, err)))
+        return rc;
+    for (int j = 0; j < k; j++)
+        ws->modes.freq_hz[j] = ws->modes.omega_rad_s[j] / (2.0 * M_PI);
     *modes = &ws->modes;
     return DM_OK;
 }

@@ -8,6 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dm_modal.h"
+
 struct dm_spectrum {
     int n;
     dm_arrow_chol L;   /* M = L L' */
@@ -122,15 +124,7 @@ int dm_spectrum_solve(dm_spectrum *sp, const dm_model *model, dm_spectrum_solver
                                    sv->lwork, sv->iwork, sv->liwork);
     if (info)
         return dm_fail(err, DM_ENUMERIC, "tridiagonal eigen solve failed (info %d)", (int)info);
-    for (int j = 0; j < n; j++) {
-        double lam = sv->d[j];
-        if (!(lam > 0))
-            return dm_fail(err, DM_ENUMERIC,
-                           "mode %d has eigenvalue %g <= 0: the structure is a mechanism", j + 1,
-                           lam);
-        sp->omega[j] = sqrt(lam);
-    }
-    return DM_OK;
+    return dm_modal_omega(sv->d, n, sp->omega, err);
 }
 
 int dm_spectrum_size(const dm_spectrum *sp)
