@@ -378,7 +378,7 @@ static void step_times(const run_ws *w, long j, long nsteps, double *t0, double 
 /* ---- the all-modes reference, solved ahead on the run's threads ----------
  *
  * The reference's dense eigen solve (every mode, O(n^3), kept factored:
- * dm_spectrum; 1.7-2.1 ms of a 2.3-2.7 ms step at 210 DOF) depends on the step's
+ * dm_spectrum; 1.5-1.9 ms of a 2.1-2.5 ms step at 210 DOF) depends on the step's
  * pose alone, not on the state carried from step to step. So
  * while one thread runs a batch of steps, the others solve the next
  * batch's poses into a second buffer, each with a model and a dense
@@ -899,13 +899,13 @@ static int run_modal(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
 }
 
 /* One core's time a step, measured at 210 DOF (make bench) and rounded
- * up: 0.3-0.7 ms without the reference (10 modes, CVODE), growing with
- * the modes kept; the reference's spectrum and projections 2.2 ms, O(n^3). */
+ * up: 0.3-0.8 ms without the reference (10 modes, CVODE), growing with
+ * the modes kept; the reference's spectrum and projections 1.6 ms, O(n^3). */
 double dm_integ_estimate_s(long steps, int n, int k, int reference)
 {
     double s = n / 210.0, per_step = 1e-3 * s * s * fmax(1.0, k / 10.0);
     if (reference)
-        per_step += 2.5e-3 * s * s * s;
+        per_step += 2e-3 * s * s * s;
     return steps * per_step;
 }
 
