@@ -107,6 +107,19 @@ static void products_match_dense(void **state)
     teardown_fixture(&f);
 }
 
+/* T = L^-1 A L^-T the plain way: forward solves over all n columns, of
+ * the rows of A (dense, symmetric) and then of (L^-1 A)'. S: n x n scratch. */
+static void reduce_by_forward_solves(const dm_arrow_chol *L, const double *A, int n, double *S,
+                                     double *T)
+{
+    memcpy(S, A, sizeof(double) * n * n);
+    dm_arrow_chol_forward(L, S, n);
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++)
+            T[(size_t)i * n + j] = S[(size_t)j * n + i];
+    dm_arrow_chol_forward(L, T, n);
+}
+
 /* Solves against LAPACK's (1e-12), the solve's halves (L^-1 then L^-T:
  * the solve, bit for bit; L^-1 A L^-T = I to 1e-12), ln det A and the
  * border block of A^-1 = S^-1. */
@@ -141,12 +154,7 @@ static void cholesky_solves_and_schur_complement(void **state)
     assert_memory_equal(X, Y, sizeof(double) * n * q);
     /* L^-1 A L^-T = I: the rows of A, then of (L^-1 A)', as blocks of n */
     double *C = malloc(sizeof(double) * n * n), *T = malloc(sizeof(double) * n * n);
-    memcpy(C, f.A, sizeof(double) * n * n);
-    dm_arrow_chol_forward(&L, C, n);
-    for (int i = 0; i < n; i++)
-        for (int j = 0; j < n; j++)
-            T[(size_t)i * n + j] = C[(size_t)j * n + i];
-    dm_arrow_chol_forward(&L, T, n);
+    reduce_by_forward_solves(&L, f.A, n, C, T);
     for (int i = 0; i < n; i++)
         for (int j = 0; j < n; j++)
             assert_abs(T[(size_t)i * n + j], i == j, 1e-12, "L^-1 A L^-T (%d, %d)", i, j);
@@ -188,12 +196,7 @@ static void reduction_to_standard_form(void **state)
     double *C = malloc(sizeof(double) * n * n), *S = malloc(sizeof(double) * n * n);
     double *T = malloc(sizeof(double) * n * n);
     dm_arrow_chol_reduce(&L, &f.a, C, S);
-    memcpy(S, f.A, sizeof(double) * n * n);
-    dm_arrow_chol_forward(&L, S, n);
-    for (int i = 0; i < n; i++)
-        for (int j = 0; j < n; j++)
-            T[(size_t)i * n + j] = S[(size_t)j * n + i];
-    dm_arrow_chol_forward(&L, T, n);
+    reduce_by_forward_solves(&L, f.A, n, S, T);
     assert_memory_equal(C, T, sizeof(double) * n * n);
     double *Bf = malloc(sizeof(double) * n * n), cmax = 0;
     memcpy(Bf, f.B, sizeof(double) * n * n);
