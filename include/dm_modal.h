@@ -127,6 +127,8 @@ typedef struct dm_modal_stats {
                            Sturm count found a mode it missed): cold */
     int random;         /* cold, and from the random block (else dense) */
     int subspace;       /* vectors iterated */
+    int rebased;        /* filtered blocks made M-orthonormal before their
+                           projection (they had collapsed) */
     int converged;      /* modes proven: the Sturm count below sigma */
     double sigma;       /* the Sturm shift (rad^2/s^2) */
     double residual;    /* largest relative residual of the converged modes */

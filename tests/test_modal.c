@@ -712,6 +712,7 @@ static void start_between_seeds_agrees_and_saves(void **state)
     (void)state;
     const char *names[] = {"chen2018", "zheng2017", "han2011"};
     const double H = 0.03, fr[3] = {0.25, 0.5, 0.75};
+    long rebased = 0;
     for (int r = 0; r < 3; r++) {
         dm_robot rb;
         load_robot(names[r], NULL, &rb);
@@ -747,6 +748,7 @@ static void start_between_seeds_agrees_and_saves(void **state)
                     dm_modal_last_stats(an->modal, &st);
                     assert_true(st.warm && !st.fallback);
                     applications[f] += st.iterations;
+                    rebased += st.rebased;
                     for (int m = 0; m < 14; m++)
                         assert_rel(rw[f].modes->freq_hz[m], rc.modes->freq_hz[m], 0.5e-12,
                                    "%s point %d,%d mode %d %s vs cold", names[r], ix, iy, m + 1,
@@ -772,6 +774,11 @@ static void start_between_seeds_agrees_and_saves(void **state)
         dm_analysis_free(an);
         dm_analysis_free(cold);
     }
+    /* zheng2017's block of 16 collapses in its last column at most of these
+     * points: the rebased projections (rayleigh_ritz) are among those
+     * checked against cold solves above */
+    print_message("%ld filtered blocks rebased\n", rebased);
+    assert_true(rebased > 0);
 }
 
 /* Near a singularity (han2011, cond(J) ~ 1e3: the lowest mode at 0.2 Hz,

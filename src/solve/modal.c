@@ -668,6 +668,7 @@ static int rayleigh_ritz(dm_modal *ws, const double *V, const double *KV, const 
     if (!factor_gram(ws->Mt, q)) {
         if (!filtered || !rebase_block(ws))
             return DM_ENUMERIC;
+        ws->stats.rebased++;
         V = ws->Y, KV = ws->X, MV = ws->T;
         project_block(ws, V, KV, MV);
         if (!factor_gram(ws->Mt, q))
