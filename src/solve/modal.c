@@ -596,13 +596,12 @@ static void apply_A(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, co
  * eps / sqrt(S) (relative). Below REBASE_MIN that exceeds the residual a
  * pair converges to (CONVERGED), and the block is filtered again with a
  * lower degree. (Rebased or not, a pair is accepted only on the residual
- * of the next round's fresh products, and the Sturm count follows.) The
- * filter
- * damps a buffer column's own mode and amplifies the wanted ones it
- * carries, so the last column is the one that collapses: on chen2018's
- * 64 x 64 sweep at 210 DOF at 1 049 of 4 350 solves, all redone before
- * with a lower degree (4 applications lost each; 7.0 applications a solve,
- * now 6.0). */
+ * of the next round's fresh products, and the Sturm count follows.)
+ * The filter damps a buffer column's own mode and amplifies the wanted
+ * ones it carries, so the last column is the one that collapses: on
+ * chen2018's 64 x 64 sweep at 210 DOF at 1 049 of 4 350 solves, all
+ * redone before with a lower degree (4 applications lost each; 7.0
+ * applications a solve, now 6.0). */
 #define COLLAPSED_PIVOT 1e-6
 #define REBASE_MIN 1e-16
 
@@ -669,6 +668,7 @@ static int rayleigh_ritz(dm_modal *ws, const double *V, const double *KV, const 
 {
     int n = ws->n, q = active(ws);
     double *theta = ws->theta + ws->nl;
+    assert(!filtered || (V == ws->T && KV == ws->MX && MV == ws->MT));
     project_block(ws, V, KV, MV);
     if (!factor_gram(ws->Mt, q)) {
         if (!filtered || !rebase_block(ws))
