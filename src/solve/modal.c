@@ -958,11 +958,19 @@ static int sturm_check(dm_modal *ws, const dm_model *md, int kw)
     return 0;
 }
 
+/* The block kernels walk the matrix once per slice of 4k columns (then at
+ * most 3: dm_arrow.h), so a block of 4k + 1..3 vectors costs about as
+ * much per application as one of 4k + 4, whose extra vectors widen the
+ * gap the filter works with. Rounding the size up to a multiple of 4,
+ * measured on 64 x 64 sweeps at 210 DOF: chen2018 (19 -> 20 vectors) 8 %
+ * faster, han2011 (27 -> 28) 3 %; zheng2017 (16) unchanged. */
+#define SUBSPACE_STEP 4
+
 /* The subspace for kw wanted pairs given the lowest eigenvalues w[0 ..
  * count - 1] (ascending): the smallest q (with two buffer vectors at
  * least) whose next eigenvalue is SUBSPACE_RATIO times the last wanted
- * one, else the q with the widest such ratio; 0 if count leaves no
- * choice. */
+ * one, else the q with the widest such ratio, rounded up to a multiple of
+ * SUBSPACE_STEP where count allows; 0 if count leaves no choice. */
 static int subspace_size(const double *w, int count, int kw)
 {
     int q = 0;
@@ -975,6 +983,10 @@ static int subspace_size(const double *w, int count, int kw)
         }
         if (ratio >= SUBSPACE_RATIO)
             break;
+    }
+    if (q > 0) {
+        int up = (q + SUBSPACE_STEP - 1) / SUBSPACE_STEP * SUBSPACE_STEP;
+        q = up < count ? up : count - 1;
     }
     return q;
 }
