@@ -91,6 +91,17 @@ static int subspace_max(int n, int k)
  * outside it is at least this many times the last wanted one: the filter
  * then damps what is outside by T_d(1 + 2 gamma), gamma >= 7. */
 #define SUBSPACE_RATIO 8.0
+/* The block kernels walk the matrix once per slice of 4k columns (then at
+ * most 3: arrow.c), so a block of 4k + 1..3 vectors costs about as much
+ * per application as one of 4k + 4 (chen2018 at 210 DOF: M products of
+ * 19 vectors 13 us, of 24 11 us). The subspace's size is rounded up to a
+ * multiple of this, whose extra vectors widen the gap the filter works
+ * with (64 x 64 sweeps at 210 DOF, one thread: chen2018, 19 -> 20
+ * vectors, 8 % faster, han2011, 27 -> 28, 3 %; zheng2017's 16 unchanged),
+ * and locking leaves the active block a multiple of it wide until the
+ * last wanted pairs lock (a converged pair left in the block stays
+ * converged; sweeps 1-5 % faster again). */
+#define SUBSPACE_STEP 4
 /* A warm start from a neighbouring pose is first assumed this far off;
  * then each warm solve measures how far off its start was and the next
  * one plans its first filter with that (poses along a path are spaced
@@ -723,6 +734,16 @@ static void drop_columns(double *X, int n, int q, int m)
             X[(size_t)i * qn + j] = X[(size_t)i * q + m + j];
 }
 
+/* The most of the m leading active pairs that end on a gap (a cluster is
+ * locked whole or not at all). */
+static int uncut(const dm_modal *ws, int m)
+{
+    int nl = ws->nl;
+    while (m > 0 && nl + m < ws->q && ws->theta[nl + m] <= ws->theta[nl + m - 1] * (1 + CLUSTER_GAP))
+        m--;
+    return m;
+}
+
 /* Lock the leading active pairs that have converged, up to the kw wanted,
  * never half a cluster: they leave the filtered block, which stays
  * M-orthogonal to them (apply_A). */
@@ -731,8 +752,12 @@ static void lock_converged(dm_modal *ws, int kw, double conv)
     int n = ws->n, qa = active(ws), nl = ws->nl, m = 0;
     while (nl + m < kw && ws->res[m] <= conv)
         m++;
-    while (m > 0 && nl + m < ws->q && ws->theta[nl + m] <= ws->theta[nl + m - 1] * (1 + CLUSTER_GAP))
-        m--;
+    m = uncut(ws, m);
+    if (nl + m < kw) { /* not the last: the active block a multiple of SUBSPACE_STEP */
+        while (m > 0 && (qa - m) % SUBSPACE_STEP)
+            m--;
+        m = uncut(ws, m);
+    }
     if (!m)
         return;
     for (int j = 0; j < m; j++) {
@@ -957,14 +982,6 @@ static int sturm_check(dm_modal *ws, const dm_model *md, int kw)
     }
     return 0;
 }
-
-/* The block kernels walk the matrix once per slice of 4k columns (then at
- * most 3: dm_arrow.h), so a block of 4k + 1..3 vectors costs about as
- * much per application as one of 4k + 4, whose extra vectors widen the
- * gap the filter works with. Rounding the size up to a multiple of 4,
- * measured on 64 x 64 sweeps at 210 DOF: chen2018 (19 -> 20 vectors) 8 %
- * faster, han2011 (27 -> 28) 3 %; zheng2017 (16) unchanged. */
-#define SUBSPACE_STEP 4
 
 /* The subspace for kw wanted pairs given the lowest eigenvalues w[0 ..
  * count - 1] (ascending): the smallest q (with two buffer vectors at
