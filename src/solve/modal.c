@@ -987,8 +987,8 @@ static int sturm_check(dm_modal *ws, const dm_model *md, int kw)
  * count - 1] (ascending): the smallest q (with two buffer vectors at
  * least) whose next eigenvalue is SUBSPACE_RATIO times the last wanted
  * one, else the q with the widest such ratio, rounded up to a multiple of
- * SUBSPACE_STEP where count allows; 0 if count leaves no choice. */
-static int subspace_size(const double *w, int count, int kw)
+ * SUBSPACE_STEP, at most `most`; 0 if count leaves no choice. */
+static int subspace_size(const double *w, int count, int kw, int most)
 {
     int q = 0;
     double best = 0;
@@ -1003,7 +1003,7 @@ static int subspace_size(const double *w, int count, int kw)
     }
     if (q > 0) {
         int up = (q + SUBSPACE_STEP - 1) / SUBSPACE_STEP * SUBSPACE_STEP;
-        q = up < count ? up : count - 1;
+        q = up < most ? up : most > q ? most : q;
     }
     return q;
 }
@@ -1018,7 +1018,8 @@ static int cold_start(dm_modal *ws, const dm_model *md, int k, dm_error *err)
     int kw = wanted_count(ws->w, ws->qmax, k), n = ws->n;
     if (!kw)
         kw = k;
-    int q = subspace_size(ws->w, ws->qmax + 1 < ws->kdense ? ws->qmax + 1 : ws->kdense, kw);
+    int count = ws->qmax + 1 < ws->kdense ? ws->qmax + 1 : ws->kdense;
+    int q = subspace_size(ws->w, count, kw, count < ws->qmax ? count : ws->qmax);
     ws->q = q ? q : ws->qmax;
     for (int j = 0; j < ws->q; j++) {
         ws->theta[j] = ws->w[j];
@@ -1186,7 +1187,7 @@ static int solve_subspace(dm_modal *ws, const dm_model *md, const dm_static *fac
     memcpy(ws->phi, ws->XL, sizeof(double) * ws->n * k);
     merge_block(ws);
     if (ws->stats.random) /* Ritz values of the block: converged, or upper bounds */
-        shrink_block(ws, subspace_size(ws->theta, ws->q, kw));
+        shrink_block(ws, subspace_size(ws->theta, ws->q, kw, ws->q));
     ws->modes.phi = ws->phi;
     return DM_OK;
 }
