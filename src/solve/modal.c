@@ -648,21 +648,21 @@ static int factor_gram(double *Mt, int q)
 }
 
 /* The filtered block V = T (K V in MX, M V in MT) made M-orthonormal
- * (SVQB: Stathopoulos & Wu 2002): with the scaled Gram matrix D V' M V D
- * = U S U', W = D U S^-1/2 and V W into Y, K V W into X, M V W into T,
- * the same subspace. 0 when the Gram matrix has lost a direction. */
+ * (SVQB: Stathopoulos & Wu 2002): with its scaled Gram matrix D V' M V D
+ * = U S U' (given in C, the scaling in ws->scale), W = D U S^-1/2 and
+ * V W into Y, K V W into X, M V W into T, the same subspace. 0 when the
+ * Gram matrix has lost a direction. */
 static int rebase_block(dm_modal *ws)
 {
     int n = ws->n, q = active(ws);
-    double *S = ws->res, *W = ws->C; /* scratch until the next round */
-    project_block(ws, ws->T, ws->MX, ws->MT);
-    if (LAPACKE_dsyevd_work(LAPACK_COL_MAJOR, 'V', 'U', q, ws->Mt, q, S, ws->swork, ws->slwork,
+    double *S = ws->res, *U = ws->C, *W = ws->Mt; /* scratch until the next round */
+    if (LAPACKE_dsyevd_work(LAPACK_COL_MAJOR, 'V', 'U', q, U, q, S, ws->swork, ws->slwork,
                             ws->siwork, ws->sliwork) ||
         !(S[0] >= REBASE_MIN * S[q - 1]))
         return 0;
     for (int j = 0; j < q; j++)
         for (int i = 0; i < q; i++)
-            W[j * q + i] = ws->scale[i] * ws->Mt[j * q + i] / sqrt(S[j]);
+            W[j * q + i] = ws->scale[i] * U[j * q + i] / sqrt(S[j]);
     /* interleaved n x q == column-major q x n: (V W)_t = W' V_t */
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, q, n, q, 1.0, W, q, ws->T, q, 0.0, ws->Y, q);
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, q, n, q, 1.0, W, q, ws->MX, q, 0.0, ws->X, q);
@@ -670,23 +670,24 @@ static int rebase_block(dm_modal *ws)
     return 1;
 }
 
-/* Rayleigh-Ritz on span(V), the active block, with K V and M V given:
- * X = V Q, ascending Ritz values after the locked ones. A filtered block
- * (V = T, K V = MX, M V = MT; `filtered`) that collapsed is rebased
- * first. DM_ENUMERIC when V has collapsed beyond that. */
-static int rayleigh_ritz(dm_modal *ws, const double *V, const double *KV, const double *MV,
-                         int filtered)
+/* Rayleigh-Ritz on span(V), V = T the active block, with K V in MX and
+ * M V in MT: X = V Q, ascending Ritz values after the locked ones. A
+ * filtered block that collapsed is rebased first where `may_rebase`.
+ * DM_ENUMERIC when V has collapsed beyond that. */
+static int rayleigh_ritz(dm_modal *ws, int may_rebase)
 {
     int n = ws->n, q = active(ws);
     double *theta = ws->theta + ws->nl;
-    assert(!filtered || (V == ws->T && KV == ws->MX && MV == ws->MT));
-    project_block(ws, V, KV, MV);
+    const double *V = ws->T;
+    project_block(ws, V, ws->MX, ws->MT);
+    if (may_rebase) /* the Gram matrix, for a rebase */
+        memcpy(ws->C, ws->Mt, sizeof(double) * q * q);
     if (!factor_gram(ws->Mt, q)) {
-        if (!filtered || !rebase_block(ws))
+        if (!may_rebase || !rebase_block(ws))
             return DM_ENUMERIC;
         ws->stats.rebased++;
-        V = ws->Y, KV = ws->X, MV = ws->T;
-        project_block(ws, V, KV, MV);
+        V = ws->Y;
+        project_block(ws, V, ws->X, ws->T);
         if (!factor_gram(ws->Mt, q))
             return DM_ENUMERIC;
     }
@@ -701,7 +702,7 @@ static int rayleigh_ritz(dm_modal *ws, const double *V, const double *KV, const 
     for (int j = 0; j < q; j++) /* undo the scaling: X = V D Q */
         for (int i = 0; i < q; i++)
             ws->Kt[j * q + i] *= ws->scale[i];
-    /* X_t = Q' V_t (V may be Y, never X) */
+    /* X_t = Q' V_t (V is T or Y, never X) */
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, q, n, q, 1.0, ws->Kt, q, V, q, 0.0, ws->X, q);
     return DM_OK;
 }
@@ -833,7 +834,7 @@ static int filter_once(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L,
     }
     if (d > 1 || !have_mt) /* M V (for d = 1 after a check it is M A X, done) */
         dm_model_mult_M(md, ws->T, qa, ws->MT);
-    return rayleigh_ritz(ws, ws->T, ws->MX, ws->MT, 1);
+    return rayleigh_ritz(ws, 1);
 }
 
 /* Filter the active block by degree d and project: V = A p_{d-1}(A) X,
@@ -872,7 +873,7 @@ enum start {
  * carry), then the kw wanted pairs are locked. */
 static int finish_dense(dm_modal *ws, int kw)
 {
-    if (rayleigh_ritz(ws, ws->T, ws->MX, ws->MT, 0))
+    if (rayleigh_ritz(ws, 0))
         return 0;
     ws->stats.rounds++;
     for (int j = 0; j < kw; j++)
@@ -1003,7 +1004,8 @@ static int subspace_size(const double *w, int count, int kw, int most)
     }
     if (q > 0) {
         int up = (q + SUBSPACE_STEP - 1) / SUBSPACE_STEP * SUBSPACE_STEP;
-        q = up < most ? up : most > q ? most : q;
+        assert(q <= most);
+        q = up < most ? up : most;
     }
     return q;
 }
