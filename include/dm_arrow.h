@@ -121,6 +121,7 @@ typedef struct dm_arrow_chol {
     const dm_arrow_pattern *pattern; /* of the matrix factored (NULL: full bands) */
     double *W[DM_ARROW_BLOCKS];    /* L_c^-1 C_c, nb x 6 */
     int w_first[DM_ARROW_BLOCKS];  /* W_c's first non-zero row */
+    double *Z[DM_ARROW_BLOCKS];    /* scratch: W_c with each row's 6 values together */
     double LS[DM_ARROW_BORDER * DM_ARROW_BORDER]; /* Cholesky factor of S (lower) */
     double S[DM_ARROW_BORDER * DM_ARROW_BORDER];  /* S itself (both triangles) */
 } dm_arrow_chol;

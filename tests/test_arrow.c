@@ -179,6 +179,70 @@ static void cholesky_solves_and_schur_complement(void **state)
     teardown_fixture(&f);
 }
 
+/* The profile Cholesky (our own loop, see dm_arrow_chol_factor) against
+ * LAPACK's band Cholesky dpbtrf and band solve dtbtrs on the same blocks:
+ * L_c and W_c = L_c^-1 C_c to 1e-13 of their column's largest entry (the
+ * same factor, which is unique: the difference is round-off), over the
+ * recorded profile and over the full band (no pattern); an indefinite
+ * matrix fails at the chain and pivot dpbtrf names. */
+static void cholesky_factor_matches_lapack_band(void **state)
+{
+    (void)state;
+    fixture f;
+    setup_fixture(&f, 31, 1);
+    dm_arrow_chol L;
+    assert_int_equal(dm_arrow_chol_init(&L, &f.lay, NULL), 0);
+    for (int profile = 1; profile >= 0; profile--) {
+        f.a.pattern = profile ? &f.pat : NULL;
+        assert_int_equal(dm_arrow_chol_factor(&L, &f.a, NULL), 0);
+        for (int c = 0; c < DM_ARROW_BLOCKS; c++) {
+            int nb = f.lay.nb[c], kd = f.lay.kd[c], ld = kd + 1;
+            double *band = malloc(sizeof(double) * ld * nb), *W = malloc(sizeof(double) * nb * 6);
+            memcpy(band, f.a.band[c], sizeof(double) * ld * nb);
+            memcpy(W, f.a.cpl[c], sizeof(double) * nb * 6);
+            assert_int_equal(LAPACKE_dpbtrf(LAPACK_COL_MAJOR, 'L', nb, kd, band, ld), 0);
+            assert_int_equal(LAPACKE_dtbtrs(LAPACK_COL_MAJOR, 'L', 'N', 'N', nb, kd, 6, band, ld,
+                                            W, nb),
+                             0);
+            for (int j = 0; j < nb; j++) {
+                double big = fabs(band[(size_t)j * ld]);
+                for (int i = 0; i < ld && j + i < nb; i++)
+                    assert_abs(L.band[c][(size_t)j * ld + i], band[(size_t)j * ld + i],
+                               1e-13 * big, "L_%d (%d, %d), profile %d", c, j + i, j, profile);
+            }
+            for (int m = 0; m < 6; m++) {
+                double big = 0;
+                for (int i = 0; i < nb; i++)
+                    big = fmax(big, fabs(W[i + (size_t)m * nb]));
+                for (int i = 0; i < nb; i++)
+                    assert_abs(L.W[c][i + (size_t)m * nb], W[i + (size_t)m * nb], 1e-13 * big,
+                               "W_%d (%d, %d), profile %d", c, i, m, profile);
+            }
+            free(band), free(W);
+        }
+    }
+    dm_arrow_chol_release(&L);
+    teardown_fixture(&f);
+    setup_fixture(&f, 23, 0); /* indefinite */
+    assert_int_equal(dm_arrow_chol_init(&L, &f.lay, NULL), 0);
+    char expect[128] = "";
+    for (int c = 0; c < DM_ARROW_BLOCKS && !expect[0]; c++) {
+        int nb = f.lay.nb[c], kd = f.lay.kd[c], ld = kd + 1;
+        double *band = malloc(sizeof(double) * ld * nb);
+        memcpy(band, f.a.band[c], sizeof(double) * ld * nb);
+        lapack_int info = LAPACKE_dpbtrf(LAPACK_COL_MAJOR, 'L', nb, kd, band, ld);
+        if (info > 0)
+            snprintf(expect, sizeof expect, "(chain %d, pivot %d)", c, (int)info);
+        free(band);
+    }
+    assert_true(expect[0]);
+    dm_error err;
+    assert_int_equal(dm_arrow_chol_factor(&L, &f.a, &err), DM_ENUMERIC);
+    assert_non_null(strstr(err.msg, expect));
+    dm_arrow_chol_release(&L);
+    teardown_fixture(&f);
+}
+
 /* The pencil (A, B) in standard form, C = L^-1 A L^-T with B = L L': the
  * same bits as two forward solves over all n columns (the reduction skips
  * only the chains where a column is zero), and LAPACK's dpotrf + dsygst
@@ -251,6 +315,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(products_match_dense),
         cmocka_unit_test(cholesky_solves_and_schur_complement),
+        cmocka_unit_test(cholesky_factor_matches_lapack_band),
         cmocka_unit_test(reduction_to_standard_form),
         cmocka_unit_test(sturm_counts_match_eigenvalues),
     };

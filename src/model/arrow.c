@@ -508,7 +508,8 @@ int dm_arrow_chol_init(dm_arrow_chol *f, const dm_arrow_layout *lay, dm_error *e
     for (int c = 0; c < NB; c++) {
         f->band[c] = malloc(band_len(lay, c) * sizeof(double));
         f->W[c] = malloc((size_t)lay->nb[c] * NP * sizeof(double));
-        ok &= f->band[c] && f->W[c];
+        f->Z[c] = malloc((size_t)lay->nb[c] * NP * sizeof(double));
+        ok &= f->band[c] && f->W[c] && f->Z[c];
     }
     if (!ok) {
         dm_arrow_chol_release(f);
@@ -522,8 +523,82 @@ void dm_arrow_chol_release(dm_arrow_chol *f)
     for (int c = 0; c < NB; c++) {
         free(f->band[c]);
         free(f->W[c]);
-        f->band[c] = f->W[c] = NULL;
+        free(f->Z[c]);
+        f->band[c] = f->W[c] = f->Z[c] = NULL;
     }
+}
+
+/* Last row of column j that a factor can fill: the profile's, or the band's. */
+static int column_end(const int *colend, int j, int n, int kd)
+{
+    return colend ? colend[j] : (j + kd < n - 1 ? j + kd : n - 1);
+}
+
+/* In-place Cholesky of a banded block (right-looking, over the profile:
+ * the fill of column j stays within it, see dm_arrow_pattern_make). 0, or
+ * the failed column + 1 when a pivot is not positive. */
+VECTOR_CLONES static int band_chol(double *ab, int n, int kd, const int *colend)
+{
+    int ld = kd + 1;
+    for (int j = 0; j < n; j++) {
+        double *col = ab + (size_t)j * ld;
+        if (!(col[0] > 0))
+            return j + 1;
+        double d = sqrt(col[0]), inv = 1.0 / d;
+        int top = column_end(colend, j, n, kd);
+        col[0] = d;
+        for (int i = j + 1; i <= top; i++)
+            col[i - j] *= inv;
+        for (int i = j + 1; i <= top; i++) {
+            double lij = col[i - j], *ci = ab + (size_t)i * ld;
+            if (lij == 0)
+                continue;
+#pragma omp simd /* column i and column j do not overlap */
+            for (int m = i; m <= top; m++)
+                ci[m - i] -= lij * col[m - j];
+        }
+    }
+    return 0;
+}
+
+/* W = L^-1 C (C's NP columns, nb apart) for the factor in ab, and S -=
+ * W' W: Z holds W interleaved (the NP values of row i together) while the
+ * solve updates whole rows, from C's first non-zero row on (W is zero
+ * above: the border reaches a chain at its lower rod ends, numbered last). */
+VECTOR_CLONES static int border_of_factor(const double *ab, int nb, int kd, const int *colend,
+                                          const double *C, double *Z, double *W,
+                                          double S[NP * NP])
+{
+    int ld = kd + 1, first = nb;
+    for (int i = 0; i < nb; i++)
+        for (int m = 0; m < NP; m++) {
+            Z[(size_t)i * NP + m] = C[i + (size_t)m * nb];
+            if (Z[(size_t)i * NP + m] != 0 && i < first)
+                first = i;
+        }
+    double acc[NP * NP] = {0};
+    for (int j = first; j < nb; j++) {
+        const double *col = ab + (size_t)j * ld;
+        double *zj = Z + (size_t)j * NP, inv = 1.0 / col[0];
+        int top = column_end(colend, j, nb, kd);
+#pragma omp simd
+        for (int m = 0; m < NP; m++)
+            zj[m] *= inv;
+        for (int i = j + 1; i <= top; i++)
+            if (col[i - j] != 0)
+                axpy_w(Z + (size_t)i * NP, -col[i - j], zj, NP);
+        for (int a = 0; a < NP; a++) {
+#pragma omp simd
+            for (int b = 0; b < NP; b++)
+                acc[a * NP + b] += zj[a] * zj[b];
+        }
+    }
+    for (int i = 0; i < nb; i++)
+        for (int m = 0; m < NP; m++)
+            W[i + (size_t)m * nb] = i < first ? 0 : Z[(size_t)i * NP + m];
+    for (int a = 0; a < NP * NP; a++)
+        S[a] -= acc[a];
+    return first;
 }
 
 int dm_arrow_chol_factor(dm_arrow_chol *f, const dm_arrow *a, dm_error *err)
@@ -534,26 +609,15 @@ int dm_arrow_chol_factor(dm_arrow_chol *f, const dm_arrow *a, dm_error *err)
     memcpy(f->S, a->pp, sizeof f->S);
     for (int c = 0; c < NB; c++) {
         int nb = lay->nb[c], kd = lay->kd[c];
+        const int *colend = a->pattern ? a->pattern->colend[c] : NULL;
         memcpy(f->band[c], a->band[c], band_len(lay, c) * sizeof(double));
-        memcpy(f->W[c], a->cpl[c], (size_t)nb * NP * sizeof(double));
-        lapack_int info = LAPACKE_dpbtrf_work(LAPACK_COL_MAJOR, 'L', nb, kd, f->band[c], kd + 1);
+        int info = band_chol(f->band[c], nb, kd, colend);
         if (info)
             return dm_fail(err, DM_ENUMERIC,
                            "stiffness matrix is not positive definite (chain %d, pivot %d)", c,
-                           (int)info);
-        LAPACKE_dtbtrs_work(LAPACK_COL_MAJOR, 'L', 'N', 'N', nb, kd, NP, f->band[c], kd + 1,
-                            f->W[c], nb);
-        /* the border reaches a chain at its lower rod ends, numbered last:
-         * W_c = L_c^-1 C_c is zero above C_c's first non-zero row */
-        int first = nb;
-        for (int m = 0; m < NP; m++)
-            for (int i = 0; i < first; i++)
-                if (f->W[c][i + (size_t)m * nb] != 0)
-                    first = i;
-        f->w_first[c] = first;
-        /* S = P - sum W' W (both triangles) */
-        cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, NP, NP, nb, -1.0, f->W[c], nb,
-                    f->W[c], nb, 1.0, f->S, NP);
+                           info);
+        f->w_first[c] = border_of_factor(f->band[c], nb, kd, colend, a->cpl[c], f->Z[c],
+                                         f->W[c], f->S);
     }
     for (int j = 0; j < NP; j++) /* exactly symmetric */
         for (int i = j + 1; i < NP; i++)
@@ -565,12 +629,6 @@ int dm_arrow_chol_factor(dm_arrow_chol *f, const dm_arrow *a, dm_error *err)
                        "stiffness matrix is not positive definite (platform block, pivot %d)",
                        (int)info);
     return DM_OK;
-}
-
-/* Last row of column j that a factor can fill: the profile's, or the band's. */
-static int column_end(const int *colend, int j, int n, int kd)
-{
-    return colend ? colend[j] : (j + kd < n - 1 ? j + kd : n - 1);
 }
 
 /* X_c = L_c^-1 X_c (lower band, forward) over a slice: row j's values,
