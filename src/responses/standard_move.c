@@ -837,13 +837,32 @@ static void use_block(phase *ph, const candidate *cd)
     ph->bounds = block_bounds(ph, cd->node / BLOCK);
 }
 
+/* The candidate with the largest bound (the first of equals). */
+static int largest_bound(const candidate *cs, int ncand)
+{
+    int top = 0;
+    for (int k = 1; k < ncand; k++)
+        if (cs[k].bound > cs[top].bound)
+            top = k;
+    return top;
+}
+
 /* Refine the scan's candidates that may exceed the largest value found
- * (ph->L, ph->tL: of this phase or an earlier one). */
+ * (ph->L, ph->tL: of this phase or an earlier one). The one with the
+ * largest bound goes first, then the others in time order: it usually
+ * holds the maximum, which then prunes most of the rest unrefined
+ * (chen2018's 32 x 32 map: 983 halvings a pose, now 878; zheng2017 400
+ * and 373, han2011 586 and 502; a full sort by bound would save 13 more
+ * on chen2018, for an O(n log n) sort of each phase's candidates). */
 static void refine_maxima(phase *ph, const scan_result *s)
 {
     double H = step_of(ph, s->level);
-    for (int k = 0; k < s->ncand; k++) {
-        const candidate *cd = &ph->w->cand[ph->store][k];
+    const candidate *cs = ph->w->cand[ph->store];
+    int top = s->ncand ? largest_bound(cs, s->ncand) : -1;
+    for (int k = -1; k < s->ncand; k++) {
+        if (k == top) /* done first (k = -1), or no candidate at all */
+            continue;
+        const candidate *cd = &cs[k < 0 ? top : k];
         if (!(cd->bound > ph->L * (1 + MAX_REL)))
             continue;
         use_block(ph, cd);
