@@ -845,12 +845,16 @@ static int filter_and_project(dm_modal *ws, const dm_model *md, const dm_arrow_c
                               double c, int have_mt)
 {
     size_t len = (size_t)ws->n * active(ws);
-    memcpy(ws->Xs, ws->X, sizeof(double) * len);
-    memcpy(ws->Ts, ws->T, sizeof(double) * len);
-    memcpy(ws->MXs, ws->MX, sizeof(double) * len);
+    if (d > 1) { /* kept for a retry (degree 1 has none) */
+        memcpy(ws->Xs, ws->X, sizeof(double) * len);
+        memcpy(ws->Ts, ws->T, sizeof(double) * len);
+        memcpy(ws->MXs, ws->MX, sizeof(double) * len);
+    }
     for (; d >= 1; d--) {
         if (filter_once(ws, md, L, d, c, have_mt) == DM_OK)
             return d;
+        if (d == 1)
+            break;
         memcpy(ws->X, ws->Xs, sizeof(double) * len);
         memcpy(ws->T, ws->Ts, sizeof(double) * len);
         memcpy(ws->MX, ws->MXs, sizeof(double) * len);
