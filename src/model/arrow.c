@@ -8,6 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dm_clones.h"
+
 #define NP DM_ARROW_BORDER
 #define NB DM_ARROW_BLOCKS
 
@@ -290,17 +292,10 @@ double dm_arrow_get(const dm_arrow *a, int i, int j)
 
 /* The kernels below run over blocks of q values; where the CPU has
  * AVX-512 or AVX2 a clone built for it is chosen when the program loads
- * (the baseline x86-64 build has only SSE2: a quarter and half the
- * width). Every clone does the same operations on each value (none of
- * these targets enables FMA, so nothing is contracted): the bits do not
- * depend on the clone (a sweep's store measured byte-identical with the
- * AVX2 and the AVX-512 clone). AVX-512 over AVX2, measured at the default
- * mesh: eigen solves 13-20 % faster, the pose 8-12 %. */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define VECTOR_CLONES __attribute__((target_clones("default", "avx2", "avx512f")))
-#else
-#define VECTOR_CLONES
-#endif
+ * (dm_clones.h: the baseline x86-64 build has only SSE2, a quarter and
+ * half the width; every clone gives the same bits). AVX-512 over AVX2,
+ * measured at the default mesh: eigen solves 13-20 % faster, the pose
+ * 8-12 %. */
 
 /* Each kernel walks the matrix once per slice of the q columns, a slice
  * being 24, 20, 16, 12, 8, 4, 3, 2 or 1 columns wide (at most two
@@ -400,7 +395,7 @@ INLINE void band_mult_full(const double *ab, int n, int kd, const double *X, dou
 
 /* Y_c += A_c X_c for one banded block (symmetric, lower band storage):
  * the pattern's entries, or every non-zero of the band. */
-VECTOR_CLONES static void band_mult(const double *ab, int n, int kd, const dm_arrow_pattern *pat,
+DM_VECTOR_CLONES static void band_mult(const double *ab, int n, int kd, const dm_arrow_pattern *pat,
                                     int c, const double *X, double *Y, int q)
 {
 #define KERNEL(W)                                                                                  \
@@ -429,7 +424,7 @@ INLINE void coupling_slice(const double *cpl, int nb, const int *index, int coun
 }
 
 /* Y_c += C_c X_P and Y_P += C_c' X_c */
-VECTOR_CLONES static void coupling_mult(const dm_arrow *a, int c, const double *X, double *Y, int q)
+DM_VECTOR_CLONES static void coupling_mult(const dm_arrow *a, int c, const double *X, double *Y, int q)
 {
     const dm_arrow_layout *lay = &a->lay;
     int nb = lay->nb[c];
@@ -537,7 +532,7 @@ static int column_end(const int *colend, int j, int n, int kd)
 /* In-place Cholesky of a banded block (right-looking, over the profile:
  * the fill of column j stays within it, see dm_arrow_pattern_make). 0, or
  * the failed column + 1 when a pivot is not positive. */
-VECTOR_CLONES static int band_chol(double *ab, int n, int kd, const int *colend)
+DM_VECTOR_CLONES static int band_chol(double *ab, int n, int kd, const int *colend)
 {
     int ld = kd + 1;
     for (int j = 0; j < n; j++) {
@@ -565,7 +560,7 @@ VECTOR_CLONES static int band_chol(double *ab, int n, int kd, const int *colend)
  * W' W: Z holds W interleaved (the NP values of row i together) while the
  * solve updates whole rows, from C's first non-zero row on (W is zero
  * above: the border reaches a chain at its lower rod ends, numbered last). */
-VECTOR_CLONES static int border_of_factor(const double *ab, int nb, int kd, const int *colend,
+DM_VECTOR_CLONES static int border_of_factor(const double *ab, int nb, int kd, const int *colend,
                                           const double *C, double *Z, double *W,
                                           double S[NP * NP])
 {
@@ -764,7 +759,7 @@ INLINE void chol_solve_slice(const dm_arrow_chol *f, double *X, int q, int w)
     chol_backward_slice(f, X, q, w);
 }
 
-VECTOR_CLONES static void chol_solve(const dm_arrow_chol *f, double *X, int q)
+DM_VECTOR_CLONES static void chol_solve(const dm_arrow_chol *f, double *X, int q)
 {
 #define KERNEL(W) chol_solve_slice(f, X + o, q, W)
     FOR_SLICES(q, KERNEL)
@@ -777,14 +772,14 @@ void dm_arrow_chol_solve(const dm_arrow_chol *f, double *X, int q)
     chol_solve(f, X, q);
 }
 
-VECTOR_CLONES static void chol_forward(const dm_arrow_chol *f, double *X, int q)
+DM_VECTOR_CLONES static void chol_forward(const dm_arrow_chol *f, double *X, int q)
 {
 #define KERNEL(W) chol_forward_slice(f, X + o, q, W)
     FOR_SLICES(q, KERNEL)
 #undef KERNEL
 }
 
-VECTOR_CLONES static void chol_backward(const dm_arrow_chol *f, double *X, int q)
+DM_VECTOR_CLONES static void chol_backward(const dm_arrow_chol *f, double *X, int q)
 {
 #define KERNEL(W) chol_backward_slice(f, X + o, q, W)
     FOR_SLICES(q, KERNEL)
@@ -794,7 +789,7 @@ VECTOR_CLONES static void chol_backward(const dm_arrow_chol *f, double *X, int q
 /* The forward solve of columns o0 .. o1-1 of X (rows q apart) that are
  * zero on every chain but c0 .. c1-1: the others' solves would leave them
  * zero and add nothing to the border. */
-VECTOR_CLONES static void chains_forward(const dm_arrow_chol *f, int c0, int c1, double *X, int q,
+DM_VECTOR_CLONES static void chains_forward(const dm_arrow_chol *f, int c0, int c1, double *X, int q,
                                          int o0, int o1)
 {
 #define KERNEL(W) chains_forward_slice(f, c0, c1, X + o0 + o, q, W)
@@ -891,7 +886,7 @@ void dm_arrow_ldl_release(dm_arrow_ldl *w)
 /* In-place LDL' of a banded block without pivoting (right-looking): D on
  * the diagonal, L (unit) below it. Returns the number of negative pivots,
  * or -1 when a pivot's growth says the count cannot be trusted. */
-VECTOR_CLONES static int band_ldl(double *ab, int n, int kd, const int *colend)
+DM_VECTOR_CLONES static int band_ldl(double *ab, int n, int kd, const int *colend)
 {
     int ld = kd + 1, neg = 0;
     for (int j = 0; j < n; j++) {
@@ -918,7 +913,7 @@ VECTOR_CLONES static int band_ldl(double *ab, int n, int kd, const int *colend)
 /* S -= Z' D^-1 Z with Z = L^-1 C, for the unit L and the D of band_ldl
  * in ab: Z interleaved (the 6 values of row i together) so the solve
  * updates whole rows, from C's first non-zero row on (Z is zero above). */
-VECTOR_CLONES static void border_schur(const double *ab, int nb, int kd, const int *colend,
+DM_VECTOR_CLONES static void border_schur(const double *ab, int nb, int kd, const int *colend,
                                        const double *C, double *Z, double S[NP * NP])
 {
     int ld = kd + 1, first = nb;

@@ -19,20 +19,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dm_clones.h"
 #include "dm_integrate.h"
 #include "dm_kinematics.h"
 #include "dm_loads.h"
 #include "dm_static.h"
 #include "dm_vec3.h"
-
-/* Clones of the small vector loops for AVX2 and AVX-512, chosen when the
- * program loads (as the block kernels', src/model/arrow.c: none enables
- * FMA, so every clone gives the same bits). */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define VECTOR_CLONES __attribute__((target_clones("default", "avx2", "avx512f")))
-#else
-#define VECTOR_CLONES
-#endif
 
 void dm_move_opts_default(dm_move_opts *o)
 {
@@ -236,7 +228,7 @@ static void on_block(dm_move_ws *w, const dm_model *md, const dm_static *st, blo
 
 /* Four partial sums: one running sum waits on each addition (a dot of
  * n = 210 cost ~4n cycles, and the carried modes take some 200 per pose). */
-VECTOR_CLONES static double dot(const double *a, const double *b, int n)
+DM_VECTOR_CLONES static double dot(const double *a, const double *b, int n)
 {
     double s[4] = {0, 0, 0, 0};
     int i = 0;
@@ -249,7 +241,7 @@ VECTOR_CLONES static double dot(const double *a, const double *b, int n)
 }
 
 /* x -= (y' mx) y: remove y's part from x, M-orthogonally (y M-normalised) */
-VECTOR_CLONES static void project_out(double *x, const double *y, const double *mx, int n)
+DM_VECTOR_CLONES static void project_out(double *x, const double *y, const double *mx, int n)
 {
     double c = dot(y, mx, n);
     for (int i = 0; i < n; i++)
@@ -563,7 +555,7 @@ static const double *level_transitions(const phase *ph, int level)
     return t;
 }
 
-VECTOR_CLONES static void step_modes(const phase *ph, const double *t, const double *q,
+DM_VECTOR_CLONES static void step_modes(const phase *ph, const double *t, const double *q,
                                      const double *v, double *qo, double *vo)
 {
     int nmax = ph->w->nmax;
@@ -595,7 +587,7 @@ typedef double v4d __attribute__((vector_size(32), aligned(8)));
  * operations where the CPU has 4-wide vectors. Over a dozen modes this
  * beats vectorising each sum over the modes (the reductions' set-up and
  * horizontal adds cost more than they save). */
-VECTOR_CLONES static void eval_node(const phase *ph, const double *q, const double *v, int ns,
+DM_VECTOR_CLONES static void eval_node(const phase *ph, const double *q, const double *v, int ns,
                                     node *nd)
 {
     const carried *c = ph->c;
