@@ -396,7 +396,7 @@ INLINE void band_mult_full(const double *ab, int n, int kd, const double *X, dou
 /* Y_c += A_c X_c for one banded block (symmetric, lower band storage):
  * the pattern's entries, or every non-zero of the band. */
 DM_VECTOR_CLONES static void band_mult(const double *ab, int n, int kd, const dm_arrow_pattern *pat,
-                                    int c, const double *X, double *Y, int q)
+                                       int c, const double *X, double *Y, int q)
 {
 #define KERNEL(W)                                                                                  \
     if (pat)                                                                                       \
@@ -424,7 +424,8 @@ INLINE void coupling_slice(const double *cpl, int nb, const int *index, int coun
 }
 
 /* Y_c += C_c X_P and Y_P += C_c' X_c */
-DM_VECTOR_CLONES static void coupling_mult(const dm_arrow *a, int c, const double *X, double *Y, int q)
+DM_VECTOR_CLONES static void coupling_mult(const dm_arrow *a, int c, const double *X, double *Y,
+                                           int q)
 {
     const dm_arrow_layout *lay = &a->lay;
     int nb = lay->nb[c];
@@ -561,8 +562,8 @@ DM_VECTOR_CLONES static int band_chol(double *ab, int n, int kd, const int *cole
  * solve updates whole rows, from C's first non-zero row on (W is zero
  * above: the border reaches a chain at its lower rod ends, numbered last). */
 DM_VECTOR_CLONES static int border_of_factor(const double *ab, int nb, int kd, const int *colend,
-                                          const double *C, double *Z, double *W,
-                                          double S[NP * NP])
+                                             const double *C, double *Z, double *W,
+                                             double S[NP * NP])
 {
     int ld = kd + 1, first = nb;
     for (int i = 0; i < nb; i++)
@@ -789,8 +790,8 @@ DM_VECTOR_CLONES static void chol_backward(const dm_arrow_chol *f, double *X, in
 /* The forward solve of columns o0 .. o1-1 of X (rows q apart) that are
  * zero on every chain but c0 .. c1-1: the others' solves would leave them
  * zero and add nothing to the border. */
-DM_VECTOR_CLONES static void chains_forward(const dm_arrow_chol *f, int c0, int c1, double *X, int q,
-                                         int o0, int o1)
+DM_VECTOR_CLONES static void chains_forward(const dm_arrow_chol *f, int c0, int c1, double *X,
+                                            int q, int o0, int o1)
 {
 #define KERNEL(W) chains_forward_slice(f, c0, c1, X + o0 + o, q, W)
     FOR_SLICES(o1 - o0, KERNEL)
@@ -914,7 +915,7 @@ DM_VECTOR_CLONES static int band_ldl(double *ab, int n, int kd, const int *colen
  * in ab: Z interleaved (the 6 values of row i together) so the solve
  * updates whole rows, from C's first non-zero row on (Z is zero above). */
 DM_VECTOR_CLONES static void border_schur(const double *ab, int nb, int kd, const int *colend,
-                                       const double *C, double *Z, double S[NP * NP])
+                                          const double *C, double *Z, double S[NP * NP])
 {
     int ld = kd + 1, first = nb;
     for (int i = 0; i < nb; i++)

@@ -52,8 +52,8 @@ void dm_move_opts_default(dm_move_opts *o)
 typedef struct {
     int nm;
     double *om, *z, *g, *q, *v, *normP;  /* nm each */
-    double *px, *py, *pz;                /* platform translation of each mode */
-    double *p4;                          /* the same, 4 per mode: x, y, z, 0 */
+    double *p4;                          /* platform translation of each mode: x, y, z,
+                                            0 (4 a mode, summed as one vector) */
     double rP[3];                        /* static remainder on the platform */
 } carried;
 
@@ -95,7 +95,7 @@ struct dm_move_ws {
     double *scan;                        /* 4 x nmax: two states of the coarse scan */
 };
 
-static size_t carried_len(int kmax) { return (size_t)(kmax + MAXRITZ) * 13; }
+static size_t carried_len(int kmax) { return (size_t)(kmax + MAXRITZ) * 10; }
 
 dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
 {
@@ -135,9 +135,9 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
         carried *c = &w->dir[d];
         double *p = w->pool + carried_len(kmax) * d;
         size_t m = (size_t)kmax + MAXRITZ;
-        double **arr[] = {&c->om, &c->z, &c->g, &c->q, &c->v, &c->normP, &c->px, &c->py, &c->pz};
+        double **arr[] = {&c->om, &c->z, &c->g, &c->q, &c->v, &c->normP};
         for (size_t i = 0; i < sizeof arr / sizeof arr[0]; i++, p += m)
-            *arr[i] = p; /* 9 arrays of kmax + MAXRITZ, then p4 of 4 times that */
+            *arr[i] = p; /* 6 arrays of kmax + MAXRITZ, then p4 of 4 times that */
         c->p4 = p;
     }
     for (int i = 0; i <= MAX_INTERVALS; i++) {
@@ -178,9 +178,8 @@ static void add_mode(carried *c, double om, double g, const double phiP[3])
     int j = c->nm++;
     c->om[j] = om;
     c->g[j] = g;
-    c->px[j] = phiP[0];
-    c->py[j] = phiP[1];
-    c->pz[j] = phiP[2];
+    double *p4 = c->p4 + 4 * j;
+    p4[0] = phiP[0], p4[1] = phiP[1], p4[2] = phiP[2], p4[3] = 0;
     c->normP[j] = dm_norm3(phiP);
 }
 
@@ -411,7 +410,8 @@ static int prepare(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
             double f = c->g[j] / (c->om[j] * c->om[j]);
             for (int i = 0; i < n; i++)
                 r[d][i] -= f * ph[i];
-            sr[0] += c->px[j] * f, sr[1] += c->py[j] * f, sr[2] += c->pz[j] * f;
+            for (int c3 = 0; c3 < 3; c3++)
+                sr[c3] += c->p4[4 * j + c3] * f;
         }
         for (int c3 = 0; c3 < 3; c3++)
             c->rP[c3] = r[d][pd + c3];
@@ -428,9 +428,8 @@ static int prepare(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
         carried *c = &w->dir[d];
         for (int j = k; j < c->nm; j++) { /* what the Ritz modes carry statically */
             double s = c->g[j] / (c->om[j] * c->om[j]);
-            c->rP[0] -= c->px[j] * s;
-            c->rP[1] -= c->py[j] * s;
-            c->rP[2] -= c->pz[j] * s;
+            for (int c3 = 0; c3 < 3; c3++)
+                c->rP[c3] -= c->p4[4 * j + c3] * s;
         }
     }
     return DM_OK;
@@ -440,14 +439,20 @@ static int prepare(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
  * retained one): the modes slower than any cut-off are then a prefix. */
 static void sort_by_frequency(carried *c)
 {
-    double *arr[] = {c->om, c->g, c->normP, c->px, c->py, c->pz};
+    double *arr[] = {c->om, c->g, c->normP};
     for (int j = 1; j < c->nm; j++)
-        for (int i = j; i > 0 && c->om[i] < c->om[i - 1]; i--)
+        for (int i = j; i > 0 && c->om[i] < c->om[i - 1]; i--) {
             for (size_t a = 0; a < sizeof arr / sizeof arr[0]; a++) {
                 double t = arr[a][i];
                 arr[a][i] = arr[a][i - 1];
                 arr[a][i - 1] = t;
             }
+            for (int r = 0; r < 4; r++) {
+                double t = c->p4[4 * i + r];
+                c->p4[4 * i + r] = c->p4[4 * (i - 1) + r];
+                c->p4[4 * (i - 1) + r] = t;
+            }
+        }
 }
 
 /* ---- exact extremes of the platform deviation -----------------------------
@@ -556,7 +561,7 @@ static const double *level_transitions(const phase *ph, int level)
 }
 
 DM_VECTOR_CLONES static void step_modes(const phase *ph, const double *t, const double *q,
-                                     const double *v, double *qo, double *vo)
+                                        const double *v, double *qo, double *vo)
 {
     int nmax = ph->w->nmax;
     const double *restrict a11 = t, *restrict a12 = t + nmax, *restrict a21 = t + 2 * nmax;
@@ -588,7 +593,7 @@ typedef double v4d __attribute__((vector_size(32), aligned(8)));
  * beats vectorising each sum over the modes (the reductions' set-up and
  * horizontal adds cost more than they save). */
 DM_VECTOR_CLONES static void eval_node(const phase *ph, const double *q, const double *v, int ns,
-                                    node *nd)
+                                       node *nd)
 {
     const carried *c = ph->c;
     const v4d *p4 = (const v4d *)c->p4;
@@ -913,9 +918,8 @@ static void start_phase(phase *ph, carried *c, double a_old, double a)
     for (int j = 0; j < c->nm; j++) {
         double s = c->g[j] / (c->om[j] * c->om[j]);
         c->q[j] += (a_old - a) * s;
-        ph->yp[0] += c->px[j] * a * s;
-        ph->yp[1] += c->py[j] * a * s;
-        ph->yp[2] += c->pz[j] * a * s;
+        for (int r = 0; r < 3; r++)
+            ph->yp[r] += c->p4[4 * j + r] * a * s;
     }
 }
 
@@ -972,14 +976,8 @@ int dm_standard_moves(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int
     int rc = prepare(w, md, mo, k, st, dir, ndir, o, err);
     if (rc)
         return rc;
-    for (int d = 0; d < ndir; d++) {
-        carried *c = &w->dir[d];
-        sort_by_frequency(c);
-        for (int j = 0; j < c->nm; j++) {
-            double *p4 = c->p4 + 4 * j;
-            p4[0] = c->px[j], p4[1] = c->py[j], p4[2] = c->pz[j], p4[3] = 0;
-        }
-    }
+    for (int d = 0; d < ndir; d++)
+        sort_by_frequency(&w->dir[d]);
     for (int d = 0; d < ndir; d++)
         one_move(w, &w->dir[d], md->robot->rayleigh_alpha, md->robot->rayleigh_beta, o, &res[d]);
     return DM_OK;
