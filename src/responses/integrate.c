@@ -9,9 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sundials/sundials_context.h>
-#include <sunlinsol/sunlinsol_band.h>
 #include <sunlinsol/sunlinsol_dense.h>
-#include <sunmatrix/sunmatrix_band.h>
 #include <sunmatrix/sunmatrix_dense.h>
 
 #include "dm_kinematics.h"
@@ -161,21 +159,6 @@ static int modal_rhs(realtype t, N_Vector yv, N_Vector ydv, void *user)
     return 0;
 }
 
-static int modal_jac(realtype t, N_Vector y, N_Vector fy, SUNMatrix J, void *user, N_Vector t1,
-                     N_Vector t2, N_Vector t3)
-{
-    (void)t, (void)y, (void)fy, (void)t1, (void)t2, (void)t3;
-    const dm_stepper *st = user;
-    SUNMatZero(J);
-    for (int j = 0; j < st->ode_size / 2; j++) {
-        double w = st->omega[j];
-        SM_ELEMENT_B(J, 2 * j, 2 * j + 1) = 1.0;
-        SM_ELEMENT_B(J, 2 * j + 1, 2 * j) = -w * w;
-        SM_ELEMENT_B(J, 2 * j + 1, 2 * j + 1) = -2 * st->zeta[j] * w;
-    }
-    return 0;
-}
-
 /* full ODE: y = [x; v], v' = M^-1 F(t) - alpha v - M^-1 K (beta v + x) */
 static int full_rhs(realtype t, N_Vector yv, N_Vector ydv, void *user)
 {
@@ -212,6 +195,68 @@ static int full_jac(realtype t, N_Vector y, N_Vector fy, SUNMatrix J, void *user
     return 0;
 }
 
+/* ---- the modal ODE's Newton systems -------------------------------------
+ *
+ * Each BDF step of CVODE solves (I - gamma J) x = b, J the modal ODE's
+ * Jacobian: one 2 x 2 block per mode, [0 1; -w^2 -2 zeta w], so
+ * I - gamma J = [1 -gamma; gamma w^2 1 + 2 gamma zeta w], whose inverse
+ * is [1 + 2 gamma zeta w, gamma; -gamma w^2, 1] / det, det = 1 +
+ * 2 gamma zeta w + gamma^2 w^2 >= 1. A matrix-embedded SUNLinearSolver
+ * solves them so, with CVODE's current gamma: the exact Newton matrix at
+ * every solve, where the band matrix and its LU (SUNLinSol_Band) were
+ * built, copied, scaled and factored anew at each setup and reused, with
+ * a correction for gamma's change, between them. */
+static SUNLinearSolver_Type modal_ls_type(SUNLinearSolver S)
+{
+    (void)S;
+    return SUNLINEARSOLVER_MATRIX_EMBEDDED;
+}
+
+static int modal_ls_solve(SUNLinearSolver S, SUNMatrix A, N_Vector x, N_Vector b, realtype tol)
+{
+    (void)A, (void)tol;
+    const dm_stepper *st = S->content;
+    realtype g;
+    if (CVodeGetCurrentGamma(st->cvode, &g))
+        return SUNLS_MEM_NULL;
+    const double *bv = N_VGetArrayPointer(b);
+    double *xv = N_VGetArrayPointer(x);
+    for (int j = 0; j < st->ode_size / 2; j++) {
+        double w = st->omega[j], c = 1 + 2 * g * st->zeta[j] * w, gw2 = g * w * w;
+        double det = c + g * gw2, b0 = bv[2 * j], b1 = bv[2 * j + 1];
+        xv[2 * j] = (c * b0 + g * b1) / det;
+        xv[2 * j + 1] = (b1 - gw2 * b0) / det;
+    }
+    return SUNLS_SUCCESS;
+}
+
+/* the weights are CVODE's business: the solve is exact */
+static int modal_ls_scaling(SUNLinearSolver S, N_Vector s1, N_Vector s2)
+{
+    (void)S, (void)s1, (void)s2;
+    return SUNLS_SUCCESS;
+}
+
+static int modal_ls_free(SUNLinearSolver S)
+{
+    S->content = NULL; /* the stepper's */
+    SUNLinSolFreeEmpty(S);
+    return SUNLS_SUCCESS;
+}
+
+static SUNLinearSolver modal_ls(dm_stepper *st)
+{
+    SUNLinearSolver S = SUNLinSolNewEmpty(st->ctx);
+    if (!S)
+        return NULL;
+    S->content = st;
+    S->ops->gettype = modal_ls_type;
+    S->ops->solve = modal_ls_solve;
+    S->ops->setscalingvectors = modal_ls_scaling;
+    S->ops->free = modal_ls_free;
+    return S;
+}
+
 static void quiet(int code, const char *module, const char *function, char *msg, void *user)
 {
     (void)code, (void)module, (void)function, (void)msg, (void)user;
@@ -237,12 +282,10 @@ static int ensure_cvode(dm_stepper *st, int size, dm_error *err)
     free_cvode(st);
     int full = st->method == DM_ODE_FULL;
     st->y = N_VNew_Serial(size, st->ctx);
-    st->J = full ? SUNDenseMatrix(size, size, st->ctx) : SUNBandMatrix(size, 1, 1, st->ctx);
-    st->LS = st->J ? (full ? SUNLinSol_Dense(st->y, st->J, st->ctx)
-                           : SUNLinSol_Band(st->y, st->J, st->ctx))
-                   : NULL;
+    st->J = full ? SUNDenseMatrix(size, size, st->ctx) : NULL;
+    st->LS = full ? (st->J ? SUNLinSol_Dense(st->y, st->J, st->ctx) : NULL) : modal_ls(st);
     st->cvode = CVodeCreate(CV_BDF, st->ctx);
-    if (!st->y || !st->J || !st->LS || !st->cvode) {
+    if (!st->y || (full && !st->J) || !st->LS || !st->cvode) {
         free_cvode(st);
         return dm_fail(err, DM_ENOMEM, "out of memory for CVODE");
     }
@@ -260,9 +303,8 @@ static int ensure_cvode(dm_stepper *st, int size, dm_error *err)
     if (!rc)
         rc = cv_check(CVodeSetLinearSolver(st->cvode, st->LS, st->J), "CVodeSetLinearSolver", 1,
                       err);
-    if (!rc)
-        rc = cv_check(CVodeSetJacFn(st->cvode, full ? full_jac : modal_jac), "CVodeSetJacFn", 1,
-                      err);
+    if (!rc && full)
+        rc = cv_check(CVodeSetJacFn(st->cvode, full_jac), "CVodeSetJacFn", 1, err);
     if (!rc)
         rc = cv_check(CVodeSetMaxNumSteps(st->cvode, 1000000), "CVodeSetMaxNumSteps", 0, err);
     if (rc) {
