@@ -83,6 +83,27 @@ void dm_modal_forget(dm_modal *ws);
  * path: do so where the steps stop being equal (a pause, a jump). */
 void dm_modal_follow_path(dm_modal *ws, int on);
 
+/* A Sturm count made ahead of a solve. Along a path the count that proves
+ * a solve (dm_modal_stats.sigma) can be made before it, at a shift
+ * predicted from the solves before, e.g. by another thread while the
+ * solve before it runs (a trajectory's frames). dm_modal_count_ahead:
+ * the number of eigenvalues of `model` below the shift predicted from
+ * `shift`, the own shifts (dm_modal_stats.shift) of the solves two, three
+ * and four steps before along a path of equal steps, with `ldl` the
+ * caller's workspace (dm_arrow_ldl_init on the model's layout);
+ * DM_ENUMERIC if no count could be made near it. dm_modal_offer_count:
+ * the next solve, of that model, takes the count as its proof when it
+ * lies at or above its own shift and equals the modes it found (no mode
+ * can be missed below the lower shift either), and counts at its own
+ * shift otherwise: the same decision either way, so the same results. */
+typedef struct dm_modal_count {
+    double sigma; /* rad^2/s^2 */
+    int count;    /* eigenvalues below sigma */
+} dm_modal_count;
+int dm_modal_count_ahead(dm_arrow_ldl *ldl, const dm_model *model, const double shift[3],
+                         dm_modal_count *out);
+void dm_modal_offer_count(dm_modal *ws, const dm_modal_count *count);
+
 /* Start the next solve from these ncol vectors (n x ncol, column-major)
  * instead of the previous solution (tests: a start that misses a mode must
  * be caught by the Sturm count). */
@@ -131,6 +152,9 @@ typedef struct dm_modal_stats {
                            projection (they had collapsed) */
     int converged;      /* modes proven: the Sturm count below sigma */
     double sigma;       /* the Sturm shift (rad^2/s^2) */
+    double shift;       /* its own shift, just above the last converged Ritz
+                           value (sigma unless a count made ahead proved it) */
+    int counted_ahead;  /* a count made ahead proved it */
     double residual;    /* largest relative residual of the converged modes */
 } dm_modal_stats;
 void dm_modal_last_stats(const dm_modal *ws, dm_modal_stats *stats);

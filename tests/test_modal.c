@@ -614,6 +614,76 @@ static void path_extrapolation_agrees_and_saves(void **state)
     }
 }
 
+/* Along a path, Sturm counts made ahead at shifts predicted from the
+ * solves two to four steps before (what a trajectory's frame thread does)
+ * prove the solves: the same modes, bit for bit, as counting in the solve;
+ * a count that disagrees with the modes found, or lies below the solve's
+ * own shift, is not taken. */
+static void counts_made_ahead_prove_the_same_modes(void **state)
+{
+    (void)state;
+    const char *names[] = {"zheng2017", "han2011"};
+    for (int r = 0; r < 2; r++) {
+        dm_robot rb;
+        load_robot(names[r], NULL, &rb);
+        dm_analysis *an[2], *aux = dm_analysis_alloc(&rb, 4, 4, 14, DM_EIGEN_SUBSPACE, NULL);
+        dm_arrow_ldl ldl;
+        assert_int_equal(dm_arrow_ldl_init(&ldl, &aux->model->layout, NULL), 0);
+        for (int f = 0; f < 2; f++) {
+            an[f] = dm_analysis_alloc(&rb, 4, 4, 14, DM_EIGEN_SUBSPACE, NULL);
+            dm_modal_follow_path(an[f]->modal, 1);
+        }
+        double shift[40];
+        int taken = 0, offered = 0;
+        for (int j = 0; j < 40; j++) {
+            double s = j, P[3] = {rb.home_m[0] + 3e-3 * s, rb.home_m[1] + 2e-5 * s * s,
+                                  rb.home_m[2] - 5e-4 * s};
+            dm_pose_result rr[2];
+            dm_modal_stats st[2];
+            /* offers: predicted (from step 4), wrong count (step 10), below the shift (step 20) */
+            int kind = j == 10 ? 1 : j == 20 ? 2 : j >= 4 ? 0 : -1;
+            if (kind >= 0) {
+                dm_pose_result ra;
+                assert_int_equal(dm_analysis_run(aux, P, 14, &ra, NULL), 0); /* its model */
+                double before[3] = {shift[j - 2], shift[j - 3], shift[j - 4]};
+                dm_modal_count c;
+                assert_int_equal(dm_modal_count_ahead(&ldl, aux->model, before, &c), 0);
+                if (kind == 1)
+                    c.count++;
+                if (kind == 2)
+                    c.sigma = 0.999 * shift[j - 1] / (1 + 5e-4);
+                dm_modal_offer_count(an[1]->modal, &c);
+                offered++;
+            }
+            for (int f = 0; f < 2; f++) {
+                assert_int_equal(dm_analysis_run(an[f], P, 14, &rr[f], NULL), 0);
+                dm_modal_last_stats(an[f]->modal, &st[f]);
+                assert_int_equal(st[f].fallback, 0);
+            }
+            assert_true(st[0].shift > 0);
+            assert_memory_equal(&st[0].shift, &st[1].shift, sizeof(double));
+            shift[j] = st[1].shift;
+            assert_int_equal(st[0].counted_ahead, 0);
+            if (kind > 0 || kind < 0)
+                assert_int_equal(st[1].counted_ahead, 0);
+            taken += st[1].counted_ahead;
+            if (st[1].counted_ahead)
+                assert_true(st[1].sigma >= st[1].shift);
+            assert_memory_equal(rr[0].modes->omega_rad_s, rr[1].modes->omega_rad_s,
+                                sizeof(double) * 14);
+            assert_memory_equal(rr[0].modes->phi, rr[1].modes->phi,
+                                sizeof(double) * 14 * rr[0].modes->n);
+        }
+        print_message("%s: %d of %d counts made ahead proved the solve\n", names[r], taken,
+                      offered);
+        assert_int_equal(taken, offered - 2);
+        for (int f = 0; f < 2; f++)
+            dm_analysis_free(an[f]);
+        dm_arrow_ldl_release(&ldl);
+        dm_analysis_free(aux);
+    }
+}
+
 /* A start that lacks a mode converges to the wrong set; the Sturm count
  * finds one eigenvalue more below the shift than the set holds, and the
  * solver falls back to a cold start, which finds it. */
@@ -634,11 +704,22 @@ static void missed_mode_is_caught(void **state)
         if (j != 2)
             memcpy(X + (size_t)c++ * n, ra.modes->phi + (size_t)j * n, sizeof(double) * n);
     assert_int_equal(dm_analysis_run(an, P, k, &r, NULL), 0); /* sizes the workspace */
+    /* a true count made ahead, at the shift of the set it converges to,
+     * does not let the set pass either: it counts the missed mode too */
+    dm_arrow_ldl ldl;
+    assert_int_equal(dm_arrow_ldl_init(&ldl, &all->model->layout, NULL), 0);
+    double wrong = ra.modes->omega_rad_s[k] * ra.modes->omega_rad_s[k] * (1 + 5e-4);
+    double before[3] = {wrong, wrong, wrong};
+    dm_modal_count c;
+    assert_int_equal(dm_modal_count_ahead(&ldl, all->model, before, &c), 0);
+    assert_true(c.count > k); /* mode 3 among them (k + 2: a near pair above) */
+    dm_arrow_ldl_release(&ldl);
     assert_int_equal(dm_modal_set_start(an->modal, X, q, NULL), 0);
+    dm_modal_offer_count(an->modal, &c);
     assert_int_equal(dm_analysis_run(an, P, k, &r, NULL), 0);
     dm_modal_stats st;
     dm_modal_last_stats(an->modal, &st);
-    assert_int_equal(st.fallback, 1);
+    assert_int_equal(st.fallback, 1); /* (the count may then prove the cold start's set) */
     for (int m = 0; m < k; m++)
         assert_rel(r.modes->freq_hz[m], ra.modes->freq_hz[m], 1e-8, "mode %d after the fallback",
                    m + 1);
@@ -883,6 +964,7 @@ int main(void)
         cmocka_unit_test(many_modes_take_the_dense_path),
         cmocka_unit_test(warm_and_cold_agree),
         cmocka_unit_test(path_extrapolation_agrees_and_saves),
+        cmocka_unit_test(counts_made_ahead_prove_the_same_modes),
         cmocka_unit_test(missed_mode_is_caught),
         cmocka_unit_test(pairs_through_the_centre),
         cmocka_unit_test(seeded_solve_does_not_depend_on_history),

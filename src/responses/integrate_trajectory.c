@@ -65,10 +65,19 @@ typedef struct {
         double coupling_log10;
         dm_modes mo;   /* copies of the modes: omega, freq, phi */
         double *buf;
+        dm_modal_count count; /* the Sturm count made ahead for its solve */
+        int counted;
         int rc;
         dm_error err;
     } fr[3];
     int pipelined; /* a thread of its own makes the frames */
+    /* each solve's own Sturm shift, by step (NAN: no solve of its own),
+     * the workspace of the counts made ahead with the frames, whether the
+     * next frame makes one and what one took (s; see run_pipelined) */
+    double shift[4];
+    dm_arrow_ldl ldl;
+    int count_ahead;
+    double count_s;
 } run_ws;
 
 struct ref_ahead;
@@ -103,6 +112,7 @@ static void free_ws(run_ws *w)
         }
         free(w->fr[i].buf);
     }
+    dm_arrow_ldl_release(&w->ldl);
 }
 
 static int alloc_ws(run_ws *w, dm_error *err)
@@ -514,6 +524,11 @@ static int ahead_take(run_ws *w, long j, dm_error *err)
 static int frames_alloc(run_ws *w, dm_error *err)
 {
     int n = w->n, k = w->ksolve;
+    for (int i = 0; i < 4; i++)
+        w->shift[i] = NAN;
+    int rc = dm_arrow_ldl_init(&w->ldl, &w->md->layout, err);
+    if (rc)
+        return rc;
     w->fr[0].md = w->md;
     w->fr[0].statics = w->statics;
     for (int i = 0; i < NFRAMES; i++) {
@@ -539,16 +554,31 @@ static void copy_modes(dm_modes *dst, const dm_modes *src, int n, int k)
     memcpy(dst->phi, src->phi, sizeof(double) * n * k);
 }
 
-/* Step j's pose, model, factor and coupling index into its frame. */
+/* Step j's pose, model, factor and coupling index into its frame, and,
+ * where w->count_ahead asks, the Sturm count that will likely prove its
+ * modes (dm_modal_count_ahead), at a shift predicted from the solves of
+ * steps j - 2 to j - 4 (done when the frame is built on two threads, step
+ * j - 1's under way, as on one). The solve decides as it would without
+ * it (dm_modal_offer_count): the modes are the same whichever thread
+ * counts, and run_pipelined moves the count to the thread with time to
+ * spare. */
 static void build_frame(run_ws *w, long j, long nsteps)
 {
     struct frame *f = &w->fr[j % NFRAMES];
     double t0, t1;
     step_times(w, j, nsteps, &t0, &t1);
     dm_error_clear(&f->err);
+    f->counted = 0;
     f->rc = step_pose(w, t0, &f->pose, &f->err);
     if (!f->rc)
         f->rc = build_at(&f->pose, f->md, f->statics, &f->coupling_log10, &f->err);
+    w->count_s = 0;
+    if (!f->rc && j >= 4 && w->count_ahead) {
+        double before[3] = {w->shift[(j - 2) % 4], w->shift[(j - 3) % 4], w->shift[(j - 4) % 4]};
+        double c0 = omp_get_wtime();
+        f->counted = dm_modal_count_ahead(&w->ldl, f->md, before, &f->count) == DM_OK;
+        w->count_s = omp_get_wtime() - c0;
+    }
 }
 
 /* Step j's modes into its frame (built): solved, warm from the steps
@@ -558,8 +588,16 @@ static void solve_frame(run_ws *w, long j)
     struct frame *f = &w->fr[j % NFRAMES];
     const dm_modes *mo = &w->fr[(j + NFRAMES - 1) % NFRAMES].mo;
     int fresh = fresh_pose(w, &f->pose);
-    if (!f->rc && fresh)
+    w->shift[j % 4] = NAN;
+    if (!f->rc && fresh) {
+        if (f->counted)
+            dm_modal_offer_count(w->modal, &f->count);
         f->rc = dm_modal_solve(w->modal, f->md, f->statics, w->ksolve, &mo, &f->err);
+        dm_modal_stats st;
+        dm_modal_last_stats(w->modal, &st);
+        if (!f->rc && st.shift > 0)
+            w->shift[j % 4] = st.shift;
+    }
     if (!f->rc)
         copy_modes(&f->mo, mo, w->n, w->ksolve);
     w->frozen = f->pose;
@@ -996,15 +1034,48 @@ static int run_ahead(run_ws *w, long nsteps, dm_integ_sink sink, void *user, run
     return rc;
 }
 
+/* Seconds a pipelined step's two threads spend (moving averages), and the
+ * count's: where the Sturm count goes. */
+typedef struct {
+    double solve, frame, count; /* solve without the count, frame without it */
+    int have_count;
+} pipe_balance;
+
+/* After a step: the solving thread spent `solve` s (with the count unless
+ * the frame it solved had one made ahead), the frame thread `frame` (with
+ * the count it made ahead, count_s). The count goes ahead next time when
+ * the slower of the two threads is then faster than it would be with the
+ * count in the solve. Only the time changes: the modes do not depend on
+ * where the count is made (build_frame). */
+static int count_goes_ahead(pipe_balance *b, double solve, int solved_with_count, double frame,
+                            double count_s)
+{
+    const double a = 0.125; /* averages over ~8 steps */
+    if (count_s > 0) {
+        b->count = b->have_count ? b->count + a * (count_s - b->count) : count_s;
+        b->have_count = 1;
+    }
+    if (!b->have_count) /* make one to know what it costs */
+        return 1;
+    double s = solved_with_count ? solve - b->count : solve, f = frame - count_s;
+    b->solve += a * (s - b->solve);
+    b->frame += a * (f - b->frame);
+    return fmax(b->solve, b->frame + b->count) < fmax(b->solve + b->count, b->frame);
+}
+
 /* Without the reference, on two threads: the first solves step j + 1's
- * modes while the other integrates step j and builds step j + 2's model.
- * fail[] alternates so that a thread reading step j's outcome after the
- * barrier never sees step j + 1's being written. */
+ * modes while the other integrates step j and builds step j + 2's model,
+ * and makes step j + 2's Sturm count where that balances the two threads
+ * better. fail[] and solve_s[] alternate so that a thread reading step j's
+ * after the barrier never sees step j + 1's being written. */
 static int run_pipelined(run_ws *w, long nsteps, dm_integ_sink sink, void *user, run_stats *rs,
                          dm_error *err)
 {
-    int fail[2] = {DM_OK, DM_OK};
+    int fail[2] = {DM_OK, DM_OK}, solved_with_count[2] = {1, 1};
+    double solve_s[2] = {0, 0};
+    pipe_balance bal = {0};
     w->pipelined = 1;
+    w->count_ahead = 1;
     build_frame(w, 0, nsteps);
     solve_frame(w, 0);
     if (nsteps > 1)
@@ -1013,19 +1084,30 @@ static int run_pipelined(run_ws *w, long nsteps, dm_integ_sink sink, void *user,
     {
         int t = omp_get_thread_num(), last = omp_get_num_threads() - 1;
         for (long j = 0; j < nsteps; j++) {
-            if (t == 0 && j + 1 < nsteps)
+            if (t == 0 && j + 1 < nsteps) {
+                double t0 = omp_get_wtime();
+                solved_with_count[j % 2] = !w->fr[(j + 1) % NFRAMES].counted;
                 solve_frame(w, j + 1);
+                solve_s[j % 2] = omp_get_wtime() - t0;
+            }
+            double frame_s = 0;
             if (t == last) {
+                double t0 = omp_get_wtime();
                 fail[j % 2] = step(w, j, nsteps, sink, user, rs, err);
                 if (j + 2 < nsteps)
                     build_frame(w, j + 2, nsteps);
+                frame_s = omp_get_wtime() - t0;
             }
 #pragma omp barrier
+            if (t == last && last > 0)
+                w->count_ahead = count_goes_ahead(&bal, solve_s[j % 2], solved_with_count[j % 2],
+                                                  frame_s, w->count_s);
             if (fail[j % 2])
                 break;
         }
     }
     w->pipelined = 0;
+    w->count_ahead = 0;
     return fail[0] ? fail[0] : fail[1];
 }
 
