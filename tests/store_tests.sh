@@ -48,30 +48,45 @@ done
 # real clients and values == deltamap modes
 if $PY tests/check_store.py "$TMP/ref" "$DM" chen2018 2,2; then ok; else bad "zarr/xarray checks"; fi
 
-# SIGKILL at a random moment, then resume: identical store
+# Interrupted sweeps need one that lasts: the sweep above is over in
+# ~0.2 s, before a signal at a random moment would land. This one takes
+# ~1.5 s on 2 threads; the signals come at fractions of its measured time
+# (so on any machine), and each must find it running.
+KSW="$DM sweep --robot chen2018 --grid x=-0.45:0.45:38,y=-0.3:0.3:26,z=-0.62:-0.5:4 --mesh 2,2 --modes 6 --tile 4,4,1 --progress none"
+now_ms() { echo $(( $(date +%s%N) / 1000000 )); }
+t0=$(now_ms)
+$KSW --out "$TMP/kref" --threads 2 >/dev/null || bad "reference sweep for the interrupts"
+span=$(( $(now_ms) - t0 ))
+after() { # sleep $1 per cent of the reference's time
+    sleep "$(awk -v s="$span" -v p="$1" 'BEGIN { printf "%.3f", s * p / 1e5 }')"
+}
+
+# SIGKILL at a random moment (10-70 % of the way), then resume: identical store
 for attempt in 1 2 3; do
     rm -rf "$TMP/kill"
-    $SW --out "$TMP/kill" --threads 2 >/dev/null 2>&1 &
+    $KSW --out "$TMP/kill" --threads 2 >/dev/null 2>&1 &
     pid=$!
-    sleep "0.$(( $(od -An -N1 -tu1 /dev/urandom) % 9 + 1))"
+    after $(( $(od -An -N1 -tu1 /dev/urandom) % 61 + 10 ))
     kill -9 $pid 2>/dev/null
     wait $pid 2>/dev/null
-    $SW --out "$TMP/kill" >/dev/null || bad "resume after SIGKILL"
-    if diff -r "$TMP/ref" "$TMP/kill" >/dev/null; then ok; else bad "kill+resume differs (attempt $attempt)"; fi
+    rc=$?
+    if [ $rc -eq 137 ]; then ok; else bad "SIGKILL found the sweep over (exit $rc, attempt $attempt)"; fi
+    $KSW --out "$TMP/kill" >/dev/null || bad "resume after SIGKILL"
+    if diff -r "$TMP/kref" "$TMP/kill" >/dev/null; then ok; else bad "kill+resume differs (attempt $attempt)"; fi
 done
 
-# SIGINT: finishes tiles in flight, exits 7 with a resume hint, keeps them
+# SIGINT half-way: finishes tiles in flight, exits 7 with a resume hint, keeps them
 rm -rf "$TMP/int"
-$SW --out "$TMP/int" --threads 1 >"$TMP/int.out" 2>"$TMP/int.err" &
+$KSW --out "$TMP/int" --threads 2 >"$TMP/int.out" 2>"$TMP/int.err" &
 pid=$!
-sleep 0.5
+after 50
 kill -INT $pid
 wait $pid
 rc=$?
-if [ $rc -eq 7 ] && grep -q "resume" "$TMP/int.err"; then ok; elif [ $rc -eq 0 ]; then ok; else bad "SIGINT exit $rc"; cat "$TMP/int.err"; fi
+if [ $rc -eq 7 ] && grep -q "resume" "$TMP/int.err"; then ok; else bad "SIGINT exit $rc"; cat "$TMP/int.err"; fi
 if ! ls "$TMP"/int/*/c/*/*/*.tmp.* >/dev/null 2>&1; then ok; else bad "temporary files after SIGINT"; fi
-$SW --out "$TMP/int" >/dev/null || bad "resume after SIGINT"
-if diff -r "$TMP/ref" "$TMP/int" >/dev/null; then ok; else bad "interrupt+resume differs"; fi
+$KSW --out "$TMP/int" >/dev/null || bad "resume after SIGINT"
+if diff -r "$TMP/kref" "$TMP/int" >/dev/null; then ok; else bad "interrupt+resume differs"; fi
 
 # a corrupted tile is detected by info and recomputed by the next run
 cp -r "$TMP/ref" "$TMP/bad"
