@@ -72,12 +72,9 @@ typedef struct {
     } fr[3];
     int pipelined; /* a thread of its own makes the frames */
     /* each solve's own Sturm shift, by step (NAN: no solve of its own),
-     * the workspace of the counts made ahead with the frames, whether the
-     * next frame makes one and what one took (s; see run_pipelined) */
+     * and the workspace of the counts made ahead with the frames */
     double shift[4];
     dm_arrow_ldl ldl;
-    int count_ahead;
-    double count_s;
 } run_ws;
 
 struct ref_ahead;
@@ -555,14 +552,14 @@ static void copy_modes(dm_modes *dst, const dm_modes *src, int n, int k)
 }
 
 /* Step j's pose, model, factor and coupling index into its frame, and,
- * where w->count_ahead asks, the Sturm count that will likely prove its
- * modes (dm_modal_count_ahead), at a shift predicted from the solves of
- * steps j - 2 to j - 4 (done when the frame is built on two threads, step
+ * where `ahead` asks, the Sturm count that will likely prove its modes
+ * (dm_modal_count_ahead), at a shift predicted from the solves of steps
+ * j - 2 to j - 4 (done when the frame is built on two threads, step
  * j - 1's under way, as on one). The solve decides as it would without
  * it (dm_modal_offer_count): the modes are the same whichever thread
  * counts, and run_pipelined moves the count to the thread with time to
- * spare. */
-static void build_frame(run_ws *w, long j, long nsteps)
+ * spare. Returns the seconds the count took (0: none made). */
+static double build_frame(run_ws *w, long j, long nsteps, int ahead)
 {
     struct frame *f = &w->fr[j % NFRAMES];
     double t0, t1;
@@ -572,13 +569,12 @@ static void build_frame(run_ws *w, long j, long nsteps)
     f->rc = step_pose(w, t0, &f->pose, &f->err);
     if (!f->rc)
         f->rc = build_at(&f->pose, f->md, f->statics, &f->coupling_log10, &f->err);
-    w->count_s = 0;
-    if (!f->rc && j >= 4 && w->count_ahead) {
-        double before[3] = {w->shift[(j - 2) % 4], w->shift[(j - 3) % 4], w->shift[(j - 4) % 4]};
-        double c0 = omp_get_wtime();
-        f->counted = dm_modal_count_ahead(&w->ldl, f->md, before, &f->count) == DM_OK;
-        w->count_s = omp_get_wtime() - c0;
-    }
+    if (f->rc || j < 4 || !ahead)
+        return 0;
+    double before[3] = {w->shift[(j - 2) % 4], w->shift[(j - 3) % 4], w->shift[(j - 4) % 4]};
+    double c0 = omp_get_wtime();
+    f->counted = dm_modal_count_ahead(&w->ldl, f->md, before, &f->count) == DM_OK;
+    return omp_get_wtime() - c0;
 }
 
 /* Step j's modes into its frame (built): solved, warm from the steps
@@ -628,7 +624,7 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     double h = t1 - t0;
     dm_integ_sample s;
     if (!w->pipelined) {
-        build_frame(w, j, nsteps);
+        build_frame(w, j, nsteps, 0);
         solve_frame(w, j);
     }
     int rc = take_frame(w, j, err);
@@ -1071,15 +1067,14 @@ static int count_goes_ahead(pipe_balance *b, double solve, int solved_with_count
 static int run_pipelined(run_ws *w, long nsteps, dm_integ_sink sink, void *user, run_stats *rs,
                          dm_error *err)
 {
-    int fail[2] = {DM_OK, DM_OK}, solved_with_count[2] = {1, 1};
+    int fail[2] = {DM_OK, DM_OK}, solved_with_count[2] = {1, 1}, ahead = 1;
     double solve_s[2] = {0, 0};
     pipe_balance bal = {0};
     w->pipelined = 1;
-    w->count_ahead = 1;
-    build_frame(w, 0, nsteps);
+    build_frame(w, 0, nsteps, 0);
     solve_frame(w, 0);
     if (nsteps > 1)
-        build_frame(w, 1, nsteps);
+        build_frame(w, 1, nsteps, 0);
 #pragma omp parallel num_threads(2)
     {
         int t = omp_get_thread_num(), last = omp_get_num_threads() - 1;
@@ -1090,24 +1085,23 @@ static int run_pipelined(run_ws *w, long nsteps, dm_integ_sink sink, void *user,
                 solve_frame(w, j + 1);
                 solve_s[j % 2] = omp_get_wtime() - t0;
             }
-            double frame_s = 0;
+            double frame_s = 0, count_s = 0;
             if (t == last) {
                 double t0 = omp_get_wtime();
                 fail[j % 2] = step(w, j, nsteps, sink, user, rs, err);
                 if (j + 2 < nsteps)
-                    build_frame(w, j + 2, nsteps);
+                    count_s = build_frame(w, j + 2, nsteps, ahead);
                 frame_s = omp_get_wtime() - t0;
             }
 #pragma omp barrier
-            if (t == last && last > 0)
-                w->count_ahead = count_goes_ahead(&bal, solve_s[j % 2], solved_with_count[j % 2],
-                                                  frame_s, w->count_s);
+            if (t == last && last > 0) /* (ahead is the frame thread's alone) */
+                ahead = count_goes_ahead(&bal, solve_s[j % 2], solved_with_count[j % 2], frame_s,
+                                         count_s);
             if (fail[j % 2])
                 break;
         }
     }
     w->pipelined = 0;
-    w->count_ahead = 0;
     return fail[0] ? fail[0] : fail[1];
 }
 

@@ -1012,10 +1012,10 @@ static int sturm_check(dm_modal *ws, const dm_model *md, int kw)
 /* Where the prediction from the solves before puts a count made ahead,
  * relative to the predicted shift: a quarter of the cluster gap above it.
  * The solve's own shift lies half a gap above its last converged Ritz
- * value, the next eigenvalue (not in the cluster) a gap or more above it:
- * a count a quarter gap above the prediction proves the solve while the
- * prediction is off by less than a quarter gap (2.5e-4 relative; the
- * quadratic extrapolation over 1 ms steps is off by ~1e-8, measured on
+ * value, the next Ritz value (not in the cluster) a gap or more above it:
+ * a count a quarter gap above the prediction lands between the two while
+ * the prediction is off by less than a quarter gap (2.5e-4 relative; the
+ * quadratic extrapolation over 1 ms steps is off by < 1e-6, measured on
  * the presets' paper trajectories). */
 #define AHEAD_SLACK (0.25 * CLUSTER_GAP)
 
