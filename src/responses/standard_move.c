@@ -14,6 +14,7 @@
  * exactly r in the static limit and the dominant dropped dynamics besides;
  * their static remainder (zero to round-off) is added quasi-statically. */
 #include <assert.h>
+#include <cblas.h>
 #include <math.h>
 #include <lapacke.h>
 #include <stdlib.h>
@@ -78,6 +79,8 @@ struct dm_move_ws {
     double *G, *r;                       /* n per direction */
     double *R, *MR, *KR;                 /* per direction a Krylov block, n x MAXRITZ,
                                             and M, K times it */
+    double *MPhi;                        /* n x kmax: M times the retained modes */
+    double *coef;                        /* kmax + MAXRITZ: a projection's parts */
     double *X, *Y;                       /* interleaved blocks for the kernels */
     carried dir[MAXDIR];
     double *pool;
@@ -111,6 +114,8 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
         w->R = malloc(sizeof(double) * blk);
         w->MR = malloc(sizeof(double) * blk);
         w->KR = malloc(sizeof(double) * blk);
+        w->MPhi = malloc(sizeof(double) * n * kmax);
+        w->coef = malloc(sizeof(double) * nmax);
         w->X = malloc(sizeof(double) * blk);
         w->Y = malloc(sizeof(double) * blk);
         w->pool = malloc(sizeof(double) * carried_len(kmax) * MAXDIR);
@@ -124,7 +129,7 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
         w->stack = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 2));
         w->scan = malloc(sizeof(double) * 4 * nmax);
     }
-    if (!w || !w->G || !w->r || !w->R || !w->MR || !w->KR || !w->X || !w->Y || !w->pool || !w->trans[0] ||
+    if (!w || !w->G || !w->r || !w->R || !w->MR || !w->KR || !w->MPhi || !w->coef || !w->X || !w->Y || !w->pool || !w->trans[0] ||
         !w->trans[1] || !w->cand[0] || !w->cand[1] || !w->cand_pool[0] || !w->cand_pool[1] || !w->stack ||
         !w->scan || !w->blocks[0] || !w->blocks[1]) {
         dm_move_free(w);
@@ -158,6 +163,8 @@ void dm_move_free(dm_move_ws *w)
     free(w->R);
     free(w->MR);
     free(w->KR);
+    free(w->MPhi);
+    free(w->coef);
     free(w->X);
     free(w->Y);
     free(w->pool);
@@ -208,7 +215,7 @@ typedef enum { OP_MULT_M, OP_MULT_K, OP_SOLVE } block_op;
 /* out[r] = op(in[r]) for r < q (in place when out[r] == in[r]): gathered
  * into one interleaved block, one kernel call, scattered back. */
 static void on_block(dm_move_ws *w, const dm_model *md, const dm_static *st, block_op op,
-                     double *const *in, double *const *out, int q)
+                     const double *const *in, double *const *out, int q)
 {
     int n = w->n;
     assert(q >= 1 && q <= MAXDIR * MAXRITZ);
@@ -239,12 +246,29 @@ DM_VECTOR_CLONES static double dot(const double *a, const double *b, int n)
     return (s[0] + s[1]) + (s[2] + s[3]);
 }
 
-/* x -= (y' mx) y: remove y's part from x, M-orthogonally (y M-normalised) */
-DM_VECTOR_CLONES static void project_out(double *x, const double *y, const double *mx, int n)
+/* M Phi of the k retained modes, once a pose: the Krylov vectors' parts
+ * along them are then (M phi_j)' x, with no product with M of x itself. */
+static void retained_m(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k)
 {
-    double c = dot(y, mx, n);
-    for (int i = 0; i < n; i++)
-        x[i] -= c * y[i];
+    const int most = MAXDIR * MAXRITZ; /* on_block's widest */
+    for (int j0 = 0; j0 < k; j0 += most) {
+        int q = k - j0 < most ? k - j0 : most;
+        const double *in[MAXDIR * MAXRITZ];
+        double *out[MAXDIR * MAXRITZ];
+        for (int r = 0; r < q; r++) {
+            in[r] = mo->phi + (size_t)(j0 + r) * w->n;
+            out[r] = w->MPhi + (size_t)(j0 + r) * w->n;
+        }
+        on_block(w, md, NULL, OP_MULT_M, in, out, q);
+    }
+}
+
+/* x -= B c, c = (M B)' x: x's part in span(B) removed M-orthogonally, for
+ * B's m columns M-orthonormal (n x m, M B beside it); c returned. */
+static void project_out(double *x, const double *B, const double *MB, int n, int m, double *c)
+{
+    cblas_dgemv(CblasColMajor, CblasTrans, n, m, 1.0, MB, n, x, 1, 0.0, c, 1);
+    cblas_dgemv(CblasColMajor, CblasNoTrans, n, m, -1.0, B, n, c, 1, 1.0, x, 1);
 }
 
 /* M-orthonormalise Krylov column m of the directions in dirs[0..q) against
@@ -252,26 +276,26 @@ DM_VECTOR_CLONES static void project_out(double *x, const double *y, const doubl
  * left (the column already in their span). One pass: the Krylov vectors
  * are orthogonal to the retained modes in exact arithmetic already (A
  * keeps the complement of an invariant subspace); the projection removes
- * the round-off of their shapes. */
+ * the round-off of their shapes. The parts come from M Phi and the
+ * columns' own M products (retained_m), so x's product with M is needed
+ * after the projection only; its M-norm before it is the sum of the
+ * squares (Pythagoras: the basis is M-orthonormal). */
 static void orthonormalise(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k, int m,
                            const int *dirs, int q, int *ok)
 {
     int n = w->n;
-    double *x[MAXDIR], *mx[MAXDIR], before[MAXDIR];
-    for (int r = 0; r < q; r++)
-        x[r] = krylov(w, dirs[r], m), mx[r] = m_krylov(w, dirs[r], m);
-    on_block(w, md, NULL, OP_MULT_M, x, mx, q);
+    double *x[MAXDIR], *mx[MAXDIR], removed[MAXDIR], *c = w->coef;
     for (int r = 0; r < q; r++) {
-        before[r] = dot(x[r], mx[r], n);
-        for (int j = 0; j < k; j++)
-            project_out(x[r], mo->phi + (size_t)j * n, mx[r], n);
-        for (int l = 0; l < m; l++)
-            project_out(x[r], krylov(w, dirs[r], l), mx[r], n);
+        x[r] = krylov(w, dirs[r], m), mx[r] = m_krylov(w, dirs[r], m);
+        project_out(x[r], mo->phi, w->MPhi, n, k, c);
+        if (m > 0)
+            project_out(x[r], krylov(w, dirs[r], 0), m_krylov(w, dirs[r], 0), n, m, c + k);
+        removed[r] = dot(c, c, k + m);
     }
-    on_block(w, md, NULL, OP_MULT_M, x, mx, q);
+    on_block(w, md, NULL, OP_MULT_M, (const double *const *)x, mx, q);
     for (int r = 0; r < q; r++) {
         double after = dot(x[r], mx[r], n);
-        ok[dirs[r]] = after > 1e-20 * before[r] && after > 0;
+        ok[dirs[r]] = after > 1e-20 * (after + removed[r]) && after > 0;
         if (!ok[dirs[r]])
             continue;
         double s = 1 / sqrt(after);
@@ -310,7 +334,7 @@ static void krylov_blocks(dm_move_ws *w, const dm_model *md, const dm_modes *mo,
             }
         }
         if ((q = still) > 0)
-            on_block(w, md, st, OP_SOLVE, from, to, q);
+            on_block(w, md, st, OP_SOLVE, (const double *const *)from, to, q);
     }
 }
 
@@ -326,15 +350,17 @@ static void ritz_modes(dm_move_ws *w, const dm_model *md, const dm_static *st, i
             x[q] = krylov(w, d, j), kx[q] = w->KR + (size_t)q * n;
     if (!q)
         return;
-    on_block(w, md, st, OP_MULT_K, x, kx, q);
+    on_block(w, md, st, OP_MULT_K, (const double *const *)x, kx, q);
     q = 0;
     for (int d = 0; d < ndir; d++) {
         int m = nkept[d];
-        double KR[MAXRITZ * MAXRITZ], ev[MAXRITZ], work[64];
+        double KR[MAXRITZ * MAXRITZ], ev[MAXRITZ], work[64], xG[MAXRITZ];
         const double *G = w->G + (size_t)d * n;
-        for (int j = 0; j < m; j++)
+        for (int j = 0; j < m; j++) {
+            xG[j] = dot(x[q + j], G, n);
             for (int i = 0; i < m; i++)
                 KR[j * m + i] = dot(x[q + i], kx[q + j], n);
+        }
         for (int j = 0; j < m; j++) /* symmetric */
             for (int i = 0; i < j; i++)
                 KR[j * m + i] = KR[i * m + j] = 0.5 * (KR[j * m + i] + KR[i * m + j]);
@@ -345,7 +371,7 @@ static void ritz_modes(dm_move_ws *w, const dm_model *md, const dm_static *st, i
                 double g = 0, phiP[3] = {0, 0, 0};
                 for (int j = 0; j < m; j++) {
                     double z = KR[i * m + j];
-                    g += z * dot(x[q + j], G, n);
+                    g += z * xG[j];
                     for (int c3 = 0; c3 < 3; c3++)
                         phiP[c3] += z * x[q + j][pd + c3];
                 }
@@ -400,7 +426,7 @@ static int prepare(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
     double *r[MAXDIR], *G[MAXDIR];
     for (int d = 0; d < MAXDIR; d++)
         r[d] = w->r + (size_t)d * n, G[d] = w->G + (size_t)d * n;
-    on_block(w, md, st, OP_SOLVE, G, r, ndir);
+    on_block(w, md, st, OP_SOLVE, (const double *const *)G, r, ndir);
     int nritz[MAXDIR], nkept[MAXDIR];
     for (int d = 0; d < ndir; d++) {
         carried *c = &w->dir[d];
@@ -422,6 +448,7 @@ static int prepare(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
         nritz[d] = dm_norm3(c->rP) > 5e-4 * dm_norm3(sr) ? o->ritz_vectors : 0;
         nritz[d] = nritz[d] < MAXRITZ ? nritz[d] : MAXRITZ;
     }
+    retained_m(w, md, mo, k);
     krylov_blocks(w, md, mo, k, st, ndir, nritz, nkept);
     ritz_modes(w, md, st, ndir, nkept);
     for (int d = 0; d < ndir; d++) {
