@@ -50,6 +50,8 @@ typedef struct dm_modes {
     double *omega_rad_s;     /* k */
     double *freq_hz;         /* k */
     double *phi;             /* n x k column-major, Phi' M Phi = I */
+    const double *mphi;      /* n x k: M Phi, where the solver has it (the subspace
+                                iteration's last products; else NULL) */
     double *platform_share;  /* k: share of the modal kinetic energy in the platform */
     int *direction;          /* k: dm_direction with the largest platform energy */
 } dm_modes;

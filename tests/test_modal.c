@@ -684,6 +684,39 @@ static void counts_made_ahead_prove_the_same_modes(void **state)
     }
 }
 
+/* The subspace solver hands out M Phi with the modes (the standard moves
+ * project on it): bit for bit the product of M with each mode, cold and
+ * warm; the dense solver hands out none. */
+static void modes_carry_m_phi(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    load_robot("zheng2017", NULL, &rb);
+    dm_analysis *an = dm_analysis_alloc(&rb, 4, 4, 14, DM_EIGEN_SUBSPACE, NULL);
+    dm_analysis *dense = dm_analysis_alloc(&rb, 4, 4, 14, DM_EIGEN_DENSE, NULL);
+    int n = an->model->n, k = 14;
+    double *X = malloc(sizeof(double) * n * k), *MX = malloc(sizeof(double) * n * k);
+    for (int j = 0; j < 3; j++) {
+        double P[3] = {rb.home_m[0] + 0.01 * j, rb.home_m[1], rb.home_m[2]};
+        dm_pose_result r;
+        assert_int_equal(dm_analysis_run(an, P, k, &r, NULL), 0);
+        assert_non_null(r.modes->mphi);
+        for (int i = 0; i < n; i++) /* interleaved, as the kernels take blocks */
+            for (int m = 0; m < k; m++)
+                X[(size_t)i * k + m] = r.modes->phi[(size_t)m * n + i];
+        dm_model_mult_M(an->model, X, k, MX);
+        for (int i = 0; i < n; i++)
+            for (int m = 0; m < k; m++)
+                assert_memory_equal(&MX[(size_t)i * k + m], &r.modes->mphi[(size_t)m * n + i],
+                                    sizeof(double));
+        assert_int_equal(dm_analysis_run(dense, P, k, &r, NULL), 0);
+        assert_null(r.modes->mphi);
+    }
+    free(X), free(MX);
+    dm_analysis_free(an);
+    dm_analysis_free(dense);
+}
+
 /* A start that lacks a mode converges to the wrong set; the Sturm count
  * finds one eigenvalue more below the shift than the set holds, and the
  * solver falls back to a cold start, which finds it. */
@@ -965,6 +998,7 @@ int main(void)
         cmocka_unit_test(warm_and_cold_agree),
         cmocka_unit_test(path_extrapolation_agrees_and_saves),
         cmocka_unit_test(counts_made_ahead_prove_the_same_modes),
+        cmocka_unit_test(modes_carry_m_phi),
         cmocka_unit_test(missed_mode_is_caught),
         cmocka_unit_test(pairs_through_the_centre),
         cmocka_unit_test(seeded_solve_does_not_depend_on_history),

@@ -247,9 +247,13 @@ DM_VECTOR_CLONES static double dot(const double *a, const double *b, int n)
 }
 
 /* M Phi of the k retained modes, once a pose: the Krylov vectors' parts
- * along them are then (M phi_j)' x, with no product with M of x itself. */
-static void retained_m(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k)
+ * along them are then (M phi_j)' x, with no product with M of x itself.
+ * The subspace solver hands it out with the modes (the products its last
+ * check made: the same bits as these); else it is made here. */
+static const double *retained_m(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k)
 {
+    if (mo->mphi)
+        return mo->mphi;
     const int most = MAXDIR * MAXRITZ; /* on_block's widest */
     for (int j0 = 0; j0 < k; j0 += most) {
         int q = k - j0 < most ? k - j0 : most;
@@ -261,6 +265,7 @@ static void retained_m(dm_move_ws *w, const dm_model *md, const dm_modes *mo, in
         }
         on_block(w, md, NULL, OP_MULT_M, in, out, q);
     }
+    return w->MPhi;
 }
 
 /* x -= B c, c = (M B)' x: x's part in span(B) removed M-orthogonally, for
@@ -276,18 +281,18 @@ static void project_out(double *x, const double *B, const double *MB, int n, int
  * left (the column already in their span). One pass: the Krylov vectors
  * are orthogonal to the retained modes in exact arithmetic already (A
  * keeps the complement of an invariant subspace); the projection removes
- * the round-off of their shapes. The parts come from M Phi and the
+ * the round-off of their shapes. The parts come from M Phi (mphi) and the
  * columns' own M products (retained_m), so x's product with M is needed
  * after the projection only; its M-norm before it is the sum of the
  * squares (Pythagoras: the basis is M-orthonormal). */
-static void orthonormalise(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k, int m,
-                           const int *dirs, int q, int *ok)
+static void orthonormalise(dm_move_ws *w, const dm_model *md, const dm_modes *mo,
+                           const double *mphi, int k, int m, const int *dirs, int q, int *ok)
 {
     int n = w->n;
     double *x[MAXDIR], *mx[MAXDIR], removed[MAXDIR], *c = w->coef;
     for (int r = 0; r < q; r++) {
         x[r] = krylov(w, dirs[r], m), mx[r] = m_krylov(w, dirs[r], m);
-        project_out(x[r], mo->phi, w->MPhi, n, k, c);
+        project_out(x[r], mo->phi, mphi, n, k, c);
         if (m > 0)
             project_out(x[r], krylov(w, dirs[r], 0), m_krylov(w, dirs[r], 0), n, m, c + k);
         removed[r] = dot(c, c, k + m);
@@ -319,8 +324,9 @@ static void krylov_blocks(dm_move_ws *w, const dm_model *md, const dm_modes *mo,
             active[q++] = d;
         }
     }
+    const double *mphi = q > 0 ? retained_m(w, md, mo, k) : NULL;
     for (int m = 0; q > 0; m++) {
-        orthonormalise(w, md, mo, k, m, active, q, ok);
+        orthonormalise(w, md, mo, mphi, k, m, active, q, ok);
         int still = 0;
         double *from[MAXDIR], *to[MAXDIR];
         for (int r = 0; r < q; r++) {
@@ -448,7 +454,6 @@ static int prepare(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
         nritz[d] = dm_norm3(c->rP) > 5e-4 * dm_norm3(sr) ? o->ritz_vectors : 0;
         nritz[d] = nritz[d] < MAXRITZ ? nritz[d] : MAXRITZ;
     }
-    retained_m(w, md, mo, k);
     krylov_blocks(w, md, mo, k, st, ndir, nritz, nkept);
     ritz_modes(w, md, st, ndir, nkept);
     for (int d = 0; d < ndir; d++) {

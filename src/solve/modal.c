@@ -29,12 +29,15 @@ struct dm_modal {
     int qmax;                /* most vectors a subspace may hold */
     int nl;                  /* of the q, converged and locked */
     double *XL;              /* n x nl, column-major: the locked Ritz vectors */
+    double *MXL;             /* M XL, from the products they were checked with */
+    int mx_fresh, mxl_whole; /* MX is M X; MXL holds every locked vector's */
     double *C;               /* nl x q: their M-products with the active block */
     double *X, *MX, *T, *MT, *Y; /* active block, n x (q - nl): Ritz vectors, M X,
                                     A X, M A X, filter */
     double *Xs, *Ts, *MXs;   /* X, A X, M X at the start of a round (a retry) */
     double *Kt, *Mt, *theta, *res, *scale; /* projections, Ritz values, residuals */
     double *phi;             /* n x kmax, column-major: the modes handed out */
+    double *mphi;            /* M phi, with them */
     double *swork;
     lapack_int *siwork, slwork, sliwork;
     dm_arrow_ldl ldl;        /* Sturm counts */
@@ -241,7 +244,7 @@ static int alloc_subspace(dm_modal *ws, const dm_model *md)
 {
     size_t nq = (size_t)ws->n * ws->qmax, qq = (size_t)ws->qmax * ws->qmax;
     double **nbuf[] = {&ws->X,  &ws->MX, &ws->T,   &ws->MT,     &ws->Y,
-                       &ws->XL, &ws->Xs, &ws->Ts, &ws->MXs, &ws->hist[0], &ws->hist[1],
+                       &ws->XL, &ws->MXL, &ws->Xs, &ws->Ts, &ws->MXs, &ws->hist[0], &ws->hist[1],
                        &ws->toward[0], &ws->toward[1], &ws->toward[2]};
     for (size_t i = 0; i < sizeof nbuf / sizeof nbuf[0]; i++)
         if (!(*nbuf[i] = malloc(nq * sizeof(double))))
@@ -253,7 +256,9 @@ static int alloc_subspace(dm_modal *ws, const dm_model *md)
     ws->scale = malloc((size_t)ws->qmax * sizeof(double));
     ws->C = malloc(qq * sizeof(double));
     ws->phi = malloc((size_t)ws->n * ws->kmax * sizeof(double));
-    if (!ws->Kt || !ws->Mt || !ws->theta || !ws->res || !ws->scale || !ws->phi || !ws->C ||
+    ws->mphi = malloc((size_t)ws->n * ws->kmax * sizeof(double));
+    if (!ws->Kt || !ws->Mt || !ws->theta || !ws->res || !ws->scale || !ws->phi || !ws->mphi ||
+        !ws->C ||
         query_subspace(ws))
         return DM_ENOMEM;
     ws->swork = malloc((size_t)ws->slwork * sizeof(double));
@@ -311,7 +316,8 @@ void dm_modal_free(dm_modal *ws)
     void *p[] = {ws->A,  ws->B,     ws->Z,   ws->w,     ws->work,   ws->iwork,
                  ws->isuppz, ws->d, ws->iblock, ws->X, ws->MX,    ws->T,
                  ws->MT, ws->Y,     ws->Kt,  ws->Mt,    ws->theta,  ws->res,
-                 ws->scale, ws->phi, ws->swork, ws->siwork, ws->XL, ws->C, ws->Xs, ws->Ts,
+                 ws->scale, ws->phi, ws->mphi, ws->swork, ws->siwork, ws->XL, ws->MXL, ws->C,
+                 ws->Xs, ws->Ts,
                  ws->MXs, ws->hist[0], ws->hist[1], ws->toward[0], ws->toward[1],
                  ws->toward[2], ws->modes.freq_hz,
                  ws->modes.omega_rad_s, ws->modes.platform_share, ws->modes.direction};
@@ -434,6 +440,7 @@ static int solve_all(dm_modal *ws, dm_error *err)
         return dm_fail(err, DM_ENUMERIC, "dsygvd failed (info %d): %s", (int)info,
                        info > n ? "mass matrix not positive definite" : "no convergence");
     ws->modes.phi = ws->A; /* eigenvectors overwrite A, B-orthonormal */
+    ws->modes.mphi = NULL;
     return DM_OK;
 }
 
@@ -509,6 +516,7 @@ static int solve_partial(dm_modal *ws, int k, dm_error *err)
     if (info)
         return dm_fail(err, DM_ENUMERIC, "back-substitution failed (dtrtrs info %d)", (int)info);
     ws->modes.phi = ws->Z;
+    ws->modes.mphi = NULL;
     return DM_OK;
 }
 
@@ -534,6 +542,7 @@ static int solve_all_arrow(dm_modal *ws, const dm_model *md, int k, dm_error *er
         for (int j = 0; j < k; j++)
             ws->Z[i + (size_t)j * n] = ws->A[(size_t)i * k + j];
     ws->modes.phi = ws->Z;
+    ws->modes.mphi = NULL;
     return DM_OK;
 }
 
@@ -681,6 +690,7 @@ static int rayleigh_ritz(dm_modal *ws, int may_rebase)
     int n = ws->n, q = active(ws);
     double *theta = ws->theta + ws->nl;
     const double *V = ws->T;
+    ws->mx_fresh = 0; /* X changes, MX does not */
     project_block(ws, V, ws->MX, ws->MT);
     if (may_rebase) /* the Gram matrix, for a rebase */
         memcpy(ws->C, ws->Mt, sizeof(double) * q * q);
@@ -767,7 +777,10 @@ static void lock_converged(dm_modal *ws, int kw, double conv)
         ws->stats.residual = fmax(ws->stats.residual, ws->res[j]);
         for (int i = 0; i < n; i++)
             ws->XL[(size_t)(nl + j) * n + i] = ws->X[(size_t)i * qa + j];
+        for (int i = 0; i < n && ws->mx_fresh; i++)
+            ws->MXL[(size_t)(nl + j) * n + i] = ws->MX[(size_t)i * qa + j];
     }
+    ws->mxl_whole &= ws->mx_fresh || m == 0;
     double *blocks[] = {ws->X, ws->MX, ws->T, ws->MT};
     for (int b = 0; b < 4; b++)
         drop_columns(blocks[b], n, qa, m);
@@ -899,8 +912,10 @@ static int iterate(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, int
     double first_gain = 0; /* of a warm start's first filter */
     double last_worst = INFINITY; /* the wanted pairs' largest residual, last round */
     ws->nl = 0;
+    ws->mxl_whole = 1;
     for (int round = 0; round <= MAX_ROUNDS; round++) {
         apply_A(ws, md, L, ws->X, ws->MX, ws->T); /* T = A X */
+        ws->mx_fresh = 1;
         ws->stats.iterations++;
         int kw = wanted_count(ws->theta, q, k);
         double error = ws->warm_error;
@@ -1234,10 +1249,13 @@ static int solve_subspace(dm_modal *ws, const dm_model *md, const dm_static *fac
     for (int j = 0; j < k; j++) /* the locked vectors are the modes */
         ws->w[j] = ws->theta[j];
     memcpy(ws->phi, ws->XL, sizeof(double) * ws->n * k);
+    if (ws->mxl_whole) /* (a dense start's pairs locked after a projection: none) */
+        memcpy(ws->mphi, ws->MXL, sizeof(double) * ws->n * k);
     merge_block(ws);
     if (ws->stats.random) /* Ritz values of the block: converged, or upper bounds */
         shrink_block(ws, subspace_size(ws->theta, ws->q, kw, ws->q));
     ws->modes.phi = ws->phi;
+    ws->modes.mphi = ws->mxl_whole ? ws->mphi : NULL;
     return DM_OK;
 }
 
