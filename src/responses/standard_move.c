@@ -573,7 +573,13 @@ typedef struct {
     int store;         /* where its scan keeps candidates and bounds (0, 1) */
 } phase;
 
-static double step_of(const phase *ph, int level) { return ldexp(ph->base, -level); }
+/* base / 2^level, exactly (a power of two's product; ldexp's library call
+ * was 2 % of the moves) */
+static inline double step_of(const phase *ph, int level)
+{
+    assert(level >= 0 && level <= MAX_LEVEL + 2);
+    return ph->base * (1.0 / (double)(1ULL << level));
+}
 
 static const double *level_transitions(const phase *ph, int level)
 {
