@@ -55,6 +55,7 @@ typedef struct {
     double *om, *z, *g, *q, *v, *normP;  /* nm each */
     double *p4;                          /* platform translation of each mode: x, y, z,
                                             0 (4 a mode, summed as one vector) */
+    int *src;                            /* the retained mode each one is, or -1 (Ritz) */
     double rP[3];                        /* static remainder on the platform */
 } carried;
 
@@ -88,6 +89,11 @@ struct dm_move_ws {
      * window), structure of arrays a11, a12, a21, a22 of nmax each */
     double *trans[2];
     unsigned char have[2][MAX_LEVEL + 1];
+    /* the retained modes' transitions (4 x kmax a level), the same in every
+     * direction: made by the first, copied by the others */
+    double *rtrans[2];
+    unsigned char rhave[2][MAX_LEVEL + 1];
+    int *srcpool;
     candidate *cand[2];                  /* two stores of MAX_INTERVALS + 1 (the move's
                                             halves are both scanned before either is
                                             refined) */
@@ -121,6 +127,9 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
         w->pool = malloc(sizeof(double) * carried_len(kmax) * MAXDIR);
         w->trans[0] = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 1));
         w->trans[1] = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 1));
+        w->rtrans[0] = malloc(sizeof(double) * 4 * kmax * (MAX_LEVEL + 1));
+        w->rtrans[1] = malloc(sizeof(double) * 4 * kmax * (MAX_LEVEL + 1));
+        w->srcpool = malloc(sizeof(int) * nmax * MAXDIR);
         for (int st = 0; st < 2; st++) {
             w->cand[st] = malloc(sizeof(candidate) * (MAX_INTERVALS + 1));
             w->cand_pool[st] = malloc(sizeof(double) * 2 * nmax * (MAX_INTERVALS + 1));
@@ -129,8 +138,9 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
         w->stack = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 2));
         w->scan = malloc(sizeof(double) * 4 * nmax);
     }
-    if (!w || !w->G || !w->r || !w->R || !w->MR || !w->KR || !w->MPhi || !w->coef || !w->X || !w->Y || !w->pool || !w->trans[0] ||
-        !w->trans[1] || !w->cand[0] || !w->cand[1] || !w->cand_pool[0] || !w->cand_pool[1] || !w->stack ||
+    if (!w || !w->G || !w->r || !w->R || !w->MR || !w->KR || !w->MPhi || !w->coef || !w->X ||
+        !w->Y || !w->pool || !w->trans[0] || !w->trans[1] || !w->rtrans[0] || !w->rtrans[1] ||
+        !w->srcpool || !w->cand[0] || !w->cand[1] || !w->cand_pool[0] || !w->cand_pool[1] || !w->stack ||
         !w->scan || !w->blocks[0] || !w->blocks[1]) {
         dm_move_free(w);
         dm_fail(err, DM_ENOMEM, "out of memory for the standard move");
@@ -144,6 +154,7 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
         for (size_t i = 0; i < sizeof arr / sizeof arr[0]; i++, p += m)
             *arr[i] = p; /* 6 arrays of kmax + MAXRITZ, then p4 of 4 times that */
         c->p4 = p;
+        c->src = w->srcpool + m * d;
     }
     for (int i = 0; i <= MAX_INTERVALS; i++) {
         for (int st = 0; st < 2; st++) {
@@ -170,6 +181,9 @@ void dm_move_free(dm_move_ws *w)
     free(w->pool);
     free(w->trans[0]);
     free(w->trans[1]);
+    free(w->rtrans[0]);
+    free(w->rtrans[1]);
+    free(w->srcpool);
     for (int st = 0; st < 2; st++) {
         free(w->cand[st]);
         free(w->cand_pool[st]);
@@ -180,9 +194,10 @@ void dm_move_free(dm_move_ws *w)
     free(w);
 }
 
-static void add_mode(carried *c, double om, double g, const double phiP[3])
+static void add_mode(carried *c, double om, double g, const double phiP[3], int src)
 {
     int j = c->nm++;
+    c->src[j] = src;
     c->om[j] = om;
     c->g[j] = g;
     double *p4 = c->p4 + 4 * j;
@@ -381,7 +396,7 @@ static void ritz_modes(dm_move_ws *w, const dm_model *md, const dm_static *st, i
                     for (int c3 = 0; c3 < 3; c3++)
                         phiP[c3] += z * x[q + j][pd + c3];
                 }
-                add_mode(&w->dir[d], sqrt(ev[i]), g, phiP);
+                add_mode(&w->dir[d], sqrt(ev[i]), g, phiP, -1);
             }
         }
         q += m;
@@ -410,7 +425,7 @@ static int direction_loads(dm_move_ws *w, const dm_model *md, const dm_modes *mo
         c->nm = 0;
         for (int j = 0; j < k; j++) {
             const double *ph = mo->phi + (size_t)j * n;
-            add_mode(c, mo->omega_rad_s[j], dot(ph, G, n), ph + pd);
+            add_mode(c, mo->omega_rad_s[j], dot(ph, G, n), ph + pd, j);
         }
         memset(c->rP, 0, sizeof c->rP);
     }
@@ -484,6 +499,9 @@ static void sort_by_frequency(carried *c)
                 c->p4[4 * i + r] = c->p4[4 * (i - 1) + r];
                 c->p4[4 * (i - 1) + r] = t;
             }
+            int t = c->src[i];
+            c->src[i] = c->src[i - 1];
+            c->src[i - 1] = t;
         }
 }
 
@@ -581,19 +599,33 @@ static inline double step_of(const phase *ph, int level)
     return ph->base * (1.0 / (double)(1ULL << level));
 }
 
+/* The transitions of a phase's level for the direction's carried modes.
+ * A retained mode's (the same frequency, damping and step in every
+ * direction) is made by the first direction that needs the level and
+ * copied by the others: the same numbers, a third of the sines. */
 static const double *level_transitions(const phase *ph, int level)
 {
     dm_move_ws *w = ph->w;
-    int nmax = w->nmax;
-    double *t = w->trans[ph->family] + (size_t)4 * nmax * level;
-    if (!w->have[ph->family][level]) {
+    int nmax = w->nmax, f = ph->family, kmax = w->kmax;
+    double *t = w->trans[f] + (size_t)4 * nmax * level;
+    if (!w->have[f][level]) {
         double h = step_of(ph, level), a[4];
+        double *rt = w->rtrans[f] + (size_t)4 * kmax * level;
         for (int j = 0; j < ph->c->nm; j++) {
-            mode_transition(ph->c->om[j], ph->c->z[j], h, a);
-            for (int r = 0; r < 4; r++)
+            int s = ph->c->src[j];
+            if (s >= 0 && w->rhave[f][level])
+                for (int r = 0; r < 4; r++)
+                    a[r] = rt[r * kmax + s];
+            else
+                mode_transition(ph->c->om[j], ph->c->z[j], h, a);
+            for (int r = 0; r < 4; r++) {
                 t[r * nmax + j] = a[r];
+                if (s >= 0)
+                    rt[r * kmax + s] = a[r];
+            }
         }
-        w->have[ph->family][level] = 1;
+        w->have[f][level] = 1;
+        w->rhave[f][level] = 1; /* (every direction carries all the retained modes) */
     }
     return t;
 }
@@ -1014,6 +1046,7 @@ int dm_standard_moves(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int
     int rc = prepare(w, md, mo, k, st, dir, ndir, o, err);
     if (rc)
         return rc;
+    memset(w->rhave, 0, sizeof w->rhave); /* this pose's modes */
     for (int d = 0; d < ndir; d++)
         sort_by_frequency(&w->dir[d]);
     for (int d = 0; d < ndir; d++)
