@@ -140,8 +140,8 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
     }
     if (!w || !w->G || !w->r || !w->R || !w->MR || !w->KR || !w->MPhi || !w->coef || !w->X ||
         !w->Y || !w->pool || !w->trans[0] || !w->trans[1] || !w->rtrans[0] || !w->rtrans[1] ||
-        !w->srcpool || !w->cand[0] || !w->cand[1] || !w->cand_pool[0] || !w->cand_pool[1] || !w->stack ||
-        !w->scan || !w->blocks[0] || !w->blocks[1]) {
+        !w->srcpool || !w->cand[0] || !w->cand[1] || !w->cand_pool[0] || !w->cand_pool[1] ||
+        !w->stack || !w->scan || !w->blocks[0] || !w->blocks[1]) {
         dm_move_free(w);
         dm_fail(err, DM_ENOMEM, "out of memory for the standard move");
         return NULL;
@@ -296,10 +296,11 @@ static void project_out(double *x, const double *B, const double *MB, int n, int
  * left (the column already in their span). One pass: the Krylov vectors
  * are orthogonal to the retained modes in exact arithmetic already (A
  * keeps the complement of an invariant subspace); the projection removes
- * the round-off of their shapes. The parts come from M Phi (mphi) and the
- * columns' own M products (retained_m), so x's product with M is needed
- * after the projection only; its M-norm before it is the sum of the
- * squares (Pythagoras: the basis is M-orthonormal). */
+ * the round-off of their shapes. The parts come from M Phi (mphi, see
+ * retained_m) and the earlier columns' stored M products, so x's product
+ * with M is needed after the projection only; its M-norm before it is
+ * that after it plus the squares of the parts (Pythagoras: the basis is
+ * M-orthonormal). */
 static void orthonormalise(dm_move_ws *w, const dm_model *md, const dm_modes *mo,
                            const double *mphi, int k, int m, const int *dirs, int q, int *ok)
 {

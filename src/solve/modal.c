@@ -243,9 +243,10 @@ static int alloc_dense(dm_modal *ws)
 static int alloc_subspace(dm_modal *ws, const dm_model *md)
 {
     size_t nq = (size_t)ws->n * ws->qmax, qq = (size_t)ws->qmax * ws->qmax;
-    double **nbuf[] = {&ws->X,  &ws->MX, &ws->T,   &ws->MT,     &ws->Y,
-                       &ws->XL, &ws->MXL, &ws->Xs, &ws->Ts, &ws->MXs, &ws->hist[0], &ws->hist[1],
-                       &ws->toward[0], &ws->toward[1], &ws->toward[2]};
+    double **nbuf[] = {&ws->X,   &ws->MX,  &ws->T,      &ws->MT,        &ws->Y,
+                       &ws->XL,  &ws->MXL, &ws->Xs,     &ws->Ts,        &ws->MXs,
+                       &ws->hist[0], &ws->hist[1], &ws->toward[0], &ws->toward[1],
+                       &ws->toward[2]};
     for (size_t i = 0; i < sizeof nbuf / sizeof nbuf[0]; i++)
         if (!(*nbuf[i] = malloc(nq * sizeof(double))))
             return DM_ENOMEM;
@@ -258,8 +259,7 @@ static int alloc_subspace(dm_modal *ws, const dm_model *md)
     ws->phi = malloc((size_t)ws->n * ws->kmax * sizeof(double));
     ws->mphi = malloc((size_t)ws->n * ws->kmax * sizeof(double));
     if (!ws->Kt || !ws->Mt || !ws->theta || !ws->res || !ws->scale || !ws->phi || !ws->mphi ||
-        !ws->C ||
-        query_subspace(ws))
+        !ws->C || query_subspace(ws))
         return DM_ENOMEM;
     ws->swork = malloc((size_t)ws->slwork * sizeof(double));
     ws->siwork = malloc((size_t)ws->sliwork * sizeof(lapack_int));
@@ -317,8 +317,7 @@ void dm_modal_free(dm_modal *ws)
                  ws->isuppz, ws->d, ws->iblock, ws->X, ws->MX,    ws->T,
                  ws->MT, ws->Y,     ws->Kt,  ws->Mt,    ws->theta,  ws->res,
                  ws->scale, ws->phi, ws->mphi, ws->swork, ws->siwork, ws->XL, ws->MXL, ws->C,
-                 ws->Xs, ws->Ts,
-                 ws->MXs, ws->hist[0], ws->hist[1], ws->toward[0], ws->toward[1],
+                 ws->Xs, ws->Ts, ws->MXs, ws->hist[0], ws->hist[1], ws->toward[0], ws->toward[1],
                  ws->toward[2], ws->modes.freq_hz,
                  ws->modes.omega_rad_s, ws->modes.platform_share, ws->modes.direction};
     for (size_t i = 0; i < sizeof p / sizeof p[0]; i++)
@@ -1274,9 +1273,11 @@ int dm_modal_omega(const double *lambda, int k, double *omega, dm_error *err)
 int dm_modal_solve(dm_modal *ws, const dm_model *md, const dm_static *factor, int k,
                    const dm_modes **modes, dm_error *err)
 {
-    if (k < 1 || k > ws->kmax)
+    if (k < 1 || k > ws->kmax) {
+        ws->offer.count = -1; /* a count made ahead is for this solve alone */
         return dm_fail(err, DM_EINVAL, "modes: %d requested, workspace holds 1..%d", k,
                        ws->kmax);
+    }
     assert(md->n == ws->n);
     int rc;
     if (uses_subspace(ws)) {
