@@ -1134,13 +1134,15 @@ static void shrink_block(dm_modal *ws, int q)
 /* P = H (H' M X) for the first m columns of X and H: the part of X in
  * span(H), M-orthogonally (H's columns M-orthonormal at a neighbouring
  * pose, which is accurate to first order in the step: enough for a
- * start). MX = M X given; blocks of q interleaved, P's other columns left
- * as they are. */
-static void project_on(const dm_modal *ws, const double *H, const double *MX, double *P, int m)
+ * start). MX = M X given (interleaved rows of ldmx); H and P blocks of q
+ * interleaved, P's other columns left as they are. */
+static void project_on(const dm_modal *ws, const double *H, const double *MX, int ldmx, double *P,
+                       int m)
 {
     int n = ws->n, q = ws->q;
     /* interleaved n x q == column-major q x n: m columns are its first m rows */
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, m, m, n, 1.0, H, q, MX, q, 0.0, ws->C, m);
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, m, m, n, 1.0, H, q, MX, ldmx, 0.0, ws->C,
+                m);
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, m, n, m, 1.0, ws->C, m, H, q, 0.0, P, q);
 }
 
@@ -1164,11 +1166,14 @@ static void extrapolate(dm_modal *ws, const dm_model *md)
     int n = ws->n, q = ws->q, m = ws->kc;
     for (int h = 0; h < ws->nhist; h++)
         m = m < ws->hist_kc[h] ? m : ws->hist_kc[h];
-    if (ws->nhist > 0) {
-        dm_model_mult_M(md, ws->X, q, ws->MX);
-        project_on(ws, ws->hist[0], ws->MX, ws->T, m);
+    if (ws->nhist > 0 && m > 0) { /* M times the m columns extrapolated alone (Y is free) */
+        for (int i = 0; i < n; i++)
+            for (int j = 0; j < m; j++)
+                ws->Y[(size_t)i * m + j] = ws->X[(size_t)i * q + j];
+        dm_model_mult_M(md, ws->Y, m, ws->MX);
+        project_on(ws, ws->hist[0], ws->MX, m, ws->T, m);
         if (ws->nhist > 1)
-            project_on(ws, ws->hist[1], ws->MX, ws->MT, m);
+            project_on(ws, ws->hist[1], ws->MX, m, ws->MT, m);
     }
     double *oldest = ws->hist[1]; /* X_t joins the history, X_t-2 leaves */
     ws->hist[1] = ws->hist[0];
@@ -1196,7 +1201,7 @@ static void interpolate(dm_modal *ws, const dm_model *md)
     dm_model_mult_M(md, ws->X, ws->q, ws->MX);
     memcpy(ws->Y, ws->X, sizeof(double) * len);
     for (int d = 0; d < ws->ntoward; d++) {
-        project_on(ws, ws->toward[d], ws->MX, ws->T, ws->q);
+        project_on(ws, ws->toward[d], ws->MX, ws->q, ws->T, ws->q);
         for (size_t i = 0; i < len; i++)
             ws->Y[i] += ws->tfrac[d] * (ws->T[i] - ws->X[i]);
     }
