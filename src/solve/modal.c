@@ -940,10 +940,10 @@ static int iterate(dm_modal *ws, const dm_model *md, const dm_arrow_chol *L, int
             if (conv < CONVERGED && (worst > 0.5 * last_worst || round == MAX_ROUNDS))
                 conv = CONVERGED;
             last_worst = worst;
-            /* how far off a warm start was: measured whether or not this
-             * round converges (once only when it did not, the first
-             * filter's degree never came down along a path: chen2018's
-             * and zheng2017's steps kept 3 and 4 where 2 and 1 converge) */
+            /* how far off a warm start was, measured whether or not this
+             * round converges (measured only when it did not, the estimate
+             * never came down along a path: chen2018's and zheng2017's
+             * first filters kept degree 3 and 4 where 2 and 1 converge) */
             if (start == START_WARM && round == 1 && first_gain > 0)
                 ws->warm_error = fmin(1e-1, fmax(1e-9, worst * first_gain));
             if (kw && start == START_DENSE && round == 0) {
