@@ -50,6 +50,8 @@ typedef struct dm_arrow_pattern {
     int *colend[DM_ARROW_BLOCKS]; /* last row of the profile in column j */
     int *cpl[DM_ARROW_BLOCKS];    /* non-zeros of C_c: (row i, column m) as i + m nb */
     int ncpl[DM_ARROW_BLOCKS];
+    int cpl_start[DM_ARROW_BLOCKS][DM_ARROW_BORDER + 1]; /* cpl's entries of border column m
+                                                            from cpl_start[m] on */
 } dm_arrow_pattern;
 
 typedef struct dm_arrow {
