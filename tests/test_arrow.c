@@ -107,6 +107,80 @@ static void products_match_dense(void **state)
     teardown_fixture(&f);
 }
 
+/* Column r of a block of q (interleaved, rows q apart) into x. */
+static void column_of(const double *X, int n, int q, int r, double *x)
+{
+    for (int i = 0; i < n; i++)
+        x[i] = X[(size_t)i * q + r];
+}
+
+/* The kernels take a block's columns in slices of 24, 20, ..., 4 (held in
+ * vector registers) and then 3, 2, 1 (plain loops): every column of a
+ * block of any width must come out bit for bit as that column alone
+ * (q = 1), in the product (with the recorded pattern and over the full
+ * band), the solve and its two halves. A slice that mixed columns, lost
+ * its last four or summed in another order would fail here. */
+static void block_widths_give_each_column_alone(void **state)
+{
+    (void)state;
+    fixture f;
+    setup_fixture(&f, 13, 1);
+    int n = f.n;
+    dm_arrow_chol L;
+    assert_int_equal(dm_arrow_chol_init(&L, &f.lay, NULL), 0);
+    assert_int_equal(dm_arrow_chol_factor(&L, &f.a, NULL), 0);
+    enum { QMAX = 33, OPS = 5 };
+    const int widths[] = {2, 3, 4, 5, 7, 8, 9, 12, 13, 16, 19, 20, 21, 24, 27, 28, 33};
+    double *X = malloc(sizeof(double) * n * QMAX), *Y = malloc(sizeof(double) * n * QMAX);
+    double *x = malloc(sizeof(double) * n), *y = malloc(sizeof(double) * n);
+    double *col = malloc(sizeof(double) * n);
+    unsigned s = 17;
+    for (int i = 0; i < n * QMAX; i++)
+        X[i] = uniform(&s);
+    for (size_t w = 0; w < sizeof widths / sizeof widths[0]; w++) {
+        int q = widths[w];
+        for (int op = 0; op < OPS; op++) {
+            const dm_arrow_pattern *keep = f.a.pattern;
+            f.a.pattern = op == 1 ? NULL : keep; /* op 1: every entry of the band */
+            for (int i = 0; i < n * q; i++) /* the block: X's first q columns */
+                Y[i] = X[(size_t)(i / q) * QMAX + i % q];
+            double *Z = malloc(sizeof(double) * n * q);
+            if (op <= 1)
+                dm_arrow_mult(&f.a, Y, q, Z);
+            else
+                memcpy(Z, Y, sizeof(double) * n * q);
+            if (op == 2)
+                dm_arrow_chol_solve(&L, Z, q);
+            if (op == 3)
+                dm_arrow_chol_forward(&L, Z, q);
+            if (op == 4)
+                dm_arrow_chol_backward(&L, Z, q);
+            for (int r = 0; r < q; r++) {
+                column_of(X, n, QMAX, r, x);
+                if (op <= 1)
+                    dm_arrow_mult(&f.a, x, 1, y);
+                else
+                    memcpy(y, x, sizeof(double) * n);
+                if (op == 2)
+                    dm_arrow_chol_solve(&L, y, 1);
+                if (op == 3)
+                    dm_arrow_chol_forward(&L, y, 1);
+                if (op == 4)
+                    dm_arrow_chol_backward(&L, y, 1);
+                column_of(Z, n, q, r, col);
+                if (memcmp(col, y, sizeof(double) * n))
+                    fail_msg("operation %d, column %d of a block of %d differs from it alone", op,
+                             r, q);
+            }
+            free(Z);
+            f.a.pattern = keep;
+        }
+    }
+    free(X), free(Y), free(x), free(y), free(col);
+    dm_arrow_chol_release(&L);
+    teardown_fixture(&f);
+}
+
 /* T = L^-1 A L^-T the plain way: forward solves over all n columns, of
  * the rows of A (dense, symmetric) and then of (L^-1 A)'. S: n x n scratch. */
 static void reduce_by_forward_solves(const dm_arrow_chol *L, const double *A, int n, double *S,
@@ -314,6 +388,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(products_match_dense),
+        cmocka_unit_test(block_widths_give_each_column_alone),
         cmocka_unit_test(cholesky_solves_and_schur_complement),
         cmocka_unit_test(cholesky_factor_matches_lapack_band),
         cmocka_unit_test(reduction_to_standard_form),
