@@ -7,7 +7,8 @@
  *      dsygvd (all) of the same M and K;
  *   2. eigenvalue error against an extended-precision reference;
  *   3. sweep throughput on 1 and 2 threads and what it implies for 1e6
- *      poses, and on 2 threads over a 256 x 256 grid (a large map's anchor
+ *      poses, a sweep's pose on one thread against bare dsygvx at poses of
+ *      its map, and on 2 threads over a 256 x 256 grid (a large map's anchor
  *      lattice); trajectories; tracker diagnoses; one fit's evaluations with
  *      the prediction workspace reused against one made per evaluation;
  *   4. peak memory (max RSS) of two sweeps whose grids differ 10x.
@@ -274,6 +275,32 @@ static double sweep_rate(const char *grid_spec, int mesh, int threads, long *poi
     if (system(cmd)) {}
     *points = st.points_total;
     return st.points_total / dt;
+}
+
+/* Bare dsygvx(10) (seconds, the mean) at poses of a sweep's grid: the
+ * model built at 8 of its points spread over the map, as section 1 times
+ * it along a tile's path. */
+static double bare_dsygvx_on_grid(const char *preset, int mesh)
+{
+    dm_robot rb;
+    dm_robot_load(preset, &rb, NULL);
+    dm_model *md = dm_model_alloc(&rb, mesh, mesh, NULL);
+    int n = md->n, count = 0;
+    double *A = malloc(sizeof(double) * n * n), *B = malloc(sizeof(double) * n * n);
+    double *w = malloc(sizeof(double) * n), *Z = malloc(sizeof(double) * n * 10);
+    lapack_int *ifail = malloc(sizeof(lapack_int) * n);
+    double tx = 0, td = 0;
+    for (int j = 0; j < 8; j++) {
+        double P[3] = {-0.25 + 0.5 * (j % 4) / 3, -0.2 + 0.4 * (j / 4), -0.5};
+        dm_pose pose;
+        if (dm_kin_inverse(&rb, P, &pose, NULL) || dm_model_build(md, &pose, NULL))
+            continue;
+        bare_lapack(md, A, B, w, Z, ifail, &tx, &td);
+        count++;
+    }
+    free(A), free(B), free(w), free(Z), free(ifail);
+    dm_model_free(md);
+    return count ? tx / count : 0;
 }
 
 static int discard(void *user, const dm_integ_sample *s)
@@ -577,6 +604,12 @@ int main(int argc, char **argv)
             printf("   sweep chen2018 mesh 4,4: %ld points in 16 tiles, %d thread%s: %7.1f poses/s "
                    "(1e6 poses: %.1f min)\n",
                    pts, th, th > 1 ? "s" : " ", r, 1e6 / r / 60);
+            if (th == 1) { /* the whole pipeline as a sweep runs it, per pose */
+                double x = bare_dsygvx_on_grid("chen2018", 4);
+                printf("   a sweep's pose on one thread (anchors and tile I/O included): %.0f us = "
+                       "%.3f x bare dsygvx(10) at its poses (%.0f us)\n",
+                       1e6 / r, 1 / r / x, 1e6 * x);
+            }
             if (th == 2)
                 printf("   2 threads / 1 thread: %.2f\n", r / r1);
         }
