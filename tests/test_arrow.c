@@ -84,6 +84,14 @@ static void teardown_fixture(fixture *f)
     free(f->B);
 }
 
+/* The block-arrow Cholesky factor of one of the fixture's matrices (the
+ * caller releases it). */
+static void factor_of(const fixture *f, const dm_arrow *a, dm_arrow_chol *L)
+{
+    assert_int_equal(dm_arrow_chol_init(L, &f->lay, NULL), 0);
+    assert_int_equal(dm_arrow_chol_factor(L, a, NULL), 0);
+}
+
 static void products_match_dense(void **state)
 {
     (void)state;
@@ -127,8 +135,7 @@ static void block_widths_give_each_column_alone(void **state)
     setup_fixture(&f, 13, 1);
     int n = f.n;
     dm_arrow_chol L;
-    assert_int_equal(dm_arrow_chol_init(&L, &f.lay, NULL), 0);
-    assert_int_equal(dm_arrow_chol_factor(&L, &f.a, NULL), 0);
+    factor_of(&f, &f.a, &L);
     enum { QMAX = 33, OPS = 5 };
     const int widths[] = {2, 3, 4, 5, 7, 8, 9, 12, 13, 16, 19, 20, 21, 24, 27, 28, 33};
     double *X = malloc(sizeof(double) * n * QMAX), *Y = malloc(sizeof(double) * n * QMAX);
@@ -204,8 +211,7 @@ static void cholesky_solves_and_schur_complement(void **state)
     setup_fixture(&f, 11, 1);
     int n = f.n, q = 3;
     dm_arrow_chol L;
-    assert_int_equal(dm_arrow_chol_init(&L, &f.lay, NULL), 0);
-    assert_int_equal(dm_arrow_chol_factor(&L, &f.a, NULL), 0);
+    factor_of(&f, &f.a, &L);
     double *X = malloc(sizeof(double) * n * q), *D = malloc(sizeof(double) * n * q);
     unsigned s = 5;
     for (int i = 0; i < n * q; i++)
@@ -329,8 +335,7 @@ static void reduction_to_standard_form(void **state)
     setup_fixture(&f, 23, 1);
     int n = f.n;
     dm_arrow_chol L;
-    assert_int_equal(dm_arrow_chol_init(&L, &f.lay, NULL), 0);
-    assert_int_equal(dm_arrow_chol_factor(&L, &f.b, NULL), 0);
+    factor_of(&f, &f.b, &L);
     double *C = malloc(sizeof(double) * n * n), *S = malloc(sizeof(double) * n * n);
     double *T = malloc(sizeof(double) * n * n);
     dm_arrow_chol_reduce(&L, &f.a, C, S);
