@@ -2,7 +2,8 @@
 #
 #   make deps            install the Debian packages the project needs (idempotent)
 #   make / make all      build build/deltamap
-#   make test            deps + build + unit tests (cmocka) + CLI, store, shard tests
+#   make test            deps + build + unit tests (cmocka, under every kernel path
+#                        the CPU has) + CLI, path, store, shard tests
 #                        + a sweep as a job array on a real Slurm started here
 #   make test SANITIZE=1 the same built with -fsanitize=address,undefined
 #   make demo            deps + build + run the main job on a built-in robot
@@ -39,20 +40,32 @@ SUNDIALS_LIBS := -lsundials_cvode -lsundials_nvecserial
 # (tests/layers.sh, run before the library is archived).
 LAYERS  := base robot model solve responses maps measure cli
 LIB_SRC := $(filter-out src/cli/main.c,$(wildcard $(patsubst %,src/%/*.c,$(LAYERS))))
-LIB_OBJ := $(patsubst src/%.c,$(BUILD)/obj/%.o,$(LIB_SRC)) $(BUILD)/obj/presets.o
+# The kernels (src/LAYER/*_kernels.c, include/dm_isa.h) are compiled as they
+# are, the target's baseline path, and on x86-64 once more per path below,
+# each with the registers of its instruction set; the process runs one.
+TARGET_MACHINE := $(shell $(CC) -dumpmachine 2>/dev/null)
+ifneq ($(filter x86_64%,$(TARGET_MACHINE)),)
+ISA_PATHS := avx2 avx512
+endif
+ISA_FLAGS_avx2   := -mavx2
+ISA_FLAGS_avx512 := -mavx512f
+KERNEL_SRC := $(wildcard $(patsubst %,src/%/*_kernels.c,$(LAYERS)))
+isa_objs = $(foreach p,$(ISA_PATHS),$(patsubst src/%.c,$(1)/obj/%.$(p).o,$(KERNEL_SRC)))
+LIB_OBJ := $(patsubst src/%.c,$(BUILD)/obj/%.o,$(LIB_SRC)) $(call isa_objs,$(BUILD)) \
+           $(BUILD)/obj/presets.o
 ALL_SRC := $(wildcard $(patsubst %,src/%/*.[ch],$(LAYERS))) $(wildcard include/*.h)
 TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 TEST_BIN:= $(addprefix $(BUILD)/tests/,$(TESTS))
 BIN     := $(BUILD)/deltamap
 
-.PHONY: all deps test unit-tests cli-tests store-tests shard-tests alloc-tests slurm-tests fuzz-replay \
+.PHONY: all deps test unit-tests cli-tests isa-tests store-tests shard-tests alloc-tests slurm-tests fuzz-replay \
         fault-tests demo bench install clean help fuzz fuzz-deps fuzz-run
 .DELETE_ON_ERROR:
 
 all: $(BIN)
 
 help:
-	@sed -n '1,12p' Makefile | sed 's/^# \{0,1\}//'
+	@sed -n '1,13p' Makefile | sed 's/^# \{0,1\}//'
 
 deps:
 	@tools/install-deps.sh
@@ -62,6 +75,18 @@ deps:
 $(BUILD)/obj/%.o: src/%.c | $(BUILD)/obj
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) $(PKG_CFLAGS) -MMD -MP -c $< -o $@
+
+# a kernel built for path $(1) (avx2, avx512)
+define isa_rule
+$$(BUILD)/obj/%.$(1).o: src/%.c | $$(BUILD)/obj
+	@mkdir -p $$(@D)
+	$$(CC) $$(CFLAGS) $$(PKG_CFLAGS) $$(ISA_FLAGS_$(1)) -DDM_ISA_PATH=$(1) -MMD -MP -c $$< -o $$@
+
+$$(FUZZ_DIR)/obj/%.$(1).o: src/%.c $$(ALL_SRC) | $$(FUZZ_DIR)/obj
+	@mkdir -p $$(@D)
+	$$(FUZZ_CC) $$(FUZZ_CFLAGS) -fsanitize=fuzzer-no-link $$(PKG_CFLAGS) $$(ISA_FLAGS_$(1)) \
+	    -DDM_ISA_PATH=$(1) -c $$< -o $$@
+endef
 
 # The layering, checked whenever a source or header changes.
 $(BUILD)/layers.ok: $(ALL_SRC) tests/layers.sh | $(BUILD)/obj
@@ -92,12 +117,20 @@ $(BUILD)/obj $(BUILD)/tests:
 
 -include $(wildcard $(BUILD)/obj/*/*.d $(BUILD)/tests/*.d)
 
-# Tests run single-threaded BLAS inside, OpenMP as the test chooses.
-unit-tests: $(TEST_BIN)
-	@set -e; for t in $(TEST_BIN); do echo "== $$t"; OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $$t; done
+# Tests run single-threaded BLAS inside, OpenMP as the test chooses; each
+# under every kernel path this CPU has (DELTAMAP_ISA, dm_isa.h), which
+# `deltamap --version` lists.
+ISA_HERE = $(shell $(BIN) --version | sed -n 's/^paths on this CPU: //p')
+unit-tests: $(TEST_BIN) $(BIN)
+	@set -e; paths="$(ISA_HERE)"; test -n "$$paths"; for isa in $$paths; do \
+	    for t in $(TEST_BIN); do echo "== $$t (DELTAMAP_ISA=$$isa)"; \
+	        DELTAMAP_ISA=$$isa OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $$t; done; done
 
 cli-tests: $(BIN)
 	@DELTAMAP=$(BIN) tests/cli_tests.sh
+
+isa-tests: $(BIN)
+	@DELTAMAP=$(BIN) tests/isa_tests.sh
 
 store-tests: $(BIN)
 	@DELTAMAP=$(BIN) tests/store_tests.sh
@@ -127,8 +160,8 @@ slurm-tests: $(BIN)
 
 test: deps
 	@tests/layers.sh
-	@$(MAKE) --no-print-directory unit-tests cli-tests store-tests shard-tests alloc-tests slurm-tests \
-	    fuzz-replay fault-tests
+	@$(MAKE) --no-print-directory unit-tests cli-tests isa-tests store-tests shard-tests alloc-tests \
+	    slurm-tests fuzz-replay fault-tests
 	@if [ -e $(BUILD)/slurm-skipped ]; then \
 	    echo "all tests passed but the Slurm test, which was SKIPPED (see above)"; \
 	else echo "all tests passed"; fi
@@ -196,9 +229,13 @@ FUZZ_OPT     := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined \
                 -fno-sanitize-recover=undefined
 FUZZ_CFLAGS  := -std=c11 -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(FUZZ_OPT) -Wall -Wextra \
                 -Wno-pass-failed -fopenmp -Iinclude
-FUZZ_LIB_OBJ := $(patsubst src/%.c,$(FUZZ_DIR)/obj/%.o,$(LIB_SRC)) $(FUZZ_DIR)/obj/presets.o
+FUZZ_LIB_OBJ := $(patsubst src/%.c,$(FUZZ_DIR)/obj/%.o,$(LIB_SRC)) $(call isa_objs,$(FUZZ_DIR)) \
+                $(FUZZ_DIR)/obj/presets.o
 FUZZ_BIN     := $(addprefix $(FUZZ_DIR)/fuzz-,$(FUZZ_TARGETS))
 FUZZ_SECONDS ?= 600
+
+# (the kernels' rules for each path, once the fuzz build's folders are named)
+$(foreach p,$(ISA_PATHS),$(eval $(call isa_rule,$(p))))
 
 fuzz-deps:
 	@tools/install-deps.sh --fuzz

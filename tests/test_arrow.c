@@ -8,6 +8,8 @@
 #include <stdlib.h>
 
 #include "dm_arrow.h"
+#include "dm_isa.h"
+#include "../src/model/arrow_impl.h" /* each path's kernels, called side by side */
 
 static double uniform(unsigned *s)
 {
@@ -122,8 +124,9 @@ static void column_of(const double *X, int n, int q, int r, double *x)
         x[i] = X[(size_t)i * q + r];
 }
 
-/* The kernels take a block's columns in slices of 24, 20, ..., 4 (held in
- * vector registers) and then 3, 2, 1 (plain loops): every column of a
+/* The kernels take a block's columns in slices of 4 up to the path's
+ * widest (24 on AVX2 and AVX-512, 12 on SSE2, held in vector registers)
+ * and then 3, 2, 1 (plain loops): every column of a
  * block of any width must come out bit for bit as that column alone
  * (q = 1), in the product (with the recorded pattern and over the full
  * band), the solve and its two halves. A slice that mixed columns, lost
@@ -389,6 +392,132 @@ static void sturm_counts_match_eigenvalues(void **state)
     teardown_fixture(&f);
 }
 
+/* Every kernel of every path this CPU has gives the bits of the baseline
+ * path's, on the same inputs: the product (with the pattern and over the
+ * full band), the solve and its halves on blocks of 1-33 columns, the
+ * chains' Cholesky and its border, and the LDL' of the Sturm count with
+ * its Schur complement. A path whose vectors reordered a sum, contracted
+ * a multiply-add or dropped a lane would fail here (tests/cli_tests.sh
+ * compares whole sweeps' stores across paths). */
+static void every_path_gives_the_same_bits(void **state)
+{
+    (void)state;
+    fixture f;
+    setup_fixture(&f, 29, 1);
+    int n = f.n, checked = 0;
+    dm_arrow_chol L;
+    factor_of(&f, &f.a, &L);
+    enum { QMAX = 33 };
+    const int widths[] = {1, 3, 4, 8, 12, 13, 20, 24, 27, 33};
+    double *X = malloc(sizeof(double) * n * QMAX), *R = malloc(sizeof(double) * n * QMAX);
+    double *Y = malloc(sizeof(double) * n * QMAX);
+    unsigned s = 31;
+    for (int i = 0; i < n * QMAX; i++)
+        X[i] = uniform(&s);
+    const dm_arrow_kernels *base = dm_arrow_kernels_of(DM_ISA_DEFAULT);
+    for (int isa = DM_ISA_DEFAULT + 1; isa < DM_ISA_COUNT; isa++) {
+        if (!dm_isa_available((dm_isa)isa))
+            continue;
+        const dm_arrow_kernels *k = dm_arrow_kernels_of((dm_isa)isa);
+        assert_ptr_not_equal(k, base);
+        for (size_t w = 0; w < sizeof widths / sizeof widths[0]; w++) {
+            int q = widths[w];
+            for (int op = 0; op < 5; op++) {
+                const dm_arrow_pattern *keep = f.a.pattern;
+                f.a.pattern = op == 1 ? NULL : keep;
+                const dm_arrow_kernels *both[2] = {base, k};
+                double *out[2] = {R, Y};
+                for (int b = 0; b < 2; b++) {
+                    memcpy(out[b], X, sizeof(double) * n * q);
+                    if (op <= 1)
+                        both[b]->mult(&f.a, X, q, out[b]);
+                    if (op == 2)
+                        both[b]->chol_solve(&L, out[b], q);
+                    if (op == 3)
+                        both[b]->chol_forward(&L, out[b], q);
+                    if (op == 4)
+                        both[b]->chol_backward(&L, out[b], q);
+                }
+                f.a.pattern = keep;
+                if (memcmp(R, Y, sizeof(double) * n * q))
+                    fail_msg("path %s, operation %d on %d columns differs from the baseline's",
+                             dm_isa_name((dm_isa)isa), op, q);
+                checked++;
+            }
+        }
+        for (int c = 0; c < DM_ARROW_BLOCKS; c++) { /* factors and their borders */
+            int nb = f.lay.nb[c], kd = f.lay.kd[c], len = (kd + 1) * nb;
+            const int *colend = f.pat.colend[c];
+            double *band[2], *Z[2], *W[2], S[2][36] = {{0}};
+            for (int b = 0; b < 2; b++) {
+                const dm_arrow_kernels *kb = b ? k : base;
+                band[b] = malloc(sizeof(double) * len);
+                Z[b] = malloc(sizeof(double) * nb * 6);
+                W[b] = malloc(sizeof(double) * nb * 6);
+                memcpy(band[b], f.a.band[c], sizeof(double) * len);
+                assert_int_equal(kb->band_chol(band[b], nb, kd, colend), 0);
+                kb->border_of_factor(band[b], nb, kd, colend, f.a.cpl[c], Z[b], W[b], S[b]);
+            }
+            assert_memory_equal(band[0], band[1], sizeof(double) * len);
+            assert_memory_equal(W[0], W[1], sizeof(double) * nb * 6);
+            assert_memory_equal(S[0], S[1], sizeof S[0]);
+            for (int b = 0; b < 2; b++) { /* the Sturm count's LDL' of A - 0.3 B */
+                const dm_arrow_kernels *kb = b ? k : base;
+                for (int i = 0; i < len; i++)
+                    band[b][i] = f.a.band[c][i] - 0.3 * f.b.band[c][i];
+                memset(S[b], 0, sizeof S[b]);
+                assert_true(kb->band_ldl(band[b], nb, kd, colend) >= 0);
+                kb->border_schur(band[b], nb, kd, colend, f.a.cpl[c], Z[b], S[b]);
+            }
+            assert_memory_equal(band[0], band[1], sizeof(double) * len);
+            assert_memory_equal(S[0], S[1], sizeof S[0]);
+            for (int b = 0; b < 2; b++)
+                free(band[b]), free(Z[b]), free(W[b]);
+        }
+    }
+    free(X), free(R), free(Y);
+    dm_arrow_chol_release(&L);
+    teardown_fixture(&f);
+    if (!checked)
+        skip(); /* a CPU with the baseline path only: nothing to compare */
+}
+
+/* DELTAMAP_ISA chooses the path (make test runs the suites under each):
+ * the one in use is the one asked for, and a name that is no path, or a
+ * path this CPU lacks, is an error naming the paths there are. */
+static void the_path_is_the_one_asked_for(void **state)
+{
+    (void)state;
+    const char *asked = getenv("DELTAMAP_ISA");
+    dm_isa isa;
+    dm_error err;
+    if (asked && *asked)
+        assert_string_equal(dm_isa_name(dm_isa_active()), asked);
+    else
+        assert_int_equal(dm_isa_active(), dm_isa_best());
+    char keep[32] = "";
+    if (asked)
+        snprintf(keep, sizeof keep, "%s", asked);
+    setenv("DELTAMAP_ISA", "avx3", 1);
+    assert_int_equal(dm_isa_from_env(&isa, &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "DELTAMAP_ISA=avx3: unknown path"));
+    for (int i = 0; i < DM_ISA_COUNT; i++) {
+        setenv("DELTAMAP_ISA", dm_isa_name((dm_isa)i), 1);
+        int rc = dm_isa_from_env(&isa, &err);
+        assert_int_equal(rc, dm_isa_available((dm_isa)i) ? DM_OK : DM_EINVAL);
+        if (rc)
+            assert_non_null(strstr(err.msg, "this CPU or build has no"));
+        else
+            assert_int_equal(isa, i);
+    }
+    if (asked)
+        setenv("DELTAMAP_ISA", keep, 1);
+    else
+        unsetenv("DELTAMAP_ISA");
+    assert_int_equal(dm_isa_from_env(&isa, NULL), DM_OK);
+    assert_int_equal(isa, dm_isa_active());
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -398,6 +527,8 @@ int main(void)
         cmocka_unit_test(cholesky_factor_matches_lapack_band),
         cmocka_unit_test(reduction_to_standard_form),
         cmocka_unit_test(sturm_counts_match_eigenvalues),
+        cmocka_unit_test(every_path_gives_the_same_bits),
+        cmocka_unit_test(the_path_is_the_one_asked_for),
     };
     return cmocka_run_group_tests_name("arrow", tests, NULL, NULL);
 }

@@ -10,6 +10,7 @@
 
 #include "dm_analysis.h"
 #include "dm_coupling.h"
+#include "dm_isa.h"
 #include "cli_impl.h"
 
 
@@ -37,7 +38,14 @@ static const char MAIN_HELP[] =
     "\n"
     "exit codes: 0 success, 1 usage error, 2 bad input (robot file, option\n"
     "value), 3 unreachable pose, 4 numerical failure (singular structure),\n"
-    "5 i/o error, 6 out of memory, 7 interrupted\n";
+    "5 i/o error, 6 out of memory, 7 interrupted\n"
+    "\n"
+    "environment:\n"
+    "  DELTAMAP_ISA    the kernels' instruction-set path: default (SSE2 on\n"
+    "                  x86-64, NEON on aarch64), avx2 or avx512; unset, the\n"
+    "                  best the CPU has. Every path gives the same bits; a path\n"
+    "                  the CPU lacks is refused. `deltamap --version` names the\n"
+    "                  path in use and those this CPU has.\n";
 
 static const char MODES_HELP[] =
     "usage: deltamap modes --robot R [--at X,Y,Z] [--modes K] [--mesh NA,NB]\n"
@@ -286,6 +294,21 @@ static int cmd_presets(void)
     return 0;
 }
 
+/* The version, the CPU and the kernels' path (dm_isa.h): a figure or a
+ * report quoted from a run says where it came from. */
+static int print_version(dm_isa isa)
+{
+    char cpu[128];
+    dm_isa_cpu_model(cpu, sizeof cpu);
+    printf("deltamap %s\nCPU: %s\nkernels: %s (%s)\npaths on this CPU:", DM_VERSION, cpu,
+           dm_isa_name(isa), dm_isa_describe(isa));
+    for (int i = 0; i < DM_ISA_COUNT; i++)
+        if (dm_isa_available((dm_isa)i))
+            printf(" %s", dm_isa_name((dm_isa)i));
+    printf("\n");
+    return 0;
+}
+
 int dm_cli_main(int argc, char **argv)
 {
     if (argc < 2) {
@@ -297,10 +320,12 @@ int dm_cli_main(int argc, char **argv)
         fputs(MAIN_HELP, stdout);
         return 0;
     }
-    if (!strcmp(cmd, "--version")) {
-        printf("deltamap %s\n", DM_VERSION);
-        return 0;
-    }
+    dm_error err;
+    dm_isa isa;
+    if (dm_isa_from_env(&isa, &err))
+        return dm_cli_report(&err);
+    if (!strcmp(cmd, "--version"))
+        return print_version(isa);
     if (!strcmp(cmd, "modes"))
         return cmd_modes(argc - 1, argv + 1);
     if (!strcmp(cmd, "trajectory"))

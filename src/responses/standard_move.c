@@ -20,7 +20,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "dm_clones.h"
+#include "standard_move_impl.h"
 #include "dm_integrate.h"
 #include "dm_kinematics.h"
 #include "dm_loads.h"
@@ -255,18 +255,22 @@ static void on_block(dm_move_ws *w, const dm_model *md, const dm_static *st, blo
             out[r][i] = res[(size_t)i * qp + r];
 }
 
-/* Four partial sums: one running sum waits on each addition (a dot of
- * n = 210 cost ~4n cycles, and the carried modes take some 200 per pose). */
-DM_VECTOR_CLONES static double dot(const double *a, const double *b, int n)
+/* The path's vector loops (standard_move_kernels.c), chosen once. */
+static const dm_move_kernels *kernels(void)
 {
-    double s[4] = {0, 0, 0, 0};
-    int i = 0;
-    for (; i + 4 <= n; i += 4)
-        for (int r = 0; r < 4; r++)
-            s[r] += a[i + r] * b[i + r];
-    for (; i < n; i++)
-        s[0] += a[i] * b[i];
-    return (s[0] + s[1]) + (s[2] + s[3]);
+#if defined(__x86_64__)
+    switch (dm_isa_active()) {
+    case DM_ISA_AVX512: return &dm_move_kernels_avx512;
+    case DM_ISA_AVX2: return &dm_move_kernels_avx2;
+    default: break;
+    }
+#endif
+    return &dm_move_kernels_default;
+}
+
+static double dot(const double *a, const double *b, int n)
+{
+    return kernels()->dot(a, b, n);
 }
 
 /* M Phi of the k retained modes, once a pose: the Krylov vectors' parts
@@ -639,17 +643,10 @@ static const double *level_transitions(const phase *ph, int level)
     return t;
 }
 
-DM_VECTOR_CLONES static void step_modes(const phase *ph, const double *t, const double *q,
-                                        const double *v, double *qo, double *vo)
+static void step_modes(const phase *ph, const double *t, const double *q, const double *v,
+                       double *qo, double *vo)
 {
-    int nmax = ph->w->nmax;
-    const double *restrict a11 = t, *restrict a12 = t + nmax, *restrict a21 = t + 2 * nmax;
-    const double *restrict a22 = t + 3 * nmax;
-#pragma omp simd
-    for (int j = 0; j < ph->c->nm; j++) {
-        qo[j] = a11[j] * q[j] + a12[j] * v[j];
-        vo[j] = a21[j] * q[j] + a22[j] * v[j];
-    }
+    kernels()->step_modes(ph->c->nm, t, ph->w->nmax, q, v, qo, vo);
 }
 
 /* How many modes are slower than wlim (a prefix: sort_by_frequency). */
@@ -661,28 +658,13 @@ static int slow_count(const carried *c, double wlim)
     return n;
 }
 
-/* Four doubles, any alignment: the x, y, z (and 0) of a mode's platform
- * translation, and sums of them. */
-typedef double v4d __attribute__((vector_size(32), aligned(8)));
-
-/* y at a state, and l, l' of its ns slowest modes. The three components
- * are summed side by side in one vector (each over the modes in order,
- * as three plain sums would: the same bits), which takes a third of the
- * operations where the CPU has 4-wide vectors. Over a dozen modes this
- * beats vectorising each sum over the modes (the reductions' set-up and
- * horizontal adds cost more than they save). */
-DM_VECTOR_CLONES static void eval_node(const phase *ph, const double *q, const double *v, int ns,
-                                       node *nd)
+/* y at a state, and l, l' of its ns slowest modes (the sums:
+ * standard_move_kernels.c). */
+static void eval_node(const phase *ph, const double *q, const double *v, int ns, node *nd)
 {
     const carried *c = ph->c;
-    const v4d *p4 = (const v4d *)c->p4;
-    v4d l = {0, 0, 0, 0}, d = l, f = l;
-    for (int j = 0; j < ns; j++) {
-        l += p4[j] * q[j];
-        d += p4[j] * v[j];
-    }
-    for (int j = ns; j < c->nm; j++)
-        f += p4[j] * q[j];
+    double l[4], d[4], f[4];
+    kernels()->node_sums(c->p4, q, v, ns, c->nm, l, d, f);
     const double *p = ph->yp;
     for (int r = 0; r < 3; r++) {
         nd->l[r] = p[r] + l[r];
