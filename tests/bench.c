@@ -12,7 +12,12 @@
  *      lattice); trajectories; tracker diagnoses; one fit's evaluations with
  *      the prediction workspace reused against one made per evaluation;
  *   4. peak memory (max RSS) of two sweeps whose grids differ 10x.
- * Nothing is asserted: timings are not tests. */
+ * Section 1's rows and section 3's per-pose sweep line are measured on
+ * every kernel path the CPU has (include/dm_isa.h), each in a child
+ * process of its own (a process runs one path) with DELTAMAP_ISA set;
+ * the rest runs on the path in use (the best, or DELTAMAP_ISA's), which
+ * the header names with the CPU. Nothing is asserted: timings are not
+ * tests. */
 #include <cblas.h>
 #include <lapacke.h>
 #include <math.h>
@@ -28,6 +33,7 @@
 #include "dm_analysis.h"
 #include "dm_diagnose.h"
 #include "dm_integrate.h"
+#include "dm_isa.h"
 #include "dm_predict.h"
 #include "dm_synth.h"
 #include "dm_reference.h"
@@ -205,8 +211,9 @@ static void print_pose_costs(const char *preset, int mesh, const pose_costs *pc)
     double total = 0, us = 1e6;
     for (int i = 0; i < NPART; i++)
         total += pc->t[i];
-    printf("%-9s %d,%d n=%3d | total %6.0f us = %5.3f x dsygvx(10), %5.3f x dsygvd |", preset,
-           mesh, mesh, pc->n, total * us, total / pc->dsygvx, total / pc->dsygvd);
+    printf("%-9s %d,%d n=%3d %-7s| total %6.0f us = %5.3f x dsygvx(10), %5.3f x dsygvd |",
+           preset, mesh, mesh, pc->n, dm_isa_name(dm_isa_active()), total * us,
+           total / pc->dsygvx, total / pc->dsygvd);
     for (int i = 0; i < NPART; i++)
         printf(" %s %.0f", PART[i], pc->t[i] * us);
     printf(" | eigen/dsygvx %5.3f | bare dsygvx %5.0f dsygvd %6.0f us | %.1f A-products, %.1f "
@@ -547,6 +554,80 @@ static void shard_throughput(const char *grid_spec, long points)
            points, wall[0], wall[1], points / wall[0], points / wall[1], wall[0] / wall[1]);
 }
 
+/* Section 1's row for one preset and mesh. */
+static void pose_row(const char *preset, int mesh)
+{
+    pose_costs pc;
+    per_pose(preset, mesh, 10, &pc);
+    print_pose_costs(preset, mesh, &pc);
+}
+
+#define SWEEP_GRID "x=-0.3:0.3:64,y=-0.3:0.3:64,z=-0.5"
+
+/* The sweep on one thread and its pose against bare dsygvx(10) at poses
+ * of its map; poses/s. */
+static double sweep_one_thread(void)
+{
+    long pts;
+    /* 16 tiles of 16 x 16: with 9 (a 48 x 48 grid, used before) two
+     * threads share them 5 : 4, which caps their ratio at 1.8 whatever
+     * the code; a map of 1e6 poses has ~4000 tiles */
+    double r = sweep_rate(SWEEP_GRID, 4, 1, &pts), x = bare_dsygvx_on_grid("chen2018", 4);
+    const char *isa = dm_isa_name(dm_isa_active());
+    printf("   sweep chen2018 mesh 4,4: %ld points in 16 tiles, 1 thread , path %-7s: %7.1f "
+           "poses/s (1e6 poses: %.1f min)\n",
+           pts, isa, r, 1e6 / r / 60);
+    printf("   a sweep's pose on one thread (anchors and tile I/O included), path %-7s: %.0f us = "
+           "%.3f x bare dsygvx(10) at its poses (%.0f us)\n",
+           isa, 1e6 / r, 1 / r / x, 1e6 * x);
+    return r;
+}
+
+/* JOB ("row PRESET MESH" or "sweep") on kernel path isa, in a child
+ * process with DELTAMAP_ISA set (the path is chosen once a process). */
+static void on_path(dm_isa isa, const char *job)
+{
+    fflush(stdout);
+    pid_t pid = fork();
+    if (pid == 0) {
+        setenv("DELTAMAP_ISA", dm_isa_name(isa), 1);
+        setenv("DM_BENCH_JOB", job, 1);
+        execl("/proc/self/exe", "bench", (char *)NULL);
+        _exit(127);
+    }
+    int status;
+    if (pid < 0 || waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status))
+        fprintf(stderr, "bench: %s on path %s failed\n", job, dm_isa_name(isa));
+}
+
+/* A child's job (DM_BENCH_JOB): 0 when there was none. */
+static int run_job(const char *job)
+{
+    char preset[32];
+    int mesh;
+    if (!job || !*job)
+        return 0;
+    if (sscanf(job, "row %31s %d", preset, &mesh) == 2)
+        pose_row(preset, mesh);
+    else if (!strcmp(job, "sweep"))
+        sweep_one_thread();
+    return 1;
+}
+
+/* JOB on every path this CPU has: in this process on the path in use,
+ * in a child on each other. */
+static void on_every_path(const char *job)
+{
+    for (int i = 0; i < DM_ISA_COUNT; i++) {
+        if (!dm_isa_available((dm_isa)i))
+            continue;
+        if ((dm_isa)i == dm_isa_active())
+            run_job(job);
+        else
+            on_path((dm_isa)i, job);
+    }
+}
+
 /* `bench` runs every section; `bench 1 3` only those, and in section 1
  * `bench 1 chen2018` only that preset (to iterate on one figure). */
 static int wanted(int argc, char **argv, const char *what)
@@ -567,19 +648,35 @@ int main(int argc, char **argv)
 {
     setvbuf(stdout, NULL, _IOLBF, 0);
     openblas_set_num_threads(1); /* as the serial commands do */
-    printf("deltamap bench on %d cores (one BLAS thread per worker)\n\n", omp_get_num_procs());
+    if (run_job(getenv("DM_BENCH_JOB")))
+        return 0;
+    dm_isa isa;
+    dm_error err;
+    if (dm_isa_from_env(&isa, &err)) {
+        fprintf(stderr, "bench: %s\n", err.msg);
+        return 2;
+    }
+    char cpu[128];
+    dm_isa_cpu_model(cpu, sizeof cpu);
+    printf("deltamap bench on %d cores of %s (one BLAS thread per worker); kernels: %s, paths on "
+           "this CPU:",
+           omp_get_num_procs(), cpu, dm_isa_name(isa));
+    for (int i = 0; i < DM_ISA_COUNT; i++)
+        if (dm_isa_available((dm_isa)i))
+            printf(" %s", dm_isa_name((dm_isa)i));
+    printf(" (section 1's rows and the sweep's per-pose line on each)\n\n");
     if (wanted(argc, argv, "1"))
         printf("1. per pose, one thread: the sweep's pipeline along a tile's path (10 modes + 4 "
-               "for tracking, 3 moves), parts in us\n");
+               "for tracking, 3 moves), parts in us, on each kernel path\n");
     const char *presets[] = {"chen2018", "zheng2017", "han2011"};
     const int meshes[] = {1, 4, 8};
     for (int m = 0; m < 3 && wanted(argc, argv, "1"); m++)
         for (int p = 0; p < 3; p++) {
             if (!wanted(argc, argv, presets[p]))
                 continue;
-            pose_costs pc;
-            per_pose(presets[p], meshes[m], 10, &pc);
-            print_pose_costs(presets[p], meshes[m], &pc);
+            char job[64];
+            snprintf(job, sizeof job, "row %s %d", presets[p], meshes[m]);
+            on_every_path(job);
         }
     if (wanted(argc, argv, "2"))
         printf("\n2. accuracy against an extended-precision reference (tests/dm_reference.h)\n");
@@ -602,26 +699,14 @@ int main(int argc, char **argv)
         fit_evaluation_rate(1);
         fit_evaluation_rate(4);
         long pts;
-        double r1 = 0;
-        for (int th = 1; th <= 2; th++) {
-            /* 16 tiles of 16 x 16: with 9 (a 48 x 48 grid, used before)
-             * two threads share them 5 : 4, which caps their ratio at 1.8
-             * whatever the code; a map of 1e6 poses has ~4000 tiles */
-            double r = sweep_rate("x=-0.3:0.3:64,y=-0.3:0.3:64,z=-0.5", 4, th, &pts);
-            if (th == 1)
-                r1 = r;
-            printf("   sweep chen2018 mesh 4,4: %ld points in 16 tiles, %d thread%s: %7.1f poses/s "
-                   "(1e6 poses: %.1f min)\n",
-                   pts, th, th > 1 ? "s" : " ", r, 1e6 / r / 60);
-            if (th == 1) { /* the whole pipeline as a sweep runs it, per pose */
-                double x = bare_dsygvx_on_grid("chen2018", 4);
-                printf("   a sweep's pose on one thread (anchors and tile I/O included): %.0f us = "
-                       "%.3f x bare dsygvx(10) at its poses (%.0f us)\n",
-                       1e6 / r, 1 / r / x, 1e6 * x);
-            }
-            if (th == 2)
-                printf("   2 threads / 1 thread: %.2f\n", r / r1);
-        }
+        for (int i = 0; i < DM_ISA_COUNT; i++) /* the other paths first, then this one's */
+            if (dm_isa_available((dm_isa)i) && (dm_isa)i != dm_isa_active())
+                on_path((dm_isa)i, "sweep");
+        double r1 = sweep_one_thread(), r2 = sweep_rate(SWEEP_GRID, 4, 2, &pts);
+        printf("   sweep chen2018 mesh 4,4: %ld points in 16 tiles, 2 threads, path %-7s: %7.1f "
+               "poses/s (1e6 poses: %.1f min)\n",
+               pts, dm_isa_name(dm_isa_active()), r2, 1e6 / r2 / 60);
+        printf("   2 threads / 1 thread: %.2f\n", r2 / r1);
         /* a large map's anchors: 32 per axis, 8 grid points apart (the
          * 64 x 64 grid above has 16, 4 apart, and 1/16 of its poses) */
         double rl = sweep_rate("x=-0.3:0.3:256,y=-0.3:0.3:256,z=-0.5", 4, 2, &pts);
