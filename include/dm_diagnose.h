@@ -27,6 +27,7 @@
 #define DM_DIAGNOSE_H
 
 #include "dm_measure.h"
+#include "dm_progress.h"
 #include "dm_robot.h"
 
 #define DM_DIAG_MAXV 18    /* parameters of one effect (geometry_errors: 6 families x 3 chains) */
@@ -149,6 +150,16 @@ typedef struct dm_diagnose_opts {
                                     result does not depend on it */
     int force_long;              /* run even when estimated beyond DM_MAX_WORK_S (else
                                     refused before any fit, dm_check_size) */
+    /* dm_diagnose's progress (dm_progress.h), NULL: none. Units: fits
+     * (a fit is 7 to 100 predictions of the data; the count is reported
+     * again after each prediction, so the clock moves), in the stages
+     * "single effects", "geometry union" (when the families are fitted
+     * together), "second effect screen", "pair fits", "pair with the
+     * global effect" (when a per-chain effect must beat its global one),
+     * then "verdict checks" (predictions: one per parameter of the
+     * verdict and one more). */
+    dm_progress_fn progress;
+    void *progress_user;
 } dm_diagnose_opts;
 
 int dm_diagnose(const dm_robot *robot, const dm_dataset *data, const dm_diagnose_opts *opts,

@@ -26,6 +26,7 @@
 
 #include "dm_diagnose.h"
 #include "dm_measure.h"
+#include "dm_progress.h"
 #include "dm_robot.h"
 
 #define DM_PLAN_MAXEFF 6
@@ -48,6 +49,16 @@ typedef struct dm_plan_opts {
     int threads;                /* 0: OpenMP's default; the result does not depend on it */
     int force_long;             /* run even when estimated beyond DM_MAX_WORK_S or
                                    DM_MAX_BYTES (else refused before the predictions) */
+    /* progress (dm_progress.h), NULL: none. Stages: "sensitivities" (a
+     * survey: its pose analyses, p + 1 per candidate pose; a tracker run:
+     * its predictions, p + 1 per path of the family), a survey's "choosing
+     * poses" (the greedy scans over the candidates, one per pose) and
+     * "exchanging poses" (one stage per exchange pass, a scan per pose),
+     * then "assessment" (predictions of the design: the baseline, p + 1
+     * sensitivities and, per effect, up to 32 for its detectable
+     * magnitude). */
+    dm_progress_fn progress;
+    void *progress_user;
 } dm_plan_opts;
 
 typedef struct dm_plan_pair {

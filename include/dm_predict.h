@@ -44,6 +44,12 @@ void dm_predictor_window(dm_predictor *p, int n);
 
 void dm_predictor_free(dm_predictor *p);
 
+/* Call tick(user) after each pose analysed (modal and static data) or
+ * each integration step (tracker data, replays included) of this
+ * predictor's runs, from the thread running them: units of work, for a
+ * caller's progress. NULL: none. Changes no prediction. */
+void dm_predictor_on_work(dm_predictor *p, void (*tick)(void *user), void *user);
+
 /* What a command implies, judged before any work: refused beyond
  * DM_MAX_WORK_S of estimated wall time or DM_MAX_BYTES of memory unless
  * forced (the CLI's --force-long). Estimates come from the costs measured

@@ -38,6 +38,7 @@
 #include <stdint.h>
 
 #include "dm_error.h"
+#include "dm_progress.h"
 #include "dm_robot.h"
 
 typedef enum { DM_TOL_UNIFORM = 0, DM_TOL_NORMAL = 1 } dm_tol_dist;
@@ -63,6 +64,12 @@ typedef struct dm_tolerance_spec {
     int flexibility;          /* add the static elastic error under gravity */
     int na, nb;               /* mesh of the flexible model (0: the robot's) */
     int force;                /* run even when estimated beyond DM_TOLERANCE_MAX_SECONDS */
+    /* dm_tolerance_pose's progress (dm_progress.h), NULL: none. Stages:
+     * "linearisation" (its 61 model evaluations), then "Monte Carlo" (its
+     * samples). Not a setting of the result, nor of a sweep's store (a
+     * sweep's points report nothing). */
+    dm_progress_fn progress;
+    void *progress_user;
 } dm_tolerance_spec;
 
 void dm_tolerance_spec_default(dm_tolerance_spec *spec);

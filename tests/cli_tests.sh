@@ -379,6 +379,59 @@ expect 2 "plan over many candidates" timeout 10 "$DM" plan --robot zheng2017 --k
 contains err "candidates for 4 parameters: about"
 expect 1 "compare has no --force-long" "$DM" compare --measured "$TMP/long.csv" --force-long
 
+# ---- progress of the long commands (--progress, on stderr) ----
+# progress_ok CMD: $TMP/err holds CMD's progress and nothing else, as lines
+# ("CMD: STAGE DONE/TOTAL UNIT ...") or as a bar redrawn after \r; each
+# stage's count starts at 0, never falls, and ends at the stage's total
+progress_ok() {
+    if awk -v cmd="$1: " 'BEGIN { RS = "[\r\n]+" }
+        $0 == "" || bad { next }
+        {
+            s = $0
+            if (index(s, cmd) == 1) s = substr(s, length(cmd) + 1)
+            else if (!sub(/^\[[#.]+\] +[0-9]+%  /, "", s)) { bad = "not progress: " $0; next }
+            if (!match(s, /[0-9]+\/[0-9]+/)) { bad = "no count: " $0; next }
+            split(substr(s, RSTART, RLENGTH), c, "/")
+            d = c[1] + 0; t = c[2] + 0; st = substr(s, 1, RSTART - 1)
+            if (n == 0 || (pd == pt && d == 0)) { if (d != 0 || t < 1) bad = "a stage starts at " d "/" t }
+            else if (st != ps || t != pt || d < pd) bad = "count falls or stage unfinished: " $0
+            n++; pd = d; pt = t; ps = st
+        }
+        END {
+            if (!bad && (n == 0 || pd != pt)) bad = "no progress, or it ends short of its total"
+            if (bad) { print bad; exit 1 }
+        }' "$TMP/err"; then ok; else bad "$1 progress"; cat "$TMP/err"; fi
+}
+# progress_cases NAME ARGS...: the same stdout without progress (the
+# default when stderr is no terminal: nothing on it), with lines and with a
+# bar; a bad mode is a usage error
+progress_cases() {
+    name=$1; shift
+    expect 0 "$name without a terminal" "$DM" "$@"
+    if [ -s "$TMP/err" ]; then bad "$name wrote to stderr by default"; cat "$TMP/err"; else ok; fi
+    cp "$TMP/out" "$TMP/quiet.out"
+    expect 0 "$name --progress lines" "$DM" "$@" --progress lines
+    if cmp -s "$TMP/out" "$TMP/quiet.out"; then ok; else bad "$name stdout changed by --progress lines"; fi
+    progress_ok "$name"
+    expect 0 "$name --progress bar" "$DM" "$@" --progress bar
+    if cmp -s "$TMP/out" "$TMP/quiet.out"; then ok; else bad "$name stdout changed by --progress bar"; fi
+    progress_ok "$name"
+    expect 0 "$name --progress none" "$DM" "$@" --progress none
+    if cmp -s "$TMP/out" "$TMP/quiet.out" && [ ! -s "$TMP/err" ]; then ok; else bad "$name --progress none"; fi
+    expect 1 "$name bad --progress" "$DM" "$@" --progress loud
+    contains err "--progress is bar, lines or none: loud"
+}
+progress_cases diagnose diagnose --measured "$TMP/modal.csv" --mesh 1,1 --no-pairs --json
+progress_cases plan plan --robot zheng2017 --kind static --effects actuator_stiffness,base_stiffness=3e6 --poses 6 --mesh 1,1
+progress_cases tolerance tolerance $TOLR --samples 400 --seed 7 --spec 0.05e-3 --threads 2
+progress_cases study study --robot chen2018 --path "p2p:from=0,0,-0.5;to=0.05,0,-0.5;duration=0.02" --mesh 1,1 --vary arm.side=0.02:0.03:2 --vary rod.side=0.006:0.01:2
+expect 0 "plan tracker --progress lines" "$DM" plan --robot zheng2017 --kind tracker --effects error_base_radius,error_platform_radius --poses 30 --mesh 1,1 --progress lines
+progress_ok plan
+contains err "plan: sensitivities 154/154 predictions"
+expect 1 "compare has no --progress" "$DM" compare --measured "$TMP/modal.csv" --mesh 1,1 --progress lines
+expect 1 "sweep bad --progress" "$DM" sweep --robot chen2018 --grid "x=0,y=0,z=-0.5" --out "$TMP/never" --progress loud
+contains err "--progress is bar, lines or none"
+
 # ---- plots (the project's Python environment) ----
 if [ -x .venv/bin/python ]; then
     expect 0 "plot trajectory" .venv/bin/python tools/plot_trajectory.py "$TMP/run.csv" -o "$TMP/run.png"

@@ -9,7 +9,7 @@
 # test`; exits 1 naming each offending file or include.
 cd "$(dirname "$0")/.." || exit 2
 LAYERS="base robot model solve responses maps measure cli"
-HEADER_ONLY="vec3:base version:base"
+HEADER_ONLY="vec3:base version:base progress:base"
 
 rank() { # index of layer $1 in LAYERS, empty if none
     i=0

@@ -60,6 +60,47 @@ int dm_cli_tolerance_dist(const char *cmd, const char *flag, const char *arg,
  * BLAS inside their parallel regions runs serially by itself.) */
 void dm_cli_serial_blas(void);
 
+/* ---- progress on stderr (--progress), one drawing for every long command ----
+ *
+ * A bar redrawn at most 4 times a second, or a line at most every 10 s
+ * ("CMD: STAGE DONE/TOTAL UNIT ..."); each stage's start and end show at
+ * once, a bar's end with its line's end. The ETA is the stage's: elapsed *
+ * (total - done) / done, from the work done so far. */
+#include "dm_progress.h"
+
+enum { DM_CLI_PROGRESS_NONE = 0, DM_CLI_PROGRESS_BAR = 1, DM_CLI_PROGRESS_LINES = 2 };
+
+/* --progress bar|lines|none into *mode: 0, or a usage error of cmd. */
+int dm_cli_parse_progress(const char *cmd, const char *arg, int *mode);
+
+/* Without --progress: a bar when stderr is a terminal, else `otherwise`
+ * (the sweep: lines, for its logs; the other commands: none). */
+int dm_cli_progress_default(int otherwise);
+
+typedef struct dm_cli_progress {
+    const char *cmd;       /* names the lines: "diagnose: ..." */
+    int mode;              /* DM_CLI_PROGRESS_* */
+    int index;             /* the stage drawn last (-1: none yet) */
+    double last, stage_start; /* seconds of the last drawing and of the stage's start */
+    int open;              /* a bar is drawn whose line has not ended */
+} dm_cli_progress;
+
+void dm_cli_progress_init(dm_cli_progress *v, const char *cmd, int mode);
+
+/* Draw one report of stage number `index` (a new number: a new stage,
+ * drawn at once): "[STAGE ]DONE/TOTAL[ UNIT][  RATE]  ETA E s". stage,
+ * unit and rate may be NULL. */
+void dm_cli_progress_draw(dm_cli_progress *v, int index, const char *stage, long done,
+                          long total, const char *unit, const char *rate, double seconds,
+                          int final);
+
+/* A dm_progress_fn drawing a library's reports: user is a dm_cli_progress. */
+void dm_cli_progress_report(void *user, const dm_progress *p);
+
+/* End a bar's line left open (the work stopped mid-stage, on an error):
+ * call before printing anything else. */
+void dm_cli_progress_finish(dm_cli_progress *v);
+
 /* Commands. */
 int dm_cli_trajectory(int argc, char **argv);
 int dm_cli_study(int argc, char **argv);

@@ -30,6 +30,7 @@ static const char DIAGNOSE_HELP[] =
     "usage: deltamap diagnose --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"
     "                         [--sigma S] [--no-pairs] [--threads N]\n"
     "                         [--write-robot FILE] [--force-long] [--json]\n"
+    "                         [--progress bar|lines|none]\n"
     "\n"
     "Fits every candidate effect of docs/model.md §6 (actuator, joint and base\n"
     "springs, payload, elbow masses, geometric stiffness, clearance; for tracker data also\n"
@@ -45,7 +46,9 @@ static const char DIAGNOSE_HELP[] =
     "run on --threads N (default: all cores; the result does not depend on it).\n"
     "--write-robot writes the extended robot file. Data whose diagnosis is estimated\n"
     "at more than 4 hours on its threads are refused before any fit unless\n"
-    "--force-long.\n";
+    "--force-long. --progress: how far the fits are, on stderr, with an ETA per\n"
+    "stage (single effects, second effect, verdict checks): a bar (the default\n"
+    "when stderr is a terminal), lines, or none (the default otherwise).\n";
 
 static const char SYNTH_HELP[] =
     "usage: deltamap synth --robot R --kind modal|static|tracker [--effect NAME=VALUE]...\n"
@@ -71,6 +74,7 @@ typedef struct {
     const char *measured, *robot, *out, *write_robot;
     const char *sets[DM_CLI_MAXSET];
     int nset, json, pairs, threads, na, nb, force_long;
+    int progress;       /* diagnose: DM_CLI_PROGRESS_* */
     double sigma;       /* --sigma: noise level for samples that give none */
 } measure_args;
 
@@ -81,10 +85,11 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
         {"write-robot", 1, 0, 'w'}, {"set", 1, 0, 's'}, {"mesh", 1, 0, 'm'},
         {"no-pairs", 0, 0, 'P'}, {"threads", 1, 0, 'T'}, {"sigma", 1, 0, 'S'},
         {"json", 0, 0, 'j'},     {"help", 0, 0, 'h'},    {"force-long", 0, 0, 'L'},
-        {0, 0, 0, 0}};
+        {"progress", 1, 0, 'p'}, {0, 0, 0, 0}};
     int c;
     memset(a, 0, sizeof *a);
     a->pairs = 1;
+    a->progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
@@ -99,6 +104,12 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
             if (strcmp(cmd, "diagnose"))
                 return dm_cli_usage(cmd, "unknown or incomplete option", argv[optind - 1]);
             a->force_long = 1;
+            break;
+        case 'p':
+            if (strcmp(cmd, "diagnose"))
+                return dm_cli_usage(cmd, "unknown or incomplete option", argv[optind - 1]);
+            if (dm_cli_parse_progress(cmd, optarg, &a->progress))
+                return EXIT_USAGE;
             break;
         case 'T':
             if (dm_cli_parse_int(optarg, 1, 1024, &a->threads))
@@ -744,10 +755,15 @@ int dm_cli_diagnose(int argc, char **argv)
     dm_robot rb;
     dm_error err;
     dm_diagnosis dg;
-    dm_diagnose_opts o = {a.na, a.nb, a.pairs, a.threads ? a.threads : all_cores, a.force_long};
+    dm_cli_progress view;
+    dm_cli_progress_init(&view, "diagnose", a.progress);
+    dm_diagnose_opts o = {a.na, a.nb, a.pairs, a.threads ? a.threads : all_cores, a.force_long,
+                          a.progress ? dm_cli_progress_report : NULL, &view};
     if ((rc = load(&a, &d, &rb, &err)))
         return dm_cli_report(&err);
-    if ((rc = dm_diagnose(&rb, &d, &o, &dg, &err))) {
+    rc = dm_diagnose(&rb, &d, &o, &dg, &err);
+    dm_cli_progress_finish(&view);
+    if (rc) {
         dm_dataset_free(&d);
         return dm_cli_report_size(&err);
     }

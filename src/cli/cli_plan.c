@@ -15,7 +15,7 @@ static const char PLAN_HELP[] =
     "usage: deltamap plan --robot R --kind modal|static|tracker --effects NAME[=V],...\n"
     "                     --poses N [--noise S] [--region GRID] [--seed S] [--mesh NA,NB]\n"
     "                     [--modes K] [--threads N] [--set K=V]... [--force-long]\n"
-    "                     [--out POSES.csv] [--json]\n"
+    "                     [--out POSES.csv] [--json] [--progress bar|lines|none]\n"
     "\n"
     "Picks the N poses of a modal or static survey (tracker: one path of a small\n"
     "family of circles and ring-down moves, N samples at 1 ms) that make the named\n"
@@ -31,11 +31,13 @@ static const char PLAN_HELP[] =
     "0.02 Hz, 50 nm, 2 um). --out writes the poses as a measurement template\n"
     "(docs/measured-data.md, values empty). Deterministic for a seed, whatever\n"
     "--threads. A plan estimated at more than 4 hours or 2 GB is refused before\n"
-    "its predictions unless --force-long.\n";
+    "its predictions unless --force-long. --progress: how far it is, on stderr,\n"
+    "with an ETA per stage (sensitivities, choosing poses, assessment): a bar (the\n"
+    "default when stderr is a terminal), lines, or none (the default otherwise).\n";
 
 typedef struct {
     const char *robot, *effects, *out, *sets[DM_CLI_MAXSET];
-    int nset, json, have_kind;
+    int nset, json, have_kind, progress;
     dm_plan_opts o;
 } plan_args;
 
@@ -47,9 +49,10 @@ static int parse(int argc, char **argv, plan_args *a)
         {"seed", 1, 0, 'S'},  {"mesh", 1, 0, 'm'},    {"modes", 1, 0, 'M'},
         {"threads", 1, 0, 'T'}, {"set", 1, 0, 's'},   {"out", 1, 0, 'o'},
         {"json", 0, 0, 'j'},  {"help", 0, 0, 'h'},    {"force-long", 0, 0, 'L'},
-        {0, 0, 0, 0}};
+        {"progress", 1, 0, 'P'}, {0, 0, 0, 0}};
     int c, seed = 1;
     memset(a, 0, sizeof *a);
+    a->progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
@@ -69,6 +72,10 @@ static int parse(int argc, char **argv, plan_args *a)
                 return dm_cli_usage("plan", "--poses takes a whole number 1..2147483647", optarg);
             break;
         case 'L': a->o.force_long = 1; break;
+        case 'P':
+            if (dm_cli_parse_progress("plan", optarg, &a->progress))
+                return EXIT_USAGE;
+            break;
         case 'n':
             if (dm_cli_parse_list(optarg, &a->o.noise, 1) || !(a->o.noise > 0))
                 return dm_cli_usage("plan", "--noise takes a value > 0 (Hz or m)", optarg);
@@ -265,10 +272,19 @@ int dm_cli_plan(int argc, char **argv)
     dm_plan_effect eff[DM_PLAN_MAXEFF];
     dm_plan_result r;
     int neff;
+    dm_cli_progress view;
+    dm_cli_progress_init(&view, "plan", a.progress);
+    if (a.progress) {
+        a.o.progress = dm_cli_progress_report;
+        a.o.progress_user = &view;
+    }
     if ((rc = dm_plan_parse_effects(a.effects, a.o.kind, eff, &neff, &err)) ||
         (rc = dm_cli_load_robot(a.robot, a.sets, a.nset, &rb, &err)) ||
-        (rc = dm_plan(&rb, eff, neff, &a.o, &r, &err)))
+        (rc = dm_plan(&rb, eff, neff, &a.o, &r, &err))) {
+        dm_cli_progress_finish(&view);
         return dm_cli_report_size(&err);
+    }
+    dm_cli_progress_finish(&view);
     if (a.json)
         print_plan_json(&rb, &r);
     else

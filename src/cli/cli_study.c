@@ -15,6 +15,7 @@ static const char HELP[] =
     "usage: deltamap study --robot R --path P --vary SECTION.KEY=FROM:TO:N [--vary ...]\n"
     "                      [--modes K] [--dt S] [--mesh NA,NB] [--set SECTION.KEY=V]...\n"
     "                      [--threads N] [--out FILE.csv] [--json]\n"
+    "                      [--progress bar|lines|none]\n"
     "\n"
     "Runs `deltamap trajectory` for every value (or pair of values) of one or two\n"
     "robot-file keys and tabulates Chen's mean error (eq. 27) and the peak error.\n"
@@ -24,7 +25,10 @@ static const char HELP[] =
     "  --modes K       retained modes (default 10), --dt step (default 1e-3 s)\n"
     "  --set K=V       fixed override of a robot key (repeatable)\n"
     "  --threads N     parallel runs (default: OpenMP's, i.e. all cores)\n"
-    "  --out FILE      CSV: one row per combination\n";
+    "  --out FILE      CSV: one row per combination\n"
+    "  --progress M    how far the runs are (their time steps), on stderr with an\n"
+    "                  ETA: bar (the default when stderr is a terminal), lines, or\n"
+    "                  none (the default otherwise)\n";
 
 typedef struct {
     char key[64];
@@ -35,10 +39,19 @@ typedef struct {
 typedef struct {
     const char *robot, *path, *out;
     const char *sets[16];
-    int nset, naxis, json, threads;
+    int nset, naxis, json, threads, progress;
     axis ax[2];
     dm_integ_opts o;
 } study_opts;
+
+/* Progress: the runs' time steps, counted by each run's sink and reported
+ * through one meter for the cells' threads. A cell's share is the steps of
+ * the path with the file's robot (1 when that path cannot be made); a run
+ * that ends early, or fails, has its share completed when it ends. */
+typedef struct {
+    dm_progress_meter *pm;
+    long counted, share;
+} cell_progress;
 
 typedef struct {
     double mean, peak;
@@ -64,9 +77,11 @@ static int parse(int argc, char **argv, study_opts *t)
     static const struct option lo[] = {
         {"robot", 1, 0, 'r'}, {"path", 1, 0, 'p'}, {"vary", 1, 0, 'v'}, {"modes", 1, 0, 'k'},
         {"dt", 1, 0, 'd'}, {"mesh", 1, 0, 'm'}, {"set", 1, 0, 's'}, {"threads", 1, 0, 'T'},
-        {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {"progress", 1, 0, 'P'},
+        {0, 0, 0, 0}};
     int c;
     memset(t, 0, sizeof *t);
+    t->progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
     dm_integ_opts_default(&t->o);
     t->o.reference = 0;
     optind = 1;
@@ -77,6 +92,10 @@ static int parse(int argc, char **argv, study_opts *t)
         case 'p': t->path = optarg; break;
         case 'o': t->out = optarg; break;
         case 'j': t->json = 1; break;
+        case 'P':
+            if (dm_cli_parse_progress("study", optarg, &t->progress))
+                return EXIT_USAGE;
+            break;
         case 'v':
             if (t->naxis == 2 || parse_axis(optarg, &t->ax[t->naxis]))
                 return dm_cli_usage("study", "--vary takes SECTION.KEY=FROM:TO:N, at most twice", optarg);
@@ -118,7 +137,19 @@ static double axis_value(const axis *a, int i)
     return a->count == 1 ? a->from : a->from + (a->to - a->from) * i / (a->count - 1);
 }
 
-static void run_cell(const study_opts *t, const dm_robot *base, int i, int j, cell *out)
+/* The run's sink: every sample after the start ends a step. */
+static int count_step(void *user, const dm_integ_sample *s)
+{
+    cell_progress *c = user;
+    if (s->t_s > 0 && c->counted < c->share) {
+        c->counted++;
+        dm_progress_add(c->pm, 1);
+    }
+    return 0;
+}
+
+static void run_cell(const study_opts *t, const dm_robot *base, int i, int j, cell *out,
+                     cell_progress *cp)
 {
     dm_robot rb = *base;
     dm_trajectory tr;
@@ -133,9 +164,11 @@ static void run_cell(const study_opts *t, const dm_robot *base, int i, int j, ce
     if (!rc)
         rc = dm_traj_make(t->path, &rb, &tr, &err);
     if (!rc) {
-        rc = dm_integrate_trajectory(&rb, &tr, &t->o, NULL, NULL, &sum, &err);
+        int steps = cp->pm->fn && cp->share > 1; /* counted by steps */
+        rc = dm_integrate_trajectory(&rb, &tr, &t->o, steps ? count_step : NULL, cp, &sum, &err);
         dm_traj_free(&tr);
     }
+    dm_progress_add(cp->pm, cp->share - cp->counted);
     out->status = rc;
     snprintf(out->msg, sizeof out->msg, "%.255s", rc ? err.msg : "ok");
     out->mean = rc ? NAN : sum.mean_error_m;
@@ -244,9 +277,25 @@ int dm_cli_study(int argc, char **argv)
     cell *cells = calloc((size_t)n1 * n2, sizeof *cells);
     if (!cells)
         return DM_ENOMEM;
+    dm_cli_progress view;
+    dm_progress_meter pm;
+    dm_cli_progress_init(&view, "study", t.progress);
+    dm_progress_meter_init(&pm, t.progress ? dm_cli_progress_report : NULL, &view);
+    long share = 1;
+    dm_trajectory tr;
+    if (pm.fn && !dm_traj_make(t.path, &rb, &tr, NULL)) { /* its steps, as the runs take them */
+        /* (a run of more than 1e9 steps is refused as hours of work: its share is done then) */
+        share = (long)fmin(1e9, fmax(1.0, ceil(tr.duration_s / t.o.dt_s - 1e-9)));
+        dm_traj_free(&tr);
+    }
+    dm_progress_begin(&pm, "trajectory runs", share > 1 ? "steps" : "combinations", share * n1 * n2);
 #pragma omp parallel for schedule(dynamic) num_threads(dm_threads_count(t.threads))
-    for (int c = 0; c < n1 * n2; c++)
-        run_cell(&t, &rb, c / n2, c % n2, &cells[c]);
+    for (int c = 0; c < n1 * n2; c++) {
+        cell_progress cp = {&pm, 0, share};
+        run_cell(&t, &rb, c / n2, c % n2, &cells[c], &cp);
+    }
+    dm_progress_end(&pm);
+    dm_cli_progress_finish(&view);
     rc = write_outputs(&t, cells, n1, n2);
     free(cells);
     return rc;

@@ -76,7 +76,7 @@ typedef struct {
     const char *sets[16];
     int nset;
     dm_sweep_opts o;
-    int progress;       /* 0 none, 1 bar, 2 periodic lines */
+    int progress;       /* DM_CLI_PROGRESS_*: bar on a terminal, else lines */
     int tol_options;    /* --tolerance-seed, --spec, --tol or --tolerance-dist given */
 } sweep_args;
 
@@ -112,7 +112,7 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
     double v[3];
     memset(a, 0, sizeof *a);
     dm_sweep_opts_default(&a->o);
-    a->progress = isatty(STDERR_FILENO) ? 1 : 2;
+    a->progress = dm_cli_progress_default(DM_CLI_PROGRESS_LINES);
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
@@ -155,14 +155,8 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
             *(c == 'A' ? &a->o.move.amax_ms2 : &a->o.move.tau_s) = v[0];
             break;
         case 'p':
-            if (!strcmp(optarg, "bar"))
-                a->progress = 1;
-            else if (!strcmp(optarg, "lines"))
-                a->progress = 2;
-            else if (!strcmp(optarg, "none"))
-                a->progress = 0;
-            else
-                return dm_cli_usage("sweep", "--progress is bar, lines or none", optarg);
+            if (dm_cli_parse_progress("sweep", optarg, &a->progress))
+                return EXIT_USAGE;
             break;
         case 'N':
             if ((rc = parse_samples(optarg, &tol->samples)))
@@ -267,41 +261,20 @@ static int slurm_shard(const char *spec, int *k, int *n, dm_error *err)
     return rc;
 }
 
-/* The sweep's progress on stderr: a bar redrawn 4 times a second, or a line
- * every 10 s; each phase (the anchors, then the tiles) shows at once. */
-typedef struct {
-    int mode;
-    double last, phase_start;
-} progress_view;
-
+/* The sweep's progress (dm_cli_progress_draw): the anchors, then the tiles
+ * with the points computed per second. */
 static void draw_progress(void *user, const dm_sweep_progress *p)
 {
-    progress_view *v = user;
-    if (p->done == 0 && !p->final)
-        v->phase_start = p->seconds;
-    else if (!p->final && p->seconds - v->last < (v->mode == 1 ? 0.25 : 10.0))
-        return;
-    v->last = p->seconds;
-    double el = p->seconds - v->phase_start;
-    int pct = p->total ? (int)(100 * p->done / p->total) : 100;
-    double eta = p->done ? el * (p->total - p->done) / p->done : 0;
-    char what[96];
-    if (p->phase == DM_SWEEP_ANCHORS)
-        snprintf(what, sizeof what, "mode-tracking anchors %ld/%ld", p->done, p->total);
-    else
-        snprintf(what, sizeof what, "%ld/%ld tiles  %.0f points/s  ETA %.0f s", p->done,
-                 p->total, el > 0 ? p->done * p->points_per_tile / el : 0.0, eta);
-    if (v->mode == 1) {
-        char bar[31];
-        for (int i = 0; i < 30; i++)
-            bar[i] = i < pct * 30 / 100 ? '#' : '.';
-        bar[30] = '\0';
-        fprintf(stderr, "\r[%s] %3d%%  %s  (%.0f s)   %s", bar, pct, what, p->seconds,
-                p->final ? "\n" : "");
-    } else {
-        fprintf(stderr, "sweep: %s (%d%%), %.0f s\n", what, pct, p->seconds);
+    dm_cli_progress *v = user;
+    char rate[48];
+    int anchors = p->phase == DM_SWEEP_ANCHORS;
+    if (!anchors) {
+        double el = p->phase == v->index ? p->seconds - v->stage_start : 0;
+        snprintf(rate, sizeof rate, "%.0f points/s",
+                 el > 0 ? p->done * p->points_per_tile / el : 0.0);
     }
-    fflush(stderr);
+    dm_cli_progress_draw(v, p->phase, anchors ? "mode-tracking anchors" : NULL, p->done, p->total,
+                         anchors ? NULL : "tiles", anchors ? NULL : rate, p->seconds, p->final);
 }
 
 /* Resolve --shard into opts (a usage error: 1; bad environment: 2). */
@@ -338,12 +311,14 @@ int dm_cli_sweep(int argc, char **argv)
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
     dm_sweep_stats st;
-    progress_view view = {a.progress, -1e9, 0};
+    dm_cli_progress view;
+    dm_cli_progress_init(&view, "sweep", a.progress);
     if (a.progress) {
         a.o.progress = draw_progress;
         a.o.progress_user = &view;
     }
     rc = dm_sweep_run(&rb, &grid, &a.o, a.out, &stop_requested, &st, &err);
+    dm_cli_progress_finish(&view);
     if (rc && rc != DM_EINTERRUPT) {
         dm_cli_report(&err);
         if (st.store_refused)

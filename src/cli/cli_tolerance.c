@@ -15,7 +15,7 @@ static const char HELP[] =
     "usage: deltamap tolerance --robot R [--at X,Y,Z] --samples N --seed S\n"
     "                          [--tol NAME=VALUE]... [--dist uniform|normal] [--spec M]\n"
     "                          [--rigid] [--mesh NA,NB] [--threads T] [--set SECTION.KEY=V]...\n"
-    "                          [--force] [--json]\n"
+    "                          [--force] [--json] [--progress bar|lines|none]\n"
     "\n"
     "Monte Carlo of the platform error at one commanded pose (Zheng & Zhang 2017):\n"
     "each sample draws every geometry error within +- its tolerance and each\n"
@@ -40,12 +40,15 @@ static const char HELP[] =
     "  --mesh NA,NB     mesh of the flexible model (default: the robot file's)\n"
     "  --threads T      OpenMP threads (default: all)\n"
     "  --force          run even when the estimate exceeds 1 hour of work\n"
-    "  --json           the result as JSON\n";
+    "  --json           the result as JSON\n"
+    "  --progress M     how far it is (the linearisation, then the samples), on\n"
+    "                   stderr with an ETA: bar (the default when stderr is a\n"
+    "                   terminal), lines, or none (the default otherwise)\n";
 
 typedef struct {
     const char *robot;
     const char *sets[DM_CLI_MAXSET];
-    int nset, json, have_at, have_samples, have_seed, threads;
+    int nset, json, have_at, have_samples, have_seed, threads, progress;
     double at[3];
     dm_tolerance_spec spec;
 } tol_opts;
@@ -129,10 +132,11 @@ static int parse(int argc, char **argv, tol_opts *t)
         {"robot", 1, 0, 'r'}, {"at", 1, 0, 'a'}, {"samples", 1, 0, 'n'}, {"seed", 1, 0, 'S'},
         {"tol", 1, 0, 't'}, {"dist", 1, 0, 'd'}, {"spec", 1, 0, 'p'}, {"rigid", 0, 0, 'G'},
         {"mesh", 1, 0, 'm'}, {"threads", 1, 0, 'T'}, {"set", 1, 0, 's'}, {"force", 0, 0, 'f'},
-        {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {"progress", 1, 0, 'P'}, {0, 0, 0, 0}};
     int c, rc;
     memset(t, 0, sizeof *t);
     dm_tolerance_spec_default(&t->spec);
+    t->progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
@@ -168,6 +172,10 @@ static int parse(int argc, char **argv, tol_opts *t)
         case 'p':
             if ((rc = dm_cli_tolerance_spec("tolerance", optarg, &t->spec)))
                 return rc;
+            break;
+        case 'P':
+            if (dm_cli_parse_progress("tolerance", optarg, &t->progress))
+                return EXIT_USAGE;
             break;
         case 'G': t->spec.flexibility = 0; break;
         case 'f': t->spec.force = 1; break;
@@ -283,7 +291,14 @@ int dm_cli_tolerance(int argc, char **argv)
         return dm_cli_report(&err);
     const double *P = t.have_at ? t.at : rb.home_m;
     dm_tolerance_result res;
+    dm_cli_progress view;
+    dm_cli_progress_init(&view, "tolerance", t.progress);
+    if (t.progress) {
+        t.spec.progress = dm_cli_progress_report;
+        t.spec.progress_user = &view;
+    }
     rc = dm_tolerance_pose(&rb, &t.spec, P, t.threads ? t.threads : omp_get_max_threads(), &res, &err);
+    dm_cli_progress_finish(&view);
     if (rc)
         return dm_cli_report(&err);
     print_result(&t, &rb, P, &res);

@@ -105,3 +105,84 @@ int dm_cli_load_robot(const char *spec, const char *const *sets, int nset, dm_ro
         rc = dm_robot_set(rb, sets[i], err);
     return rc;
 }
+
+/* ---- progress ------------------------------------------------------------------- */
+
+int dm_cli_parse_progress(const char *cmd, const char *arg, int *mode)
+{
+    if (!strcmp(arg, "bar"))
+        *mode = DM_CLI_PROGRESS_BAR;
+    else if (!strcmp(arg, "lines"))
+        *mode = DM_CLI_PROGRESS_LINES;
+    else if (!strcmp(arg, "none"))
+        *mode = DM_CLI_PROGRESS_NONE;
+    else
+        return dm_cli_usage(cmd, "--progress is bar, lines or none", arg);
+    return 0;
+}
+
+int dm_cli_progress_default(int otherwise)
+{
+    return isatty(STDERR_FILENO) ? DM_CLI_PROGRESS_BAR : otherwise;
+}
+
+void dm_cli_progress_init(dm_cli_progress *v, const char *cmd, int mode)
+{
+    memset(v, 0, sizeof *v);
+    v->cmd = cmd;
+    v->mode = mode;
+    v->index = -1;
+    v->last = -1e9;
+}
+
+void dm_cli_progress_draw(dm_cli_progress *v, int index, const char *stage, long done,
+                          long total, const char *unit, const char *rate, double seconds,
+                          int final)
+{
+    if (v->mode == DM_CLI_PROGRESS_NONE)
+        return;
+    if (index != v->index) { /* a new stage: drawn at once, its clock starts */
+        if (v->open)
+            dm_cli_progress_finish(v);
+        v->index = index;
+        v->stage_start = seconds;
+    } else if (!final && seconds - v->last < (v->mode == DM_CLI_PROGRESS_BAR ? 0.25 : 10.0)) {
+        return;
+    }
+    v->last = seconds;
+    double el = seconds - v->stage_start;
+    int pct = total > 0 ? (int)(100.0 * done / total) : 100;
+    char what[192], eta[48] = "";
+    if (done > 0 && !final) /* the stage's, from its work done so far */
+        snprintf(eta, sizeof eta, "  ETA %.0f s", el * (total - done) / done);
+    snprintf(what, sizeof what, "%s%s%ld/%ld%s%s%s%s%s", stage ? stage : "", stage ? " " : "",
+             done, total, unit ? " " : "", unit ? unit : "", rate ? "  " : "", rate ? rate : "",
+             eta);
+    if (v->mode == DM_CLI_PROGRESS_BAR) {
+        char bar[31];
+        for (int i = 0; i < 30; i++)
+            bar[i] = i < pct * 30 / 100 ? '#' : '.';
+        bar[30] = '\0';
+        fprintf(stderr, "\r[%s] %3d%%  %s  (%.0f s)   %s", bar, pct, what, seconds,
+                final ? "\n" : "");
+        v->open = !final;
+    } else {
+        fprintf(stderr, "%s: %s (%d%%), %.0f s\n", v->cmd, what, pct, seconds);
+    }
+    fflush(stderr);
+}
+
+void dm_cli_progress_report(void *user, const dm_progress *p)
+{
+    dm_cli_progress_draw(user, p->index, p->stage, p->done, p->total, p->unit, NULL, p->seconds,
+                         p->final);
+}
+
+void dm_cli_progress_finish(dm_cli_progress *v)
+{
+    if (v->open) {
+        fputc('\n', stderr);
+        fflush(stderr);
+        v->open = 0;
+    }
+}

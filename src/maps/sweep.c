@@ -351,6 +351,8 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
         c->tol.nb = c->nb;
         c->tol.flexibility = 1;
         c->tol.force = o->force_long;
+        c->tol.progress = NULL; /* its points run on many threads: the sweep reports tiles */
+        c->tol.progress_user = NULL;
         dm_error terr;
         if (dm_tolerance_check(rb, &c->tol, &terr))
             return dm_fail(err, terr.code, "sweep: tolerance %s", terr.msg);

@@ -147,6 +147,7 @@ typedef struct {
     double train_end_s;      /* tracker: time of the last training sample */
     int *nomem;              /* set when a fit ran out of memory (the result is void) */
     struct memo *memo;       /* predictions made so far (NULL: none kept) */
+    dm_progress_meter *pm;   /* the diagnosis's progress (fn NULL: none) */
 } shared;
 
 /* ---- predictions made once ---------------------------------------------------
@@ -278,6 +279,7 @@ static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_error *err
         rc = dm_predictor_run(p->predictor, &rb, p->pred, err);
         if (!rc)
             memo_put(p->s->memo, &rb, p->view.n, p->pred);
+        dm_progress_add(p->s->pm, 0); /* the same count, later: the clock moves */
     }
     return rc;
 }
@@ -741,14 +743,19 @@ static void rank_singles(const shared *s, dm_diagnosis *dg, double need)
     for (int c = 0; c < NCAND; c++)
         if (CANDIDATES[c].kinds & (1u << s->d->kind) && &CANDIDATES[c] != UNION)
             idx[nc++] = c;
+    dm_progress_begin(s->pm, "single effects", "fits", nc);
 #pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(s->o))
     for (int j = 0; j < nc; j++) {
         problem p = {.s = s, .ncand = 1, .cand = {&CANDIDATES[idx[j]], NULL}};
         fit(&p, dg, NULL, &dg->rank[j]);
+        dm_progress_add(s->pm, 1);
     }
+    dm_progress_end(s->pm);
     if ((UNION->kinds & (1u << s->d->kind)) && union_wanted(dg, dg->rank, nc, need)) {
         problem p = {.s = s, .ncand = 1, .cand = {UNION, NULL}};
+        dm_progress_begin(s->pm, "geometry union", "fits", 1);
         fit(&p, dg, NULL, &dg->rank[nc++]);
+        dm_progress_end(s->pm);
     }
     dg->nrank = nc;
     qsort(dg->rank, nc, sizeof dg->rank[0], by_score);
@@ -896,12 +903,15 @@ static void add_second_effect(const shared *s, dm_diagnosis *dg, double need)
     for (int r = 0; r < dg->nrank; r++)
         if (dg->rank[r].ok && pairable(one.cand[0], dg->rank[r].cand[0]))
             idx[ns++] = r;
+    dm_progress_begin(s->pm, "second effect screen", "fits", ns);
 #pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(s->o))
     for (int j = 0; j < ns; j++) {
         problem p = {.s = s, .ncand = 2, .nfixed = 1, .cand = {one.cand[0], dg->rank[idx[j]].cand[0]}};
         memcpy(p.fixed[0], one.value[0], sizeof p.fixed[0]);
         fit(&p, dg, NULL, &screen[j]);
+        dm_progress_add(s->pm, 1);
     }
+    dm_progress_end(s->pm);
     qsort(screen, ns, sizeof screen[0], by_score);
     for (int j = 0; j < ns && j < PAIR_REFITS; j++, nj++) { /* from the screen */
         pj[nj] = (problem){.s = s, .ncand = 2, .cand = {screen[j].cand[0], screen[j].cand[1]}};
@@ -917,9 +927,13 @@ static void add_second_effect(const shared *s, dm_diagnosis *dg, double need)
             memcpy(start[nj][1], fb->value[0], sizeof start[nj][1]);
             nj++;
         }
+    dm_progress_begin(s->pm, "pair fits", "fits", nj);
 #pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(s->o))
-    for (int j = 0; j < nj; j++)
+    for (int j = 0; j < nj; j++) {
         fit(&pj[j], dg, start[j], &joint[j]);
+        dm_progress_add(s->pm, 1);
+    }
+    dm_progress_end(s->pm);
     int pick = -1;
     for (int j = 0; j < nj; j++)
         if (joint[j].ok && (pick < 0 || by_score(&joint[j], &joint[pick]) < 0))
@@ -935,7 +949,9 @@ static void add_second_effect(const shared *s, dm_diagnosis *dg, double need)
             pj[t] = (problem){.s = s, .ncand = 2, .cand = {c[0], c[1]}};
             memcpy(start[t][0], joint[pick].value[keep], sizeof start[t][0]);
             memcpy(start[t][1], g->value[0], sizeof start[t][1]);
+            dm_progress_begin(s->pm, "pair with the global effect", "fits", 1);
             fit(&pj[t], dg, start[t], &joint[t]);
+            dm_progress_end(s->pm);
         }
         if (t >= 0 && joint[t].ok && joint[t].score < joint[pick].score + DM_DIAG_CLEAR) {
             passed = pick;
@@ -1075,15 +1091,18 @@ static int linearise(const shared *s, const dm_fit *f, linearisation *L)
     L->r = malloc(sizeof(double) * d->n);
     L->J = malloc(sizeof(double) * d->n * (n ? n : 1));
     p.predictor = dm_predictor_new(s->rb, d, s->o->na, s->o->nb, NULL);
+    dm_progress_begin(s->pm, "verdict checks", "predictions", n + 1);
     int rc = !pred || !p1 || !Jt || !U || !L->r || !L->J || !p.predictor
                  ? DM_ENOMEM
                  : predict_scaled(&p, x, n, sc, -1, 0, pred);
+    dm_progress_add(s->pm, 1);
     for (int i = 0; !rc && i < d->n; i++)
         L->r[i] = (d->s[i].value - pred[i]) * s->w[i];
     /* forward differences of 1e-4 scaled units: far below any uncertainty
      * that matters, far above round-off */
     for (int j = 0; !rc && j < n; j++) {
         rc = predict_scaled(&p, x, n, sc, j, 1e-4, p1);
+        dm_progress_add(s->pm, 1);
         for (int i = 0; !rc && i < d->n; i++)
             L->J[(size_t)j * d->n + i] = (p1[i] - pred[i]) * s->w[i] / 1e-4;
     }
@@ -1096,6 +1115,8 @@ static int linearise(const shared *s, const dm_fit *f, linearisation *L)
             L->q++;
     free(pred), free(p1), free(Jt), free(U);
     dm_predictor_free(p.predictor);
+    if (!rc)
+        dm_progress_end(s->pm);
     return rc;
 }
 
@@ -1310,7 +1331,10 @@ static int diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_o
     }
     int nomem = 0;
     memo made = {0};
-    shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w, .nomem = &nomem, .memo = &made};
+    dm_progress_meter pm;
+    dm_progress_meter_init(&pm, o->progress, o->progress_user);
+    shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w, .nomem = &nomem, .memo = &made,
+                .pm = &pm};
     split_samples(d, held);
     for (int i = 0; i < d->n; i++) {
         dg->n_held += held[i];
@@ -1380,7 +1404,9 @@ static int fit_effects(const dm_robot *rb, const dm_dataset *d, const char *cons
     if (!rc) {
         dm_diagnosis dg = {.n_train = d->n};
         int nomem = 0;
-        shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w, .nomem = &nomem};
+        dm_progress_meter none; /* one fit: nothing to report */
+        dm_progress_meter_init(&none, NULL, NULL);
+        shared s = {.rb = rb, .d = d, .o = o, .held = held, .w = w, .nomem = &nomem, .pm = &none};
         dg.sigma_known = s.sigma_known = weights(d, pred, w);
         for (int i = 0; i < d->n; i++)
             s.train_end_s = fmax(s.train_end_s, d->s[i].t);

@@ -22,6 +22,7 @@
 #define NPATH 22 /* the tracker paths of the family (path_spec) */
 #define FD_STEP 1e-3   /* scaled units: 0.1 % of a spring, far below any 1-sigma that matters */
 #define RIDGE 1e-6     /* added to F's diagonal while choosing: a 1-sigma of 1000 scaled units */
+#define BISECTIONS 30  /* steps of a detectable magnitude's bisection in log10 */
 
 /* ---- effects ------------------------------------------------------------------- */
 
@@ -144,18 +145,25 @@ static int thread_count(const dm_plan_opts *o)
     return o->threads > 0 ? o->threads : omp_get_max_threads();
 }
 
+/* A pose analysed: one unit of the survey's sensitivities (from the
+ * predictor's thread). */
+static void pose_done(void *meter) { dm_progress_add(meter, 1); }
+
 /* Sensitivities J (d->n x p, column-major) of the predictions to the
  * scaled parameters at the magnitudes, in units of the noise; pred0: the
  * predictions there. The p + 1 predictions run in parallel, each thread
- * with one prediction workspace for all of its predictions. */
+ * with one prediction workspace for all of its predictions. Progress: each
+ * pose analysed (per_pose) or each prediction is a unit of pm's stage. */
 static int sensitivities(const model *m, const dm_dataset *d, double noise, double *pred0,
-                         double *J, dm_error *err)
+                         double *J, dm_progress_meter *pm, int per_pose, dm_error *err)
 {
     int p = m->p, rc = DM_OK;
 #pragma omp parallel num_threads(thread_count(m->o))
     {
         dm_error e;
         dm_predictor *pw = dm_predictor_new(m->rb, d, m->o->na, m->o->nb, &e);
+        if (pw && per_pose && pm->fn)
+            dm_predictor_on_work(pw, pose_done, pm);
 #pragma omp for schedule(dynamic, 1)
         for (int j = -1; j < p; j++) {
             double x[DM_DIAG_MAXP];
@@ -164,6 +172,8 @@ static int sensitivities(const model *m, const dm_dataset *d, double noise, doub
                 x[j] += FD_STEP * m->sc[j];
             double *out = j < 0 ? pred0 : J + (size_t)j * d->n;
             int r = pw ? predict_at(m, pw, x, -1, out, &e) : DM_ENOMEM;
+            if (!per_pose)
+                dm_progress_add(pm, 1);
 #pragma omp critical(dm_plan_error)
             if (r && !rc) {
                 rc = r;
@@ -234,13 +244,15 @@ static void add_unit(double *F, const double *info, int u, int p, double sign)
 /* D-optimal choice of n distinct units: greedy, then exchanges (each
  * chosen unit against every other) while the determinant grows. Scans in
  * unit order and keeps the first of equals, so it is deterministic. */
-static void choose_units(const double *info, int nunit, int p, int n, int *sel)
+static void choose_units(const double *info, int nunit, int p, int n, int *sel,
+                         dm_progress_meter *pm)
 {
     assert(n >= 0 && n <= nunit && p <= DM_DIAG_MAXP);
     double F[DM_DIAG_MAXP * DM_DIAG_MAXP] = {0}, G[DM_DIAG_MAXP * DM_DIAG_MAXP];
     char *used = calloc(nunit, 1);
     if (!used)
         return;
+    dm_progress_begin(pm, "choosing poses", "scans", n);
     for (int i = 0; i < n; i++) {
         int best = -1;
         double bv = -INFINITY;
@@ -256,9 +268,12 @@ static void choose_units(const double *info, int nunit, int p, int n, int *sel)
         sel[i] = best;
         used[best] = 1;
         add_unit(F, info, best, p, 1);
+        dm_progress_add(pm, 1);
     }
+    dm_progress_end(pm);
     for (int pass = 0, changed = 1; changed && pass < 50; pass++) {
         changed = 0;
+        dm_progress_begin(pm, "exchanging poses", "scans", n);
         for (int i = 0; i < n; i++) {
             double cur = logdet(F, p, RIDGE, NULL), bv = cur;
             int best = -1;
@@ -280,7 +295,9 @@ static void choose_units(const double *info, int nunit, int p, int n, int *sel)
                 sel[i] = best;
                 changed = 1;
             }
+            dm_progress_add(pm, 1);
         }
+        dm_progress_end(pm);
     }
     free(used);
 }
@@ -409,7 +426,7 @@ static int candidate_poses(const dm_robot *rb, const dm_plan_opts *o, double **o
 
 /* Predictions of the assessment: the design's sensitivities and, per
  * effect, a bisection of 30 steps on its signature. */
-#define ASSESS_PREDICTIONS(m) ((m)->p + 1 + 32.0 * (m)->neff)
+#define ASSESS_PREDICTIONS(m) ((m)->p + 1 + (2.0 + BISECTIONS) * (m)->neff)
 /* One log det of a p x p information (Cholesky through LAPACKE, its
  * overhead included) and the exchange passes a design takes as a rule. */
 #define LOGDET_S(p) (2e-7 + 2e-9 * (double)(p) * (p) * (p))
@@ -585,7 +602,8 @@ static int design_of(const dm_dataset *cand, const int *first, int *sel, int n, 
     return DM_OK;
 }
 
-static int plan_survey(const model *m, double noise, dm_plan_result *r, dm_error *err)
+static int plan_survey(const model *m, double noise, dm_plan_result *r, dm_progress_meter *pm,
+                       dm_error *err)
 {
     dm_dataset cand;
     int *first = NULL, nunit = 0, p = m->p, n = m->o->npose;
@@ -601,12 +619,15 @@ static int plan_survey(const model *m, double noise, dm_plan_result *r, dm_error
     int *sel = rc ? NULL : malloc(sizeof(int) * n);
     if (!rc && (!pred || !J || !info || !sel))
         rc = dm_fail(err, DM_ENOMEM, "out of memory");
-    if (!rc)
-        rc = sensitivities(m, &cand, noise, pred, J, err);
     if (!rc) {
+        dm_progress_begin(pm, "sensitivities", "pose analyses", (p + 1L) * cand.npose);
+        rc = sensitivities(m, &cand, noise, pred, J, pm, 1, err);
+    }
+    if (!rc) {
+        dm_progress_end(pm);
         r->ncandidates = m->o->kind == DM_DATA_STATIC ? nunit / 7 : nunit;
         unit_information(J, cand.n, p, first, nunit, info);
-        choose_units(info, nunit, p, n, sel);
+        choose_units(info, nunit, p, n, sel, pm);
         r->logdet = design_sigma(info, sel, n, p, r->sigma);
         r->logdet_random = random_sigma(info, nunit, p, n, m->o->seed, r->sigma_random);
         if (design_of(&cand, first, sel, n, &r->design))
@@ -619,7 +640,8 @@ static int plan_survey(const model *m, double noise, dm_plan_result *r, dm_error
 }
 
 /* Tracker: the path of the family with the largest determinant. */
-static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_error *err)
+static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_progress_meter *pm,
+                        dm_error *err)
 {
     int p = m->p, n = m->o->npose, status[NPATH];
     double ld[NPATH], sig[NPATH][DM_DIAG_MAXP];
@@ -627,6 +649,7 @@ static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_erro
     int rc0 = check_tracker(m, err);
     if (rc0)
         return rc0;
+    dm_progress_begin(pm, "sensitivities", "predictions", NPATH * (p + 1L));
 #pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(m->o))
     for (int k = 0; k < NPATH; k++) {
         char spec[256];
@@ -634,13 +657,15 @@ static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_erro
         path_spec(m->rb, k, n, spec, sizeof spec);
         status[k] = path_samples(m->rb, spec, n, noise, &d, &perr[k]);
         ld[k] = -INFINITY;
-        if (status[k])
+        if (status[k]) {
+            dm_progress_add(pm, p + 1); /* a path not taken: its predictions are done */
             continue;
+        }
         double *pred = malloc(sizeof(double) * d.n), *J = malloc(sizeof(double) * d.n * p);
         double F[DM_DIAG_MAXP * DM_DIAG_MAXP];
         int first[2] = {0, d.n}, all = 0;
         status[k] = !pred || !J ? dm_fail(&perr[k], DM_ENOMEM, "out of memory")
-                                : sensitivities(m, &d, noise, pred, J, &perr[k]);
+                                : sensitivities(m, &d, noise, pred, J, pm, 0, &perr[k]);
         if (!status[k]) {
             unit_information(J, d.n, p, first, 1, F);
             ld[k] = design_sigma(F, &all, 1, p, sig[k]);
@@ -650,9 +675,11 @@ static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_erro
     }
     int best = -1, ok = 0;
     double lds[NPATH], sigs[NPATH][DM_DIAG_MAXP];
-    for (int k = 0; k < NPATH; k++) {
+    for (int k = 0; k < NPATH; k++)
         if (status[k] && status[k] != DM_EUNREACHABLE)
             return err ? (*err = perr[k], perr[k].code) : status[k];
+    dm_progress_end(pm);
+    for (int k = 0; k < NPATH; k++) {
         if (status[k])
             continue;
         r->ncandidates++;
@@ -682,10 +709,13 @@ static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_erro
 /* How far (in sigmas, norm over the design) effect e alone at parameters
  * x[e's] moves the predictions from base. */
 static double signature(const model *m, dm_predictor *pw, int e, const double *x,
-                        const dm_dataset *d, const double *base, double noise, double *buf)
+                        const dm_dataset *d, const double *base, double noise, double *buf,
+                        dm_progress_meter *pm)
 {
     assert(e >= 0 && e < m->neff);
-    if (predict_at(m, pw, x, e, buf, NULL))
+    int rc = predict_at(m, pw, x, e, buf, NULL);
+    dm_progress_add(pm, 1);
+    if (rc)
         return NAN;
     double q = 0;
     for (int i = 0; i < d->n; i++)
@@ -702,9 +732,20 @@ static int first_param(const model *m, int e)
     return j;
 }
 
+/* The predictions detectable() makes for effect e at most (the units of
+ * the assessment's progress). */
+static int detect_predictions(const model *m, int e)
+{
+    const dm_candidate *c = m->eff[e].cand;
+    if (c->nparam == 0 || c->linear)
+        return 1;
+    return strncmp(c->name, "damping_", 8) ? 2 + BISECTIONS : 0;
+}
+
 /* The smallest magnitude seen at DETECT sigma (see dm_plan_result). */
 static double detectable(const model *m, dm_predictor *pw, int e, const double *F,
-                         const dm_dataset *d, const double *base, double noise, double *buf)
+                         const dm_dataset *d, const double *base, double noise, double *buf,
+                         dm_progress_meter *pm)
 {
     assert(e >= 0 && e < m->neff);
     const dm_candidate *c = m->eff[e].cand;
@@ -712,28 +753,31 @@ static double detectable(const model *m, dm_predictor *pw, int e, const double *
     double x[DM_DIAG_MAXP];
     memcpy(x, m->x0, sizeof x);
     if (c->nparam == 0)
-        return signature(m, pw, e, x, d, base, noise, buf);
+        return signature(m, pw, e, x, d, base, noise, buf, pm);
     if (!strncmp(c->name, "damping_", 8)) /* a change of the file's damping */
         return F[j0 * m->p + j0] > 0 ? DETECT / sqrt(F[j0 * m->p + j0]) : INFINITY;
     if (c->linear) { /* linear: scale the assumed errors */
-        double s = signature(m, pw, e, x, d, base, noise, buf), big = 0;
+        double s = signature(m, pw, e, x, d, base, noise, buf, pm), big = 0;
         for (int k = 0; k < c->nparam; k++)
             big = fmax(big, fabs(m->eff[e].value[k]));
         return s > 0 ? DETECT / s * big : INFINITY;
     }
     double lo = c->lo - 2, hi = c->hi + 2; /* bisection in log10 on the signature */
     x[j0] = lo;
-    double slo = signature(m, pw, e, x, d, base, noise, buf);
+    double slo = signature(m, pw, e, x, d, base, noise, buf, pm);
     x[j0] = hi;
-    double shi = signature(m, pw, e, x, d, base, noise, buf);
+    double shi = signature(m, pw, e, x, d, base, noise, buf, pm);
     int strong_low = slo > shi; /* springs: soft is strong */
-    if ((strong_low ? slo : shi) < DETECT)
+    int never = (strong_low ? slo : shi) < DETECT, always = (strong_low ? shi : slo) >= DETECT;
+    if (never || always)
+        dm_progress_add(pm, BISECTIONS); /* no bisection: its predictions are done */
+    if (never)
         return strong_low ? 0 : INFINITY; /* never seen */
-    if ((strong_low ? shi : slo) >= DETECT)
+    if (always)
         return pow(10.0, strong_low ? hi : lo); /* seen over the whole range */
-    for (int it = 0; it < 30; it++) {
+    for (int it = 0; it < BISECTIONS; it++) {
         x[j0] = 0.5 * (lo + hi);
-        double s = signature(m, pw, e, x, d, base, noise, buf);
+        double s = signature(m, pw, e, x, d, base, noise, buf, pm);
         if ((s >= DETECT) == strong_low)
             lo = x[j0];
         else
@@ -793,7 +837,8 @@ static void compare_pair(const model *m, const double *F, int a, int b, dm_plan_
         pr->angle_deg = acos(fmin(1.0, sv[0])) * 180 / M_PI;
 }
 
-static int assess(const model *m, double noise, dm_plan_result *r, dm_error *err)
+static int assess(const model *m, double noise, dm_plan_result *r, dm_progress_meter *pm,
+                  dm_error *err)
 {
     const dm_dataset *d = &r->design;
     int p = m->p, nrow = d->n;
@@ -803,14 +848,21 @@ static int assess(const model *m, double noise, dm_plan_result *r, dm_error *err
     /* one workspace for the baseline and every bisection step */
     dm_predictor *pw = dm_predictor_new(m->rb, d, m->o->na, m->o->nb, NULL);
     int first[2] = {0, nrow}, rc = !base || !buf || !J || !pred || !pw ? DM_ENOMEM : DM_OK;
-    if (!rc)
+    long units = 1 + (p + 1);
+    for (int e = 0; e < m->neff; e++)
+        units += detect_predictions(m, e);
+    dm_progress_begin(pm, "assessment", "predictions", units);
+    if (!rc) {
         rc = dm_predictor_run(pw, m->rb, base, err);
+        dm_progress_add(pm, 1);
+    }
     if (!rc)
-        rc = sensitivities(m, d, noise, pred, J, err);
+        rc = sensitivities(m, d, noise, pred, J, pm, 0, err);
     if (!rc) {
         unit_information(J, nrow, p, first, 1, F);
         for (int e = 0; e < m->neff; e++)
-            r->detect[e] = detectable(m, pw, e, F, d, base, noise, buf);
+            r->detect[e] = detectable(m, pw, e, F, d, base, noise, buf, pm);
+        dm_progress_end(pm);
         for (int a = 0; a < m->neff; a++)
             for (int b = a + 1; b < m->neff; b++)
                 if (m->eff[a].cand->nparam && m->eff[b].cand->nparam)
@@ -865,10 +917,12 @@ static int plan(const dm_robot *rb, const dm_plan_effect *eff, int neff, const d
     memcpy(r->effect, eff, sizeof(dm_plan_effect) * neff);
     r->nparam = m.p;
     r->noise = o->noise > 0 ? o->noise : default_noise(o->kind);
-    int rc = o->kind == DM_DATA_TRACKER ? plan_tracker(&m, r->noise, r, err)
-                                        : plan_survey(&m, r->noise, r, err);
+    dm_progress_meter pm;
+    dm_progress_meter_init(&pm, o->progress, o->progress_user);
+    int rc = o->kind == DM_DATA_TRACKER ? plan_tracker(&m, r->noise, r, &pm, err)
+                                        : plan_survey(&m, r->noise, r, &pm, err);
     if (!rc)
-        rc = assess(&m, r->noise, r, err);
+        rc = assess(&m, r->noise, r, &pm, err);
     if (rc) {
         dm_plan_free(r);
         return rc;

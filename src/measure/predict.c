@@ -40,6 +40,8 @@ static void key_of(const dm_robot *rb, layout_key *k)
 typedef struct {
     int n, cap;
     double *t, *e; /* e: 3 per sample */
+    void (*tick)(void *user); /* dm_predictor_on_work's, per step */
+    void *tick_user;
 } track;
 
 struct dm_predictor {
@@ -62,6 +64,8 @@ struct dm_predictor {
      * hist_robot: that run's robot with its damping zeroed */
     dm_integ_history *hist;
     dm_robot hist_robot;
+    void (*tick)(void *user); /* dm_predictor_on_work */
+    void *tick_user;
 };
 
 /* Most bytes a kept modal history may hold (dm_integ_history_bytes: about
@@ -122,6 +126,14 @@ void dm_predictor_free(dm_predictor *p)
     free(p);
 }
 
+void dm_predictor_on_work(dm_predictor *p, void (*tick)(void *user), void *user)
+{
+    p->tick = tick;
+    p->tick_user = user;
+    p->tk.tick = tick;
+    p->tk.tick_user = user;
+}
+
 void dm_predictor_window(dm_predictor *p, int n)
 {
     assert(n >= 0 && n <= p->nall);
@@ -178,6 +190,8 @@ static int predict_poses(dm_predictor *p, double *pred, dm_error *err)
             }
             if (rc)
                 rc = dm_fail(err, rc, "%s:%d: %s", d->source, s->line, perr.msg);
+            else if (p->tick)
+                p->tick(p->tick_user);
             last = s->pose_id;
         }
         if (rc)
@@ -212,6 +226,8 @@ static int keep(void *user, const dm_integ_sample *s)
     }
     tk->t[tk->n] = s->t_s;
     memcpy(tk->e + 3 * tk->n, s->error, 3 * sizeof(double));
+    if (tk->tick && tk->n > 0) /* the first sample is the start, not a step */
+        tk->tick(tk->tick_user);
     tk->n++;
     return 0;
 }

@@ -310,9 +310,10 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* The linearisation: the mean state's error and the sensitivities. */
+/* The linearisation: the mean state's error and the sensitivities (1 +
+ * 2 NP evaluations, each a unit of its progress stage). */
 static int linearise(const dm_robot *rb, const dm_tolerance_spec *sp, const double P[3],
-                     dm_tolerance_result *res, dm_error *err)
+                     dm_tolerance_result *res, dm_progress_meter *pm, dm_error *err)
 {
     tol_ws w;
     int rc = ws_init(&w, rb, sp, err);
@@ -321,7 +322,9 @@ static int linearise(const dm_robot *rb, const dm_tolerance_spec *sp, const doub
     state mean;
     double var[NP], var_unit[NP], cov[9] = {0}, cls[DM_TOL_NCLASS] = {0}, cls_unit[DM_TOL_NCLASS] = {0};
     moments(&w, &mean, var, var_unit);
+    dm_progress_begin(pm, "linearisation", "evaluations", 1 + 2 * NP);
     rc = evaluate(&w, P, &mean, res->deterministic_m, err);
+    dm_progress_add(pm, 1);
     for (int p = 0; p < NP && !rc; p++) {
         /* steps: 1 um on 0.1-1 m links, 1e-5 rad: truncation O(h^2/L^2) ~ 1e-11,
          * round-off eps L / h ~ 1e-10 of the derivative */
@@ -335,6 +338,7 @@ static int linearise(const dm_robot *rb, const dm_tolerance_spec *sp, const doub
             rc = evaluate(&w, P, &s, em, err);
         if (rc)
             break;
+        dm_progress_add(pm, 2);
         for (int k = 0; k < 3; k++)
             S[k] = (ep[k] - em[k]) / (2 * h);
         for (int a = 0; a < 3; a++)
@@ -346,6 +350,7 @@ static int linearise(const dm_robot *rb, const dm_tolerance_spec *sp, const doub
     ws_free(&w);
     if (rc)
         return rc;
+    dm_progress_end(pm);
     res->deterministic_error_m = dm_norm3(res->deterministic_m);
     for (int k = 0; k < 3; k++)
         res->predicted_std_m[k] = sqrt(cov[4 * k]);
@@ -374,6 +379,9 @@ static int linearise(const dm_robot *rb, const dm_tolerance_spec *sp, const doub
 static int tolerance_pose(const dm_robot *rb, const dm_tolerance_spec *sp, const double P[3],
                           int threads, dm_tolerance_result *res, dm_error *err);
 
+/* Samples a thread counts before it reports them (one lock each time). */
+#define PROGRESS_BATCH 8
+
 /* BLAS on one thread while the samples run (dm_threads.h: one thread and
  * several must give the same result; inside a sweep's threads it is so
  * already). */
@@ -400,19 +408,22 @@ static int tolerance_pose(const dm_robot *rb, const dm_tolerance_spec *sp, const
         free(norm);
         return dm_fail(err, DM_ENOMEM, "out of memory for %ld samples", n);
     }
-    rc = linearise(rb, sp, P, res, err);
+    dm_progress_meter pm;
+    dm_progress_meter_init(&pm, sp->progress, sp->progress_user);
+    rc = linearise(rb, sp, P, res, &pm, err);
     int nt = threads > 0 ? threads : 1;
     uint64_t pose_seed = dm_tolerance_pose_seed(sp->seed, P);
     long bad = n; /* the first failing sample, whatever the thread count */
     dm_error first_err;
     dm_error_clear(&first_err);
     if (!rc) {
+        dm_progress_begin(&pm, "Monte Carlo", "samples", n);
 #pragma omp parallel num_threads(nt)
         {
             tol_ws w;
             dm_error my;
             int mrc = ws_init(&w, rb, sp, &my);
-            long mybad = n;
+            long mybad = n, unreported = 0;
 #pragma omp for schedule(dynamic, 64)
             for (long i = 0; i < n; i++) {
                 if (mrc || i > mybad)
@@ -421,6 +432,10 @@ static int tolerance_pose(const dm_robot *rb, const dm_tolerance_spec *sp, const
                 draw(&w, pose_seed, i, &s);
                 if (evaluate(&w, P, &s, e + 3 * i, &my))
                     mybad = i;
+                if (pm.fn && ++unreported == PROGRESS_BATCH) { /* a lock per 8 samples */
+                    dm_progress_add(&pm, unreported);
+                    unreported = 0;
+                }
             }
             if (mrc)
                 mybad = 0;
@@ -436,6 +451,8 @@ static int tolerance_pose(const dm_robot *rb, const dm_tolerance_spec *sp, const
             if (err)
                 *err = first_err;
             rc = first_err.code ? first_err.code : DM_ENUMERIC;
+        } else {
+            dm_progress_end(&pm);
         }
     }
     if (!rc) {
