@@ -119,12 +119,21 @@ $(BUILD)/obj $(BUILD)/tests:
 
 # Tests run single-threaded BLAS inside, OpenMP as the test chooses; each
 # under every kernel path this CPU has (DELTAMAP_ISA, dm_isa.h), which
-# `deltamap --version` lists.
-ISA_HERE = $(shell $(BIN) --version | sed -n 's/^paths on this CPU: //p')
+# `deltamap --version` lists: two runs at a time (most are single-threaded),
+# each run's output shown whole when it ends (build/tests/runs/T.PATH.log).
+ISA_HERE = $(shell $(BIN) --version 2>/dev/null | sed -n 's/^paths on this CPU: //p')
+UNIT_RUNS = $(foreach p,$(ISA_HERE),$(patsubst %,$(BUILD)/tests/runs/%.$(p).ok,$(TESTS)))
 unit-tests: $(TEST_BIN) $(BIN)
-	@set -e; paths="$(ISA_HERE)"; test -n "$$paths"; for isa in $$paths; do \
-	    for t in $(TEST_BIN); do echo "== $$t (DELTAMAP_ISA=$$isa)"; \
-	        DELTAMAP_ISA=$$isa OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $$t; done; done
+	@test -n "$(ISA_HERE)" || { echo "unit-tests: $(BIN) --version lists no kernel path"; exit 1; }
+	@rm -rf $(BUILD)/tests/runs && mkdir -p $(BUILD)/tests/runs
+	@$(MAKE) --no-print-directory -j2 -k $(UNIT_RUNS)
+
+$(BUILD)/tests/runs/%.ok: | $(BUILD)/tests
+	@t=$(BUILD)/tests/$(basename $*); isa=$(patsubst .%,%,$(suffix $*)); log=$(@:.ok=.log); \
+	if DELTAMAP_ISA=$$isa OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $$t >$$log 2>&1; then \
+	    { echo "== $$t (DELTAMAP_ISA=$$isa)"; cat $$log; } && touch $@; \
+	else { echo "== $$t (DELTAMAP_ISA=$$isa)"; cat $$log; echo "FAIL: $$t under DELTAMAP_ISA=$$isa"; \
+	    exit 1; }; fi
 
 cli-tests: $(BIN)
 	@DELTAMAP=$(BIN) tests/cli_tests.sh
