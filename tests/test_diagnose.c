@@ -120,7 +120,7 @@ static void diagnose_on(const dm_dataset *d, int pairs, int threads, dm_diagnosi
 {
     dm_robot base;
     dm_error err;
-    dm_diagnose_opts o = {1, 1, pairs, threads, 0};
+    dm_diagnose_opts o = {.na = 1, .nb = 1, .pairs = pairs, .threads = threads};
     assert_int_equal(dm_robot_load("zheng2017", &base, NULL), 0);
     int rc = dm_diagnose(&base, d, &o, dg, &err);
     if (rc)
@@ -413,7 +413,7 @@ static void truth_outside_the_candidates(void **state)
             dm_synth_opts so = {.kind = o->kind, .npose = 12, .modes = 6, .seed = seed, .na = 1,
                                 .nb = 1, .noise = o->kind == DM_DATA_MODAL ? 0.02 : 5e-8};
             assert_int_equal(dm_synthesize(&real, &so, &d, NULL), 0);
-            dm_diagnose_opts opts = {1, 1, 1, 2, 0};
+            dm_diagnose_opts opts = {.na = 1, .nb = 1, .pairs = 1, .threads = 2};
             assert_int_equal(dm_diagnose(&base, &d, &opts, &dg, &err), 0);
             if (!dg.found || dg.explained)
                 print_error("%s %s with %s, seed %d: found %d, explained %d (%s, %.1f sigma)\n",

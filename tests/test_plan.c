@@ -38,7 +38,7 @@ static void scatter(const dm_robot *base, const dm_robot *truth, const dm_plan_r
                     const double start[][DM_DIAG_MAXV], int random, double *sd)
 {
     double sum[2] = {0}, sq[2] = {0};
-    dm_diagnose_opts o = {1, 1, 0, 2, 0};
+    dm_diagnose_opts o = {.na = 1, .nb = 1, .pairs = 0, .threads = 2};
     for (uint64_t seed = 1; seed <= SEEDS; seed++) {
         dm_dataset design, d;
         dm_fit f;
