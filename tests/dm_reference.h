@@ -9,6 +9,7 @@
 #ifndef DM_REFERENCE_H
 #define DM_REFERENCE_H
 
+#include <float.h>
 #include <lapacke.h>
 #include <math.h>
 #include <stdlib.h>
@@ -239,5 +240,132 @@ static inline int dm_reference_eigen(const double *K, const double *M, int n, in
     free(A), free(B), free(w), free(L), free(X), free(wq), free(v);
     return rc;
 }
+
+/* ---- LAPACK's own error bounds ------------------------------------------
+ *
+ * Where a test compares deltamap's results with LAPACK's (or LAPACK's with
+ * the reference above), it allows what LAPACK guarantees for the matrices
+ * at hand, never a value measured on one machine: the rounding of a dense
+ * solve depends on the BLAS kernels of the CPU it runs on (OpenBLAS picks
+ * them at run time), so a constant measured on one CPU fails on another.
+ * The bounds are those of the LAPACK Users' Guide, 3rd ed. (LUG), evaluated
+ * as its code fragments do: 1-norms (dlansy), LAPACK's condition estimates
+ * (dtrcon, dpocon, dgecon), and its "modestly growing function" p(n) taken
+ * as 1. They are bounds of the error's size, not estimates of it: under
+ * the 14 OpenBLAS kernel sets this x86-64 machine runs (OPENBLAS_CORETYPE,
+ * Prescott to SkylakeX) the errors stay below 1/10 of them. */
+
+/* LUG §4.10 (generalized symmetric definite eigenproblem K z = lambda M z,
+ * solved as dsygv/dsygvd/dsygvx do: a Cholesky factor of M, the reduction
+ * to standard form, a symmetric eigensolver; every dense solver of the
+ * project takes the same three steps):
+ *   |lambda^_i - lambda_i| <~ p(n) eps (||M^-1|| ||K|| + kappa(M) |lambda^_i|)
+ *                                                                  = EERRBD(i),
+ *   angle(z^_i, z_i) <~ p(n) eps (||M^-1|| ||K|| kappa(M)^1/2 + kappa(M) |lambda^_i|)
+ *                       / gap_i                                    = ZERRBD(i),
+ * gap_i the distance from lambda_i to the rest of the spectrum (to the rest
+ * outside its cluster, for the cluster's invariant subspace). §4.10.1: the
+ * bounds hold with (K, M) replaced by (D K D, D M D), D diagonal, and
+ * D = diag(M)^-1/2 tightens them "when the diagonal entries of M differ
+ * widely in magnitude" -- here translational masses and rotational
+ * inertias: kappa(M) ~ 1e6-1e7, kappa(D M D) ~ 1e2-1e3. */
+typedef struct {
+    double kappa; /* kappa_1(D M D) = 1 / rcond^2, rcond of its Cholesky factor */
+    double ratio; /* ||D K D||_1 / ||D M D||_1 */
+} dm_sygv_bound;
+
+/* From the dense column-major K and M (n x n, both triangles). 0, or
+ * LAPACK's info if D M D is not positive definite. */
+static inline int dm_sygv_bound_init(const double *K, const double *M, int n, dm_sygv_bound *b)
+{
+    double *A = malloc(sizeof(double) * n * n), *B = malloc(sizeof(double) * n * n);
+    double *d = malloc(sizeof(double) * n), rcond = 0;
+    for (int i = 0; i < n; i++)
+        d[i] = 1 / sqrt(M[(size_t)i * n + i]);
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < n; i++) {
+            A[(size_t)j * n + i] = d[i] * K[(size_t)j * n + i] * d[j];
+            B[(size_t)j * n + i] = d[i] * M[(size_t)j * n + i] * d[j];
+        }
+    double an = LAPACKE_dlansy(LAPACK_COL_MAJOR, '1', 'U', n, A, n);
+    double bn = LAPACKE_dlansy(LAPACK_COL_MAJOR, '1', 'U', n, B, n);
+    int rc = LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', n, B, n);
+    if (!rc)
+        rc = LAPACKE_dtrcon(LAPACK_COL_MAJOR, '1', 'U', 'N', n, B, n, &rcond);
+    rcond = fmax(rcond, DBL_EPSILON); /* as the LUG fragment: no overflow */
+    b->kappa = 1 / (rcond * rcond);
+    b->ratio = an / bn;
+    free(A), free(B), free(d);
+    return rc;
+}
+
+static inline double dm_sygv_eerrbd(const dm_sygv_bound *b, double lambda)
+{
+    return DBL_EPSILON * b->kappa * (b->ratio + fabs(lambda));
+}
+
+static inline double dm_sygv_zerrbd(const dm_sygv_bound *b, double lambda, double gap)
+{
+    return DBL_EPSILON * b->kappa * (b->ratio * sqrt(b->kappa) + fabs(lambda)) / gap;
+}
+
+/* LUG §4.4 (a linear system A x = b solved by dposv or dgesv, both
+ * backward stable): ||x^ - x||_inf <~ p(n) eps kappa_inf(A) ||x^||_inf
+ * (ERRBD = EPSMCH / RCOND). Neither factorization sees a diagonal scaling
+ * S: Cholesky of S A S is S times that of A, and LU with partial pivoting
+ * of A S picks the same pivots (each is chosen within a column), up to the
+ * rounding of the scale (none for powers of 2). So the bound holds for
+ * y = S^-1 x with the condition of the scaled matrix, the equilibration of
+ * LUG §4.4.1 (xPOSVX, xGESVX), and for each component
+ *   |x^_i - x_i| <~ eps kappa_inf(scaled A) s_i max_j |x^_j| / s_j.
+ * symmetric: S A S, s_i = a_ii^-1/2 (Cholesky); else A S with
+ * s_j = 1 / max_i |a_ij| (LU). */
+typedef struct {
+    int n;
+    double errbd; /* eps kappa_inf of the scaled matrix */
+    double *s;    /* the scale (n) */
+} dm_solve_bound;
+
+static inline int dm_solve_bound_init(const double *A, int n, int symmetric, dm_solve_bound *b)
+{
+    double *H = malloc(sizeof(double) * n * n), rcond = 0;
+    lapack_int *piv = malloc(sizeof(lapack_int) * n);
+    int rc;
+    b->n = n;
+    b->s = malloc(sizeof(double) * n);
+    for (int j = 0; j < n; j++) {
+        double c = 0;
+        for (int i = 0; i < n; i++)
+            c = fmax(c, fabs(A[(size_t)j * n + i]));
+        b->s[j] = symmetric ? 1 / sqrt(A[(size_t)j * n + j]) : 1 / c;
+    }
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < n; i++)
+            H[(size_t)j * n + i] = (symmetric ? b->s[i] : 1.0) * A[(size_t)j * n + i] * b->s[j];
+    double hn = LAPACKE_dlange(LAPACK_COL_MAJOR, 'I', n, n, H, n);
+    if (symmetric) {
+        rc = LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', n, H, n);
+        if (!rc) /* ||H||_1 = ||H||_inf */
+            rc = LAPACKE_dpocon(LAPACK_COL_MAJOR, 'U', n, H, n, hn, &rcond);
+    } else {
+        rc = LAPACKE_dgetrf(LAPACK_COL_MAJOR, n, n, H, n, piv);
+        if (!rc)
+            rc = LAPACKE_dgecon(LAPACK_COL_MAJOR, 'I', n, H, n, hn, &rcond);
+    }
+    b->errbd = DBL_EPSILON / fmax(rcond, DBL_EPSILON);
+    free(H), free(piv);
+    return rc;
+}
+
+/* The bound on component i of the computed solution x^ (n). */
+static inline double dm_solve_bound_at(const dm_solve_bound *b, const double *x, int i)
+{
+    double y = 0;
+    for (int j = 0; j < b->n; j++)
+        y = fmax(y, fabs(x[j]) / b->s[j]);
+    return b->errbd * b->s[i] * y;
+}
+
+static inline void dm_solve_bound_free(dm_solve_bound *b) { free(b->s); }
 
 #endif
