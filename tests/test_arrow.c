@@ -397,7 +397,7 @@ static void sturm_counts_match_eigenvalues(void **state)
  * full band), the solve and its halves on blocks of 1-33 columns, the
  * chains' Cholesky and its border, and the LDL' of the Sturm count with
  * its Schur complement. A path whose vectors reordered a sum, contracted
- * a multiply-add or dropped a lane would fail here (tests/cli_tests.sh
+ * a multiply-add or dropped a lane would fail here (tests/isa_tests.sh
  * compares whole sweeps' stores across paths). */
 static void every_path_gives_the_same_bits(void **state)
 {
