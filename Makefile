@@ -144,6 +144,19 @@ isa-tests: $(BIN)
 store-tests: $(BIN)
 	@DELTAMAP=$(BIN) tests/store_tests.sh
 
+# A finished store, one file damaged, then info and the resume
+# (tests/store_damage.py): issue 38's nine damages, then a seeded random
+# damage per round for STORE_DAMAGE_SECONDS; `make fuzz-run` runs it for
+# FUZZ_SECONDS with a seed of the moment (printed, with each finding's round).
+STORE_DAMAGE_SECONDS ?= 50
+.PHONY: store-damage fuzz-store-damage
+store-damage: $(BIN)
+	@.venv/bin/python tests/store_damage.py $(BIN) replay
+	@.venv/bin/python tests/store_damage.py $(BIN) fuzz --seed 38 --seconds $(STORE_DAMAGE_SECONDS)
+fuzz-store-damage: $(BIN)
+	@.venv/bin/python tests/store_damage.py $(BIN) fuzz --seed $$(date +%s) --seconds $(FUZZ_SECONDS)
+fuzz-run: fuzz-store-damage
+
 shard-tests: $(BIN)
 	@DELTAMAP=$(BIN) tests/shard_tests.sh
 
@@ -169,8 +182,8 @@ slurm-tests: $(BIN)
 
 test: deps
 	@tests/layers.sh
-	@$(MAKE) --no-print-directory unit-tests cli-tests isa-tests store-tests shard-tests alloc-tests \
-	    slurm-tests fuzz-replay fault-tests
+	@$(MAKE) --no-print-directory unit-tests cli-tests isa-tests store-tests store-damage shard-tests \
+	    alloc-tests slurm-tests fuzz-replay fault-tests
 	@if [ -e $(BUILD)/slurm-skipped ]; then \
 	    echo "all tests passed but the Slurm test, which was SKIPPED (see above)"; \
 	else echo "all tests passed"; fi

@@ -57,6 +57,13 @@ size_t dm_dtype_size(dm_dtype t);
 /* Write the group and array metadata (replacing what is there). */
 int dm_store_write_metadata(const dm_store *store, dm_error *err);
 
+/* Array a's metadata file (a = -1: the group's), the exact text
+ * dm_store_write_metadata writes into it (caller frees; NULL: out of
+ * memory), and writing that one file atomically. */
+void dm_store_metadata_path(const dm_store *store, int a, char *out, size_t len);
+char *dm_store_metadata_text(const dm_store *store, int a, size_t *len);
+int dm_store_write_metadata_file(const dm_store *store, int a, dm_error *err);
+
 /* Append an array to a store's layout (before dm_store_write_metadata):
  * ndim dimensions named dims[] of extent shape[] in chunks of chunk[];
  * attributes (units, long_name, ...) are owned by the store from now on.
@@ -74,6 +81,10 @@ void dm_store_add_array(dm_store *store, const char *name, dm_dtype type, int nd
 int dm_store_read_metadata(const char *path, dm_store *store, dm_error *err);
 void dm_store_release(dm_store *store);
 
+/* The group's attributes alone (its zarr.json; NULL when it has none);
+ * DM_EIO: missing or not JSON. Caller decrefs. */
+int dm_store_read_group(const char *path, json_t **attributes, dm_error *err);
+
 /* Chunk file of array a at chunk coordinates c[]. */
 void dm_store_chunk_path(const dm_store *store, int a, const int64_t *c, char *out, size_t len);
 
@@ -86,6 +97,19 @@ size_t dm_store_chunk_elems(const dm_store *store, int a);
  * recreated piecemeal. */
 int dm_store_write_chunk(const dm_store *store, int a, const int64_t *c, const void *data,
                          dm_error *err);
+
+/* The bytes of a chunk file holding data (dm_store_chunk_elems()
+ * elements): the elements, then their CRC-32C (caller frees; NULL: out of
+ * memory). */
+unsigned char *dm_store_encode_chunk(const dm_store *store, int a, const void *data, size_t *len);
+
+/* The file at path against the bytes want[0..n-1] it should hold (a
+ * metadata file, or a chunk file when chunk): *differs, and why in words
+ * ("missing", "field 'shape[2]' is not what deltamap writes for this store", "not JSON
+ * (...)", "too short (...)", "checksum mismatch (corrupt chunk)", "values
+ * are not those deltamap writes ..."). Fails only for memory. */
+int dm_store_compare_file(const char *path, const void *want, size_t n, int chunk, char *why,
+                          size_t len, int *differs, dm_error *err);
 
 /* Read and verify one chunk. Returns DM_OK, or DM_EIO with a message when
  * the file is missing, has the wrong size or fails its checksum; *missing

@@ -69,6 +69,12 @@ typedef struct dm_sweep_opts {
      * tiles get done; NULL: none. The caller draws it. */
     void (*progress)(void *user, const struct dm_sweep_progress *p);
     void *progress_user;
+    /* on_repair: called for each file of an existing store of this sweep
+     * that was not what the sweep writes (an array's metadata, a
+     * coordinate or label chunk) and was rewritten: its path and what was
+     * wrong (repaired is 1); NULL: none. */
+    void (*on_repair)(void *user, const char *file, const char *problem, int repaired);
+    void *repair_user;
 } dm_sweep_opts;
 
 void dm_sweep_opts_default(dm_sweep_opts *opts);
@@ -100,6 +106,39 @@ typedef struct dm_sweep_stats {
 int dm_sweep_run(const dm_robot *robot, const dm_grid *grid, const dm_sweep_opts *opts,
                  const char *out, volatile sig_atomic_t *stop, dm_sweep_stats *stats,
                  dm_error *err);
+
+/* ---- a store against the sweep it records (sweep_verify.c) ---- */
+
+/* A file of a store that is not what its sweep writes: its path, what is
+ * wrong, and whether it was rewritten. */
+typedef void (*dm_sweep_damage_fn)(void *user, const char *file, const char *problem,
+                                   int repaired);
+
+typedef struct dm_sweep_check {
+    dm_store store;      /* the layout to read the chunks by (dm_sweep_census_take) */
+    int verified;        /* the metadata and coordinates were compared with the bytes this
+                            version writes for the sweep the store records */
+    char made_by[64];    /* the tool the store records ("deltamap 0.4.0"; "" none) */
+    int other_version;   /* made by another version: read as its metadata says */
+    long problems;       /* files found not to be what the sweep writes */
+    long repaired;       /* of them, rewritten */
+    long chunk_problems; /* of them, chunk files left as they were */
+    int trajectory;      /* a trajectory run's store (dm_trajstore.h): no tiles */
+} dm_sweep_check;
+
+/* Open the store at path for deltamap info: rebuild the sweep its
+ * group's fingerprint records (robot, grid, options) and compare every
+ * file that sweep derives — the group's and arrays' metadata, the
+ * coordinate and label chunks — with what it writes, reporting each that
+ * differs; with repair, those that can be derived are rewritten (never the
+ * group's, which names the sweep). A store of another version, or whose
+ * sweep cannot be rebuilt, is read as its metadata says, its coordinate
+ * chunks checked by their checksums. Errors: the group's metadata missing
+ * or not JSON (DM_EIO), the fallback's (dm_store_read_metadata), a failed
+ * rewrite. Close with dm_sweep_check_close. */
+int dm_sweep_check_open(const char *path, int repair, dm_sweep_damage_fn report, void *user,
+                        dm_sweep_check *check, dm_error *err);
+void dm_sweep_check_close(dm_sweep_check *check);
 
 /* ---- what a store holds (sweep_census.c) ---- */
 

@@ -2,6 +2,6 @@
 #ifndef DM_VERSION_H
 #define DM_VERSION_H
 
-#define DM_VERSION "0.4.0"
+#define DM_VERSION "0.5.0"
 
 #endif

@@ -99,6 +99,58 @@ $SW --out "$TMP/bad" >"$TMP/fix.out" || bad "repair run"
 if grep -q "1 computed" "$TMP/fix.out" && diff -r "$TMP/ref" "$TMP/bad" >/dev/null; then ok; else bad "repair"; cat "$TMP/fix.out"; fi
 "$DM" info "$TMP/bad" >"$TMP/info.out" && grep -q "checksums ok" "$TMP/info.out" && ok || bad "info after repair"
 
+# every file around the data is checked on open (issue 38; the random
+# damage of one file per round is tests/store_damage.py): an array's
+# metadata with a value replaced and a coordinate chunk with a byte changed
+# are named by info (exit 5), repaired by the resume and by info --repair
+cp -r "$TMP/ref" "$TMP/meta"
+sed -i 's/"units": "m\/N"/"units": "N\/m"/' "$TMP/meta/compliance_max/zarr.json"
+printf 'Z' | dd of="$TMP/meta/y/c/0" bs=1 seek=9 conv=notrunc 2>/dev/null
+"$DM" info "$TMP/meta" >"$TMP/info.out"
+if [ $? -eq 5 ] && grep -q "damaged:  $TMP/meta/compliance_max/zarr.json: field 'attributes.units'" "$TMP/info.out" &&
+    grep -q "damaged:  $TMP/meta/y/c/0: checksum mismatch" "$TMP/info.out" && grep -q "checksums FAILED" "$TMP/info.out"; then ok; else bad "info misses damaged metadata or coordinates"; cat "$TMP/info.out"; fi
+cp -r "$TMP/meta" "$TMP/meta2"
+$SW --out "$TMP/meta" >"$TMP/fix.out" || bad "resume of a store with damaged metadata"
+if grep -q "repaired $TMP/meta/compliance_max/zarr.json" "$TMP/fix.out" && grep -q "repaired $TMP/meta/y/c/0" "$TMP/fix.out" &&
+    diff -r "$TMP/ref" "$TMP/meta" >/dev/null; then ok; else bad "resume did not repair the metadata"; cat "$TMP/fix.out"; fi
+"$DM" info --repair "$TMP/meta2" >"$TMP/info.out"
+if [ $? -eq 0 ] && grep -q "repaired: $TMP/meta2/y/c/0" "$TMP/info.out" && diff -r "$TMP/ref" "$TMP/meta2" >/dev/null; then ok; else bad "info --repair"; cat "$TMP/info.out"; fi
+# the group's metadata names the sweep: damaged, it is refused, not rewritten
+cp -r "$TMP/ref" "$TMP/meta3"
+sed -i 's/"title": "deltamap workspace maps"/"title": "maps"/' "$TMP/meta3/zarr.json"
+cp -r "$TMP/meta3" "$TMP/meta4"
+$SW --out "$TMP/meta3" >/dev/null 2>"$TMP/err"
+if [ $? -eq 2 ] && grep -q "$TMP/meta3/zarr.json" "$TMP/err" && diff -r "$TMP/meta4" "$TMP/meta3" >/dev/null; then ok; else bad "damaged group metadata not refused"; cat "$TMP/err"; fi
+
+# a trajectory run's store is checked the same way: info names a damaged
+# array metadata file and a corrupt chunk (exit 5), --repair rewrites the
+# metadata, and the run's store is otherwise left as it is
+$DM trajectory --robot zheng2017 --path "pick:duration=0.2" --mesh 1,1 --modes 4 --no-reference --out "$TMP/run.zarr" >/dev/null || bad "trajectory --out .zarr"
+"$DM" info "$TMP/run.zarr" >"$TMP/info.out"
+if [ $? -eq 0 ] && grep -q "checksums ok" "$TMP/info.out" && grep -q "a trajectory run" "$TMP/info.out"; then ok; else bad "info on a trajectory store"; cat "$TMP/info.out"; fi
+cp -r "$TMP/run.zarr" "$TMP/run0.zarr"
+sed -i 's/"units": "m, rad"/"units": "mm"/' "$TMP/run.zarr/error/zarr.json"
+printf 'Z' | dd of="$TMP/run.zarr/position/c/0/0" bs=1 seek=5 conv=notrunc 2>/dev/null
+"$DM" info "$TMP/run.zarr" >"$TMP/info.out"
+if [ $? -eq 5 ] && grep -q "damaged:  $TMP/run.zarr/error/zarr.json: field 'attributes.units'" "$TMP/info.out" &&
+    grep -q "damaged:  $TMP/run.zarr/position/c/0/0: checksum mismatch" "$TMP/info.out"; then ok; else bad "info misses a damaged trajectory store"; cat "$TMP/info.out"; fi
+"$DM" info --repair "$TMP/run.zarr" >/dev/null
+cp "$TMP/run0.zarr/position/c/0/0" "$TMP/run.zarr/position/c/0/0"
+if diff -r "$TMP/run0.zarr" "$TMP/run.zarr" >/dev/null && "$DM" info "$TMP/run.zarr" >/dev/null; then ok; else bad "info --repair of a trajectory store"; fi
+
+# a store made by an older version: info reads it with a note, verifies its
+# checksums; the resume refuses it and leaves it as it is
+FIX=tests/fixtures/store-0.4.0
+"$DM" info "$FIX" >"$TMP/info.out"
+if [ $? -eq 0 ] && grep -q "made by version deltamap 0.4.0" "$TMP/info.out" && grep -q "checksums ok" "$TMP/info.out"; then ok; else bad "info on the 0.4.0 store"; cat "$TMP/info.out"; fi
+cp -r "$FIX" "$TMP/old"
+printf 'Z' | dd of="$TMP/old/x/c/0" bs=1 seek=2 conv=notrunc 2>/dev/null
+"$DM" info "$TMP/old" >"$TMP/info.out"
+if [ $? -eq 5 ] && grep -q "$TMP/old/x/c/0" "$TMP/info.out"; then ok; else bad "info misses a damaged coordinate of the 0.4.0 store"; cat "$TMP/info.out"; fi
+rm -rf "$TMP/old" && cp -r "$FIX" "$TMP/old"
+$DM sweep --robot zheng2017 --mesh 1,1 --modes 4 --no-dynamic --tile 2,1,1 --grid "x=-0.05:0.05:2,y=0,z=-0.4" --progress none --out "$TMP/old" >/dev/null 2>"$TMP/err"
+if [ $? -eq 2 ] && grep -q "another version, made by deltamap 0.4.0" "$TMP/err" && diff -r "$FIX" "$TMP/old" >/dev/null; then ok; else bad "resume of the 0.4.0 store"; cat "$TMP/err"; fi
+
 # another robot or grid is refused; --force overwrites
 $DM sweep --robot zheng2017 --grid "$GRID" --out "$TMP/ref" --progress none >/dev/null 2>"$TMP/err"
 if [ $? -eq 2 ] && grep -q "another robot" "$TMP/err"; then ok; else bad "robot mismatch accepted"; fi

@@ -190,6 +190,77 @@ static void chunk_write_does_not_recreate_a_removed_store(void **state)
     assert_int_equal(system(cmd), 0);
 }
 
+/* A file against the bytes it should hold: the metadata text is what is
+ * written; an edited field, a flipped chunk byte, a chunk with a valid
+ * checksum but other values, a longer file and a missing one are each
+ * told apart, and named. */
+static void files_compared_with_what_is_written(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/dm_store_XXXXXX", path[600], why[300];
+    assert_non_null(mkdtemp(dir));
+    dm_store st;
+    dm_error err;
+    make_store(&st, dir);
+    assert_int_equal(dm_store_write_metadata(&st, &err), DM_OK);
+    size_t n, len;
+    char *text = dm_store_metadata_text(&st, 0, &n);
+    dm_store_metadata_path(&st, 0, path, sizeof path);
+    int differs = -1;
+    assert_int_equal(dm_store_compare_file(path, text, n, 0, why, sizeof why, &differs, &err), DM_OK);
+    assert_int_equal(differs, 0);
+    /* chunk_shape [2, 3] -> [2, 4]: still JSON, another layout */
+    char *edited = strdup(text);
+    char *at = strstr(strstr(edited, "chunk_shape"), "3");
+    *at = '4';
+    FILE *f = fopen(path, "wb");
+    fwrite(edited, 1, n, f);
+    fclose(f);
+    dm_store_compare_file(path, text, n, 0, why, sizeof why, &differs, &err);
+    assert_int_equal(differs, 1);
+    assert_non_null(strstr(why, "chunk_grid.configuration.chunk_shape[1]"));
+    /* the same bytes and one more */
+    f = fopen(path, "wb");
+    fwrite(text, 1, n, f);
+    fputc(' ', f);
+    fclose(f);
+    dm_store_compare_file(path, text, n, 0, why, sizeof why, &differs, &err);
+    assert_int_equal(differs, 1);
+    assert_non_null(strstr(why, "in other text"));
+    remove(path);
+    dm_store_compare_file(path, text, n, 0, why, sizeof why, &differs, &err);
+    assert_true(differs && !strcmp(why, "missing"));
+    /* chunks: the encoded bytes, a flipped byte, other values with a valid checksum */
+    double v[6] = {1, 2, 3, 4, 5, 6}, w[6] = {1, 2, 3, 4, 5, 7};
+    const int64_t c[2] = {0, 0};
+    assert_int_equal(dm_store_write_chunk(&st, 0, c, v, &err), DM_OK);
+    unsigned char *want = dm_store_encode_chunk(&st, 0, v, &len);
+    assert_int_equal(len, 6 * 8 + 4);
+    dm_store_chunk_path(&st, 0, c, path, sizeof path);
+    dm_store_compare_file(path, want, len, 1, why, sizeof why, &differs, &err);
+    assert_int_equal(differs, 0);
+    assert_int_equal(dm_store_write_chunk(&st, 0, c, w, &err), DM_OK);
+    dm_store_compare_file(path, want, len, 1, why, sizeof why, &differs, &err);
+    assert_true(differs && strstr(why, "checksum valid"));
+    want[3] ^= 1;
+    f = fopen(path, "wb");
+    fwrite(want, 1, len, f);
+    fclose(f);
+    want[3] ^= 1;
+    dm_store_compare_file(path, want, len, 1, why, sizeof why, &differs, &err);
+    assert_true(differs && strstr(why, "checksum mismatch"));
+    f = fopen(path, "wb");
+    fwrite(want, 1, len - 1, f);
+    fclose(f);
+    dm_store_compare_file(path, want, len, 1, why, sizeof why, &differs, &err);
+    assert_true(differs && strstr(why, "too short"));
+    free(want);
+    free(edited);
+    free(text);
+    dm_store_release(&st);
+    dm_file_remove_tree(dir);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -197,6 +268,7 @@ int main(void)
         cmocka_unit_test(chunks_round_trip_and_detect_damage),
         cmocka_unit_test(only_dead_writers_temporaries_are_removed),
         cmocka_unit_test(chunk_write_does_not_recreate_a_removed_store),
+        cmocka_unit_test(files_compared_with_what_is_written),
     };
     return cmocka_run_group_tests_name("store", tests, NULL, NULL);
 }

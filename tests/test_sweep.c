@@ -284,6 +284,66 @@ static void shards_make_the_same_store(void **state)
     rmtree(parts);
 }
 
+/* dm_sweep_opts.on_repair: each file it is told of */
+typedef struct {
+    int n;
+    char files[8][300];
+} repairs;
+
+static void note_repair(void *user, const char *file, const char *problem, int repaired)
+{
+    repairs *r = user;
+    (void)problem;
+    assert_true(repaired);
+    if (r->n < 8)
+        snprintf(r->files[r->n], sizeof r->files[0], "%s", file);
+    r->n++;
+}
+
+/* The files a resume derives from the command are checked, not only
+ * parsed: an array's metadata with its units replaced and a coordinate
+ * chunk with a byte changed are rewritten, reported, and the store is the
+ * undamaged one again; the info check (dm_sweep_check_open) finds both
+ * before and nothing after. */
+static void resume_repairs_derived_files(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
+    dm_sweep_opts o;
+    sweep_options(&o, 1, 5, 2, 2);
+    o.threads = 2;
+    char *one = tmpdir(), *two = tmpdir();
+    run_sweep(&rb, SPEC, &o, one);
+    run_sweep(&rb, SPEC, &o, two);
+    char cmd[600];
+    snprintf(cmd, sizeof cmd, "sed -i 's/\"units\": \"m, rad\"/\"units\": \"mm\"/' %s/static_error/zarr.json && "
+             "grep -q '\"mm\"' %s/static_error/zarr.json && "
+             "printf X | dd of=%s/y/c/0 bs=1 seek=2 conv=notrunc 2>/dev/null", two, two, two);
+    assert_int_equal(system(cmd), 0);
+    assert_false(same_tree(one, two));
+    dm_sweep_check chk;
+    dm_error err;
+    assert_int_equal(dm_sweep_check_open(two, 0, NULL, NULL, &chk, &err), DM_OK);
+    assert_true(chk.verified);
+    assert_int_equal(chk.problems, 2);
+    assert_int_equal(chk.chunk_problems, 1);
+    dm_sweep_check_close(&chk);
+    repairs r = {0};
+    o.on_repair = note_repair;
+    o.repair_user = &r;
+    run_sweep(&rb, SPEC, &o, two);
+    assert_int_equal(r.n, 2);
+    assert_non_null(strstr(r.files[0], "/static_error/zarr.json"));
+    assert_non_null(strstr(r.files[1], "/y/c/0"));
+    assert_true(same_tree(one, two));
+    assert_int_equal(dm_sweep_check_open(two, 0, NULL, NULL, &chk, &err), DM_OK);
+    assert_int_equal(chk.problems, 0);
+    dm_sweep_check_close(&chk);
+    rmtree(one);
+    rmtree(two);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -291,6 +351,7 @@ int main(void)
         cmocka_unit_test(points_between_anchors),
         cmocka_unit_test(threads_resume_and_refusal),
         cmocka_unit_test(shards_make_the_same_store),
+        cmocka_unit_test(resume_repairs_derived_files),
     };
     return cmocka_run_group_tests_name("sweep", tests, NULL, NULL);
 }

@@ -10,20 +10,34 @@
 #include "dm_shard.h"
 #include "dm_store.h"
 #include "dm_sweep.h"
+#include "dm_version.h"
 
 #define MAX_SHARDS 1000000
 
 static const char INFO_HELP[] =
-    "usage: deltamap info maps/NAME [--shards N]\n"
+    "usage: deltamap info maps/NAME [--shards N] [--repair]\n"
     "\n"
-    "What a map store holds, how complete it is and whether its checksums hold;\n"
-    "which tiles are still to compute and, given --shards N, which of the N\n"
-    "shards of a sharded sweep (sweep --shard K/N) still have work.\n";
+    "What a map store holds, how complete it is and whether every file is what\n"
+    "its sweep writes: the metadata and coordinates against the sweep the store\n"
+    "records, every chunk against its checksum (each damaged file named; exit 5\n"
+    "when one is); which tiles are still to compute and, given --shards N, which\n"
+    "of the N shards of a sharded sweep (sweep --shard K/N) still have work.\n"
+    "\n"
+    "  --repair        rewrite the files derived from the sweep's command (arrays'\n"
+    "                  metadata, coordinate and label chunks) that are damaged;\n"
+    "                  damaged data chunks are recomputed by the sweep command\n";
 
 static void print_corrupt(void *user, const char *msg)
 {
     (void)user;
     printf("  corrupt: %s\n", msg);
+}
+
+/* A file that is not what the store's sweep writes (dm_sweep_check_open). */
+static void print_damage(void *user, const char *file, const char *problem, int repaired)
+{
+    (void)user;
+    printf("  %s %s: %s\n", repaired ? "repaired:" : "damaged: ", file, problem);
 }
 
 static void print_dims(const dm_array_spec *a)
@@ -95,18 +109,24 @@ static int print_shards(const dm_sweep_census *tc, long n)
     return 0;
 }
 
-static int parse_info(int argc, char **argv, const char **store, long *shards)
+static int parse_info(int argc, char **argv, const char **store, long *shards, int *repair)
 {
-    static const struct option lo[] = {{"shards", 1, 0, 'n'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+    static const struct option lo[] = {{"shards", 1, 0, 'n'}, {"repair", 0, 0, 'r'},
+                                       {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     int c, n;
     *store = NULL;
     *shards = 0;
+    *repair = 0;
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
         if (c == 'h') {
             fputs(INFO_HELP, stdout);
             exit(0);
+        }
+        if (c == 'r') {
+            *repair = 1;
+            continue;
         }
         if (c != 'n')
             return dm_cli_usage("info", "unknown or incomplete option", argv[optind - 1]);
@@ -121,39 +141,89 @@ static int parse_info(int argc, char **argv, const char **store, long *shards)
     return 0;
 }
 
+/* What the check found of the files around the data, in a line. */
+static void print_files(const dm_sweep_check *chk)
+{
+    long left = chk->problems - chk->repaired;
+    if (!chk->verified)
+        printf("files   not compared with what this version writes (another version's store, "
+               "or no sweep this version makes)%s\n", chk->problems ? "; damage above" : "");
+    else if (!chk->problems)
+        printf("files   every metadata %s is what the recorded %s writes\n",
+               chk->trajectory ? "file" : "and coordinate file", chk->trajectory ? "run" : "sweep");
+    else {
+        printf("files   %ld not what the recorded %s writes (above)", chk->problems,
+               chk->trajectory ? "run" : "sweep");
+        if (chk->repaired)
+            printf(", %ld rewritten", chk->repaired);
+        if (!left)
+            printf("\n");
+        else if (chk->trajectory)
+            printf(": deltamap info --repair rewrites the arrays' metadata; other files need "
+                   "the trajectory command again\n");
+        else
+            printf(": deltamap info --repair, or the sweep command, rewrites those it can\n");
+    }
+}
+
+/* A trajectory run's store: written once, whole; every chunk was read. */
+static int trajectory_summary(dm_sweep_check *chk)
+{
+    long damaged = chk->problems - chk->repaired;
+    printf("\nsamples %lld\n", chk->store.narr ? (long long)chk->store.arr[0].shape[0] : 0LL);
+    print_files(chk);
+    printf("checksums %s\n", chk->chunk_problems ? "FAILED: run the trajectory command again" : "ok");
+    dm_sweep_check_close(chk);
+    return damaged ? DM_EIO : 0;
+}
+
 int dm_cli_info(int argc, char **argv)
 {
     const char *path;
     long shards;
-    int rc = parse_info(argc, argv, &path, &shards);
+    int repair;
+    int rc = parse_info(argc, argv, &path, &shards, &repair);
     if (rc)
         return rc;
-    dm_store st;
+    dm_sweep_check chk;
     dm_error err;
-    if (dm_store_read_metadata(path, &st, &err))
+    printf("store   %s\n", path);
+    if (dm_sweep_check_open(path, repair, print_damage, NULL, &chk, &err))
         return dm_cli_report(&err);
+    dm_store st = chk.store;
     json_t *dm = json_object_get(st.group_attributes, "deltamap");
-    printf("store   %s (Zarr v3 group)\n", path);
     printf("robot   %s\n", json_string_value(json_object_get(dm, "robot")));
-    printf("grid    %s (%s)\n", json_string_value(json_object_get(dm, "grid")),
-           json_string_value(json_object_get(dm, "grid_kind")));
-    printf("tool    %s\n\narrays\n", json_string_value(json_object_get(dm, "tool")));
+    if (chk.trajectory)
+        printf("path    %s (a trajectory run)\n", json_string_value(json_object_get(dm, "path")));
+    else
+        printf("grid    %s (%s)\n", json_string_value(json_object_get(dm, "grid")),
+               json_string_value(json_object_get(dm, "grid_kind")));
+    printf("tool    %s\n", json_string_value(json_object_get(dm, "tool")));
+    if (chk.other_version)
+        printf("        made by version %s; this is %s: read as its metadata says, not "
+               "compared with what this version writes; a sweep does not resume it (--force "
+               "replaces it)\n", chk.made_by, "deltamap " DM_VERSION);
+    printf("\narrays\n");
     for (int a = 0; a < st.narr; a++) {
         const dm_array_spec *s = &st.arr[a];
         printf("  %-24s ", s->name);
         print_dims(s);
         printf("  %s\n", json_string_value(json_object_get(s->attributes, "units")));
     }
+    if (chk.trajectory)
+        return trajectory_summary(&chk);
     dm_sweep_census tc;
     if ((rc = dm_sweep_census_take(&st, &tc, print_corrupt, NULL, &err))) {
-        dm_store_release(&st);
+        dm_sweep_check_close(&chk);
         return dm_cli_report(&err);
     }
+    long corrupt = tc.corrupt + chk.chunk_problems;
     printf("\ntiles   %ld of %ld complete (%.1f %%); %ld chunk files missing, %ld corrupt\n",
            tc.complete, tc.tiles, 100.0 * tc.complete / tc.tiles, tc.missing_chunks, tc.corrupt);
     printf("points  %ld ok, %ld near-singular, %ld unreachable, %ld solver failure\n",
            tc.counts[0], tc.counts[2], tc.counts[1], tc.counts[3]);
-    printf("checksums %s\n", tc.corrupt ? "FAILED: re-run the sweep command to recompute" : "ok");
+    print_files(&chk);
+    printf("checksums %s\n", corrupt ? "FAILED: re-run the sweep command to recompute" : "ok");
     print_missing(&tc);
     rc = shards ? print_shards(&tc, shards) : 0;
     long temps = dm_file_count_temps(path);
@@ -163,10 +233,11 @@ int dm_cli_info(int argc, char **argv)
                "no sweep running: find %s -name '*.tmp.*' -delete)\n",
                temps, path);
     dm_sweep_census_free(&tc);
-    dm_store_release(&st);
+    long damaged = chk.problems - chk.repaired;
+    dm_sweep_check_close(&chk);
     if (rc) {
         fprintf(stderr, "deltamap: out of memory\n");
         return DM_ENOMEM;
     }
-    return tc.corrupt ? DM_EIO : 0;
+    return tc.corrupt || damaged ? DM_EIO : 0;
 }

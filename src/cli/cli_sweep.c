@@ -65,6 +65,13 @@ static const char SWEEP_HELP[] =
 
 static volatile sig_atomic_t stop_requested;
 
+/* A file of the store that the resume rewrote (dm_sweep_opts.on_repair). */
+static void print_repair(void *user, const char *file, const char *problem, int repaired)
+{
+    (void)user;
+    printf("%s %s: %s\n", repaired ? "repaired" : "damaged ", file, problem);
+}
+
 static void on_signal(int sig)
 {
     (void)sig;
@@ -310,6 +317,7 @@ int dm_cli_sweep(int argc, char **argv)
     sa.sa_handler = on_signal;
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
+    a.o.on_repair = print_repair;
     dm_sweep_stats st;
     dm_cli_progress view;
     dm_cli_progress_init(&view, "sweep", a.progress);

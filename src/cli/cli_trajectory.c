@@ -13,6 +13,7 @@
 #include "dm_budget.h"
 #include "dm_integrate.h"
 #include "dm_store.h"
+#include "dm_trajstore.h"
 
 static const char HELP[] =
     "usage: deltamap trajectory --robot R --path P [--modes K|all] [--dt S]\n"
@@ -310,20 +311,6 @@ static int keep_sample(sample_list *l, const dm_integ_sample *s, double change)
     return 0;
 }
 
-#define TIME_CHUNK 4096
-
-/* One array along time (and an optional second axis of length m), chunked
- * by TIME_CHUNK samples; value(i, j) gives element j of sample i. */
-static void time_array(dm_store *st, const char *name, const char *dim2, int m, const char *units,
-                       const char *long_name, long n)
-{
-    const int64_t shape[2] = {n, m};
-    const int chunk[2] = {n < TIME_CHUNK ? (int)n : TIME_CHUNK, m};
-    const char *dims[2] = {"time", dim2};
-    dm_store_add_array(st, name, DM_DTYPE_FLOAT64, dim2 ? 2 : 1, shape, chunk, dims,
-                       json_pack("{s:s, s:s}", "units", units, "long_name", long_name));
-}
-
 static double sample_value(const sample_list *l, long i, int array, int j)
 {
     const dm_integ_sample *s = &l->s[i];
@@ -369,27 +356,14 @@ static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory 
                       const sample_list *l, int nfreq, dm_error *err)
 {
     dm_store st;
-    memset(&st, 0, sizeof st);
-    snprintf(st.path, sizeof st.path, "%s.tmp.%ld", path, (long)getpid());
-    time_array(&st, "time", NULL, 1, "s", "time", l->n);
-    time_array(&st, "position", "axis", 3, "m", "commanded platform centre", l->n);
-    time_array(&st, "error", "component", 6, "m, rad", "platform error dx dy dz (m) ex ey ez (rad)", l->n);
-    time_array(&st, "error_norm", NULL, 1, "m", "|(dx, dy, dz)|", l->n);
-    time_array(&st, "tool_error", "axis", 3, "m", "tool point error", l->n);
-    time_array(&st, "frequencies_hz", "mode", nfreq, "Hz", "frequencies of the frozen configuration", l->n);
-    time_array(&st, "coupling_index_log10", NULL, 1, "1",
-               "log10 of Zheng's coupling index (eq. 33), det K of the frozen model", l->n);
-    time_array(&st, "coupling_index_change_log10", NULL, 1, "1",
-               "coupling_index_log10 minus the nominal robot's (every effect off) at the same "
-               "pose and mesh", l->n);
-    json_t *names = json_pack("[ssssssss]", "time", "position", "error", "error_norm", "tool_error",
-                              "frequencies_hz", "coupling_index_log10", "coupling_index_change_log10");
-    st.group_attributes = json_pack("{s:s, s:{s:s, s:s, s:s, s:o}}", "title",
-                                    "deltamap trajectory run", "deltamap", "tool",
-                                    "deltamap " DM_VERSION, "robot", rb->name, "path", tr->name,
-                                    "arrays", names);
+    char tmp[sizeof st.path];
+    snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
+    dm_trajstore_define(&st, tmp, rb->name, tr->name, l->n, nfreq);
     int rc = dm_store_write_metadata(&st, err);
-    double *buf = rc ? NULL : malloc(sizeof(double) * TIME_CHUNK * 8);
+    size_t most = 0; /* elements of the largest chunk */
+    for (int a = 0; a < st.narr; a++)
+        most = dm_store_chunk_elems(&st, a) > most ? dm_store_chunk_elems(&st, a) : most;
+    double *buf = rc ? NULL : malloc(sizeof(double) * most);
     if (!rc && !buf)
         rc = dm_fail(err, DM_ENOMEM, "out of memory");
     for (int a = 0; a < st.narr && !rc; a++) {
@@ -403,9 +377,7 @@ static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory 
         }
     }
     free(buf);
-    for (int a = 0; a < st.narr; a++)
-        json_decref(st.arr[a].attributes);
-    json_decref(st.group_attributes);
+    dm_store_release(&st);
     if (!rc)
         rc = replace_store(st.path, path, err);
     if (rc)

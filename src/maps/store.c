@@ -51,18 +51,6 @@ static const char *dtype_name(dm_dtype t)
     return t == DM_DTYPE_FLOAT64 ? "float64" : t == DM_DTYPE_INT32 ? "int32" : "uint8";
 }
 
-static int write_json(const char *path, json_t *o, dm_error *err)
-{
-    char *text = json_dumps(o, JSON_INDENT(2) | JSON_REAL_PRECISION(17));
-    if (!text)
-        return dm_fail(err, DM_ENOMEM, "out of memory");
-    size_t n = strlen(text);
-    text[n] = '\n'; /* replaces the terminator; length n + 1 below */
-    int rc = dm_file_write_atomic(path, text, n + 1, err);
-    free(text);
-    return rc;
-}
-
 /* ---- metadata --------------------------------------------------------------- */
 
 static json_t *array_json(const dm_array_spec *a)
@@ -106,31 +94,65 @@ void dm_store_add_array(dm_store *st, const char *name, dm_dtype type, int ndim,
     a->attributes = attributes;
 }
 
-int dm_store_write_metadata(const dm_store *st, dm_error *err)
+/* The group's zarr.json: its attributes name the arrays and the sweep. */
+static json_t *group_json(const dm_store *st)
+{
+    json_t *at = st->group_attributes ? json_incref(st->group_attributes) : json_object();
+    return json_pack("{s:i, s:s, s:o}", "zarr_format", 3, "node_type", "group", "attributes", at);
+}
+
+/* The text of one metadata file, as written: indented, 17 digits, a
+ * final newline. */
+static char *json_text(json_t *o, size_t *len)
+{
+    char *text = o ? json_dumps(o, JSON_INDENT(2) | JSON_REAL_PRECISION(17)) : NULL;
+    json_decref(o);
+    if (!text)
+        return NULL;
+    *len = strlen(text);
+    text[(*len)++] = '\n'; /* replaces the terminator */
+    return text;
+}
+
+char *dm_store_metadata_text(const dm_store *st, int a, size_t *len)
+{
+    return json_text(a < 0 ? group_json(st) : array_json(&st->arr[a]), len);
+}
+
+void dm_store_metadata_path(const dm_store *st, int a, char *out, size_t len)
+{
+    if (a < 0)
+        snprintf(out, len, "%s/zarr.json", st->path);
+    else
+        snprintf(out, len, "%s/%s/zarr.json", st->path, st->arr[a].name);
+}
+
+int dm_store_write_metadata_file(const dm_store *st, int a, dm_error *err)
 {
     char path[1200];
-    int rc = dm_file_mkdirs(st->path, 0, err);
-    if (rc)
-        return rc;
-    for (int a = 0; a < st->narr && !rc; a++) {
+    size_t n;
+    if (a >= 0) {
         snprintf(path, sizeof path, "%s/%s", st->path, st->arr[a].name);
-        rc = dm_file_mkdirs(path, 0, err);
+        int rc = dm_file_mkdirs(path, 0, err);
         if (rc)
-            break;
-        snprintf(path, sizeof path, "%s/%s/zarr.json", st->path, st->arr[a].name);
-        json_t *o = array_json(&st->arr[a]);
-        rc = o ? write_json(path, o, err) : dm_fail(err, DM_ENOMEM, "out of memory");
-        json_decref(o);
+            return rc;
     }
-    if (rc)
-        return rc;
-    /* the group last: its presence says the arrays' metadata is complete */
-    json_t *g = json_pack("{s:i, s:s, s:O}", "zarr_format", 3, "node_type", "group",
-                          "attributes", st->group_attributes ? st->group_attributes : json_object());
-    snprintf(path, sizeof path, "%s/zarr.json", st->path);
-    rc = write_json(path, g, err);
-    json_decref(g);
+    char *text = dm_store_metadata_text(st, a, &n);
+    if (!text)
+        return dm_fail(err, DM_ENOMEM, "out of memory");
+    dm_store_metadata_path(st, a, path, sizeof path);
+    int rc = dm_file_write_atomic(path, text, n, err);
+    free(text);
     return rc;
+}
+
+int dm_store_write_metadata(const dm_store *st, dm_error *err)
+{
+    int rc = dm_file_mkdirs(st->path, 0, err);
+    for (int a = 0; a < st->narr && !rc; a++)
+        rc = dm_store_write_metadata_file(st, a, err);
+    /* the group last: its presence says the arrays' metadata is complete */
+    return rc ? rc : dm_store_write_metadata_file(st, -1, err);
 }
 
 /* jansson reports a failed allocation as a parse error, or as none: a file
@@ -220,20 +242,33 @@ static int array_name_ok(const char *name)
     return 1;
 }
 
-int dm_store_read_metadata(const char *path, dm_store *st, dm_error *err)
+int dm_store_read_group(const char *path, json_t **attributes, dm_error *err)
 {
     char file[1200];
     json_error_t je;
-    memset(st, 0, sizeof *st);
-    snprintf(st->path, sizeof st->path, "%s", path);
     snprintf(file, sizeof file, "%s/zarr.json", path);
     json_t *g = json_load_file(file, 0, &je);
     if (!g && load_failed_for_memory(file, &je))
         return dm_fail(err, DM_ENOMEM, "%s: out of memory reading zarr.json", path);
     if (!g)
-        return dm_fail(err, DM_EIO, "%s: not a map store (%s)", path, je.text);
-    st->group_attributes = json_incref(json_object_get(g, "attributes"));
+        return json_error_code(&je) == json_error_cannot_open_file
+                   ? dm_fail(err, DM_EIO, "%s: cannot open it (%s): not a map store", file,
+                             strerror(errno))
+                   : dm_fail(err, DM_EIO, "%s: not a map store (line %d: %s)", file, je.line,
+                             je.text);
+    *attributes = json_incref(json_object_get(g, "attributes"));
     json_decref(g);
+    return DM_OK;
+}
+
+int dm_store_read_metadata(const char *path, dm_store *st, dm_error *err)
+{
+    char file[1200];
+    memset(st, 0, sizeof *st);
+    snprintf(st->path, sizeof st->path, "%s", path);
+    int grc = dm_store_read_group(path, &st->group_attributes, err);
+    if (grc)
+        return grc;
     json_t *names = json_object_get(json_object_get(st->group_attributes, "deltamap"), "arrays");
     size_t i;
     json_t *v;
@@ -266,6 +301,106 @@ void dm_store_release(dm_store *st)
     st->group_attributes = NULL;
 }
 
+/* ---- a file against the bytes it should hold ---------------------------------- */
+
+enum { SAME = 0, MISSING = 1, DIFFERS = 2 };
+
+/* The file at path against want[0..n-1]. Up to n + 1 bytes are read (a
+ * longer file differs) into buf, which holds n + 1; *got: how many. */
+static int compare_file(const char *path, const void *want, size_t n, unsigned char *buf,
+                        size_t *got)
+{
+    FILE *f = fopen(path, "rb");
+    *got = 0;
+    if (!f)
+        return MISSING;
+    *got = fread(buf, 1, n + 1, f);
+    fclose(f);
+    return *got == n && !memcmp(buf, want, n) ? SAME : DIFFERS;
+}
+
+/* The first place where have departs from want, as a field path
+ * ("chunk_grid.configuration.chunk_shape[2]") appended to out. */
+static void first_difference(json_t *want, json_t *have, char *out, size_t len)
+{
+    size_t used = strlen(out);
+    const char *key;
+    json_t *v;
+    if (json_is_object(want) && json_is_object(have)) {
+        json_object_foreach(want, key, v)
+            if (!json_equal(v, json_object_get(have, key))) {
+                snprintf(out + used, len - used, "%s%.60s", used ? "." : "", key);
+                first_difference(v, json_object_get(have, key), out, len);
+                return;
+            }
+        json_object_foreach(have, key, v)
+            if (!json_object_get(want, key)) {
+                snprintf(out + used, len - used, "%s%.60s", used ? "." : "", key);
+                return;
+            }
+    }
+    if (json_is_array(want) && json_is_array(have) && json_array_size(want) == json_array_size(have))
+        for (size_t i = 0; i < json_array_size(want); i++)
+            if (!json_equal(json_array_get(want, i), json_array_get(have, i))) {
+                snprintf(out + used, len - used, "[%zu]", i);
+                first_difference(json_array_get(want, i), json_array_get(have, i), out, len);
+                return;
+            }
+}
+
+/* What is wrong with a metadata file that differs from want, in words. */
+static void metadata_problem(const unsigned char *got, size_t n, const char *want, size_t wantlen,
+                             char *why, size_t len)
+{
+    json_error_t je, jw;
+    json_t *have = json_loadb((const char *)got, n, 0, &je);
+    json_t *exp = json_loadb(want, wantlen, 0, &jw);
+    char field[256] = "";
+    if (!have)
+        snprintf(why, len, "not JSON (line %d: %.80s)", je.line, je.text);
+    else if (exp && !json_equal(exp, have)) {
+        first_difference(exp, have, field, sizeof field);
+        snprintf(why, len, "field '%s' is not what deltamap writes for this store", field);
+    } else
+        snprintf(why, len, "the same fields as deltamap writes for this store, in other text");
+    json_decref(have);
+    json_decref(exp);
+}
+
+/* What is wrong with a chunk file that differs from want. */
+static void chunk_problem(const unsigned char *got, size_t n, size_t wantlen, char *why, size_t len)
+{
+    if (n != wantlen)
+        snprintf(why, len, "%s (%zu bytes, not %zu)", n > wantlen ? "too long" : "too short", n,
+                 wantlen);
+    else {
+        uint32_t stored = got[n - 4] | got[n - 3] << 8 | got[n - 2] << 16 | (uint32_t)got[n - 1] << 24;
+        snprintf(why, len, "%s", stored != dm_crc32c(got, n - 4)
+                                     ? "checksum mismatch (corrupt chunk)"
+                                     : "values are not those deltamap writes for this store (checksum valid)");
+    }
+}
+
+int dm_store_compare_file(const char *path, const void *want, size_t n, int chunk, char *why,
+                          size_t len, int *differs, dm_error *err)
+{
+    size_t got;
+    unsigned char *buf = malloc(n + 1);
+    *differs = 0;
+    if (!buf)
+        return dm_fail(err, DM_ENOMEM, "out of memory");
+    int how = compare_file(path, want, n, buf, &got);
+    if (how == MISSING)
+        snprintf(why, len, "missing");
+    else if (how == DIFFERS && chunk)
+        chunk_problem(buf, got, n, why, len);
+    else if (how == DIFFERS)
+        metadata_problem(buf, got, want, n, why, len);
+    free(buf);
+    *differs = how != SAME;
+    return DM_OK;
+}
+
 /* ---- chunks ------------------------------------------------------------------ */
 
 void dm_store_chunk_path(const dm_store *st, int a, const int64_t *c, char *out, size_t len)
@@ -283,18 +418,28 @@ size_t dm_store_chunk_elems(const dm_store *st, int a)
     return e;
 }
 
-int dm_store_write_chunk(const dm_store *st, int a, const int64_t *c, const void *data,
-                         dm_error *err)
+unsigned char *dm_store_encode_chunk(const dm_store *st, int a, const void *data, size_t *len)
 {
-    char path[1200];
     size_t nbytes = dm_store_chunk_elems(st, a) * dm_dtype_size(st->arr[a].dtype);
     unsigned char *buf = malloc(nbytes + 4);
     if (!buf)
-        return dm_fail(err, DM_ENOMEM, "out of memory");
+        return NULL;
     memcpy(buf, data, nbytes); /* x86-64 and aarch64 Linux are little-endian */
     uint32_t crc = dm_crc32c(buf, nbytes);
     for (int b = 0; b < 4; b++)
         buf[nbytes + b] = (unsigned char)(crc >> (8 * b));
+    *len = nbytes + 4;
+    return buf;
+}
+
+int dm_store_write_chunk(const dm_store *st, int a, const int64_t *c, const void *data,
+                         dm_error *err)
+{
+    char path[1200];
+    size_t len;
+    unsigned char *buf = dm_store_encode_chunk(st, a, data, &len);
+    if (!buf)
+        return dm_fail(err, DM_ENOMEM, "out of memory");
     dm_store_chunk_path(st, a, c, path, sizeof path);
     /* directories below the array's own, never the array or the store: a
      * writer whose store was removed (or replaced by --force) fails here
@@ -304,7 +449,7 @@ int dm_store_write_chunk(const dm_store *st, int a, const int64_t *c, const void
     int rc = dm_file_mkdirs(path, strlen(st->path) + strlen(st->arr[a].name) + 1, err);
     *slash = '/';
     if (!rc)
-        rc = dm_file_write_atomic(path, buf, nbytes + 4, err);
+        rc = dm_file_write_atomic(path, buf, len, err);
     free(buf);
     return rc;
 }

@@ -105,6 +105,26 @@ typedef struct sweep_worker {
 void dm_sweep_schema_define(sweep_ctx *c, const char *path);
 /* The coordinate and label arrays' chunks. */
 int dm_sweep_schema_write_coordinates(const sweep_ctx *c, dm_error *err);
+/* Coordinate or label array a's chunk alone. */
+int dm_sweep_schema_write_coordinates_one(const sweep_ctx *c, int a, dm_error *err);
+/* The values of coordinate or label array a (c->ndata and after): the
+ * grid's positions, or an extra dimension's indices. */
+void dm_sweep_schema_coordinate(const sweep_ctx *c, int a, void *out);
+
+/* ---- sweep_verify.c: the store against the sweep it records ------------------ */
+
+
+/* Every array's metadata and the coordinate and label chunks against the
+ * bytes this sweep writes (they are derived from its command, so nothing
+ * is lost by rewriting them); with repair each that differs is rewritten.
+ * *found: files that differed; *repaired and *chunks (may be NULL): of
+ * them, those rewritten and the chunk files left as they were. Fails
+ * only when a rewrite does (or memory). */
+int dm_sweep_schema_check(const sweep_ctx *c, int repair, dm_sweep_damage_fn report, void *user,
+                          long *found, long *repaired, long *chunks, dm_error *err);
+/* The group's metadata against this sweep's: why[0] is '\0' when the
+ * same, else what differs (it is never rewritten: it names the sweep). */
+int dm_sweep_schema_check_group(const sweep_ctx *c, char *why, size_t len, dm_error *err);
 
 /* ---- sweep_store.c ---------------------------------------------------------- */
 

@@ -150,30 +150,39 @@ void dm_sweep_schema_define(sweep_ctx *c, const char *path)
     st->group_attributes = json_pack("{s:s, s:o}", "title", "deltamap workspace maps", "deltamap", dm);
 }
 
-int dm_sweep_schema_write_coordinates(const sweep_ctx *c, dm_error *err)
+/* The values of coordinate or label array a (c->ndata and after) into
+ * out, dm_store_chunk_elems() of them: the grid's positions, or the
+ * indices of an extra dimension (modes from 1 = lowest, the rest from 0). */
+void dm_sweep_schema_coordinate(const sweep_ctx *c, int a, void *out)
+{
+    int i = a - c->ndata;
+    if (i < 3) {
+        const dm_grid_axis *ax = &c->grid->axis[i];
+        for (int j = 0; j < ax->count; j++)
+            ((double *)out)[j] = dm_grid_value(ax, j);
+        return;
+    }
+    size_t n = dm_store_chunk_elems(&c->store, a);
+    for (size_t j = 0; j < n; j++)
+        ((int32_t *)out)[j] = (int32_t)j + (i == 3);
+}
+
+int dm_sweep_schema_write_coordinates_one(const sweep_ctx *c, int a, dm_error *err)
 {
     const int64_t zero[1] = {0};
+    void *v = malloc(dm_store_chunk_elems(&c->store, a) * dm_dtype_size(c->store.arr[a].dtype));
+    if (!v)
+        return dm_fail(err, DM_ENOMEM, "out of memory");
+    dm_sweep_schema_coordinate(c, a, v);
+    int rc = dm_store_write_chunk(&c->store, a, zero, v, err);
+    free(v);
+    return rc;
+}
+
+int dm_sweep_schema_write_coordinates(const sweep_ctx *c, dm_error *err)
+{
     int rc = DM_OK;
-    for (int i = 0; i < 3 && !rc; i++) {
-        const dm_grid_axis *ax = &c->grid->axis[i];
-        double *v = malloc(sizeof(double) * ax->count);
-        if (!v)
-            return dm_fail(err, DM_ENOMEM, "out of memory");
-        for (int j = 0; j < ax->count; j++)
-            v[j] = dm_grid_value(ax, j);
-        rc = dm_store_write_chunk(&c->store, c->ndata + i, zero, v, err);
-        free(v);
-    }
-    int32_t idx[64];
-    for (int j = 0; j < 64; j++)
-        idx[j] = j;
-    for (int a = c->ndata + 3; a < c->ndata + N_AXES_LABELS && !rc; a++) {
-        if (a == c->ndata + 3) /* modes: 1 = lowest */
-            for (int j = 0; j < 64; j++)
-                idx[j] = j + 1;
-        rc = dm_store_write_chunk(&c->store, a, zero, idx, err);
-        for (int j = 0; j < 64; j++)
-            idx[j] = j;
-    }
+    for (int a = c->ndata; a < c->ndata + N_AXES_LABELS && !rc; a++)
+        rc = dm_sweep_schema_write_coordinates_one(c, a, err);
     return rc;
 }

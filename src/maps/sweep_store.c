@@ -29,18 +29,24 @@ static json_t *fingerprint_of(json_t *group_attributes)
 }
 
 /* What differs between the store's fingerprint and ours, in words. */
-static const char *difference(json_t *ofp, json_t *nfp)
+static void difference(json_t *ofp, json_t *nfp, char *out, size_t len)
 {
+    const char *ov = json_string_value(json_object_get(ofp, "version"));
+    const char *nv = json_string_value(json_object_get(nfp, "version"));
+    const char *what = "other options (modes, mesh, tile, move or version)";
     if (!ofp)
-        return "an unreadable store";
-    if (!json_equal(json_object_get(ofp, "robot_ini"), json_object_get(nfp, "robot_ini")))
-        return "another robot";
-    if (!json_equal(json_object_get(ofp, "grid"), json_object_get(nfp, "grid")))
-        return "another grid";
-    if (!json_equal(json_object_get(ofp, "tolerance"), json_object_get(nfp, "tolerance")))
-        return "other tolerance Monte Carlo settings (samples, seed, spec, tolerances or "
+        what = "an unreadable store";
+    else if (ov && nv && strcmp(ov, nv)) { /* its layout may differ: not checked, not resumed */
+        snprintf(out, len, "another version, made by %.60s (this is %s)", ov, nv);
+        return;
+    } else if (!json_equal(json_object_get(ofp, "robot_ini"), json_object_get(nfp, "robot_ini")))
+        what = "another robot";
+    else if (!json_equal(json_object_get(ofp, "grid"), json_object_get(nfp, "grid")))
+        what = "another grid";
+    else if (!json_equal(json_object_get(ofp, "tolerance"), json_object_get(nfp, "tolerance")))
+        what = "other tolerance Monte Carlo settings (samples, seed, spec, tolerances or "
                "their law, or none)";
-    return "other options (modes, mesh, tile, move or version)";
+    snprintf(out, len, "%s", what);
 }
 
 /* "maps/xy" -> parent "maps", base "xy" ("." for a bare name). */
@@ -89,27 +95,13 @@ static void clean_skeleton(const sweep_ctx *c, const char *path)
     }
 }
 
-/* An existing store's array metadata and coordinates: rewritten (the same
- * bytes) if any file is missing or has the wrong size. */
+/* An existing store of this sweep: every array's metadata and the
+ * coordinate and label chunks as this sweep writes them, those that are
+ * not rewritten (the same bytes as at its creation) and reported. */
 static int repair_skeleton(sweep_ctx *c, dm_error *err)
 {
-    char file[1200];
-    const int64_t zero[1] = {0};
-    struct stat sb;
-    int whole = 1;
-    for (int a = 0; a < c->store.narr && whole; a++) {
-        snprintf(file, sizeof file, "%s/%s/zarr.json", c->store.path, c->store.arr[a].name);
-        whole = stat(file, &sb) == 0;
-        if (whole && a >= c->ndata) {
-            dm_store_chunk_path(&c->store, a, zero, file, sizeof file);
-            size_t bytes = dm_store_chunk_elems(&c->store, a) * dm_dtype_size(c->store.arr[a].dtype);
-            whole = stat(file, &sb) == 0 && (size_t)sb.st_size == bytes + 4;
-        }
-    }
-    if (whole)
-        return DM_OK;
-    int rc = dm_store_write_metadata(&c->store, err);
-    return rc ? rc : dm_sweep_schema_write_coordinates(c, err);
+    long found;
+    return dm_sweep_schema_check(c, 1, c->o.on_repair, c->o.repair_user, &found, NULL, NULL, err);
 }
 
 /* --force on a store of another sweep: rename it aside, check that it was
@@ -154,20 +146,32 @@ static int open_existing(sweep_ctx *c, const char *path, int racing, dm_error *e
     if (!S_ISDIR(dir.st_mode) || (!has_group && !dir_is_empty(path)))
         return racing ? STORE_RETRY
                       : dm_fail(err, DM_EINVAL,
-                                "%s exists and is not a map store; choose another store", path);
+                                "%s exists and is not a map store (%s: no such file); choose "
+                                "another store", path, file);
     if (!has_group)
         return STORE_ABSENT; /* an empty directory */
-    dm_store old;
+    json_t *attrs = NULL;
     dm_error rerr;
-    int rc = dm_store_read_metadata(path, &old, &rerr);
+    int rc = dm_store_read_group(path, &attrs, &rerr);
     if (rc == DM_ENOMEM)
         return dm_fail(err, rc, "%s", rerr.msg); /* no verdict on the store */
-    json_t *ofp = rc ? NULL : fingerprint_of(old.group_attributes);
+    json_t *ofp = rc ? NULL : fingerprint_of(attrs);
     json_t *nfp = fingerprint_of(c->store.group_attributes);
     int same = ofp && json_equal(ofp, nfp);
-    const char *what = difference(ofp, nfp);
-    if (!rc)
-        dm_store_release(&old);
+    char what[800];
+    difference(ofp, nfp, what, sizeof what);
+    json_decref(attrs);
+    /* the group's metadata names the sweep: one that records this sweep's
+     * fingerprint but differs elsewhere cannot be told apart from another
+     * sweep's (or another version's), so it is not rewritten */
+    char why[300];
+    if (same && (rc = dm_sweep_schema_check_group(c, why, sizeof why, err)))
+        return rc;
+    if (same && why[0]) {
+        same = 0;
+        snprintf(what, sizeof what, "unknown origin (the file records this sweep but is not "
+                 "what it writes: %s; it cannot be told apart from another sweep's)", why);
+    }
     if (stat(path, &again) || !same_dir(&dir, &again))
         return STORE_RETRY; /* replaced while we read it */
     if (same) {
@@ -177,8 +181,8 @@ static int open_existing(sweep_ctx *c, const char *path, int racing, dm_error *e
     if (!c->o.force) {
         c->store_refused = 1;
         return dm_fail(err, DM_EINVAL,
-                       "%s holds a sweep of %s: it is replaced only when forced; or choose "
-                       "another store", path, what);
+                       "%s/zarr.json: the store holds a sweep of %s: it is replaced only when "
+                       "forced; or choose another store", path, what);
     }
     return move_aside(path, &dir, err);
 }
