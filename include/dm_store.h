@@ -58,8 +58,9 @@ size_t dm_dtype_size(dm_dtype t);
 int dm_store_write_metadata(const dm_store *store, dm_error *err);
 
 /* Array a's metadata file (a = -1: the group's), the exact text
- * dm_store_write_metadata writes into it (caller frees; NULL: out of
- * memory), and writing that one file atomically. */
+ * dm_store_write_metadata writes into it (*len bytes and a terminator;
+ * caller frees; NULL: out of memory), and writing that one file
+ * atomically. */
 void dm_store_metadata_path(const dm_store *store, int a, char *out, size_t len);
 char *dm_store_metadata_text(const dm_store *store, int a, size_t *len);
 int dm_store_write_metadata_file(const dm_store *store, int a, dm_error *err);

@@ -102,7 +102,7 @@ static json_t *group_json(const dm_store *st)
 }
 
 /* The text of one metadata file, as written: indented, 17 digits, a
- * final newline. */
+ * final newline (and a terminator after it, not written). */
 static char *json_text(json_t *o, size_t *len)
 {
     char *text = o ? json_dumps(o, JSON_INDENT(2) | JSON_REAL_PRECISION(17)) : NULL;
@@ -110,8 +110,14 @@ static char *json_text(json_t *o, size_t *len)
     if (!text)
         return NULL;
     *len = strlen(text);
-    text[(*len)++] = '\n'; /* replaces the terminator */
-    return text;
+    char *more = realloc(text, *len + 2);
+    if (!more) {
+        free(text);
+        return NULL;
+    }
+    more[(*len)++] = '\n';
+    more[*len] = '\0';
+    return more;
 }
 
 char *dm_store_metadata_text(const dm_store *st, int a, size_t *len)
