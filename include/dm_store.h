@@ -104,6 +104,16 @@ int dm_store_write_chunk(const dm_store *store, int a, const int64_t *c, const v
  * memory). */
 unsigned char *dm_store_encode_chunk(const dm_store *store, int a, const void *data, size_t *len);
 
+/* The group's record of what made the store (attributes.deltamap: the
+ * sweep's fingerprint, or a trajectory run's description) is what every
+ * other file is checked against, so it carries its own checksum: seal
+ * adds "crc32c", the CRC-32C of the record's canonical text (compact,
+ * keys sorted) without it; sealed says whether it holds (a value edited in
+ * the record would otherwise make every file it describes look damaged,
+ * and a repair rewrite them to match). */
+void dm_store_seal_record(json_t *record);
+int dm_store_record_sealed(json_t *record);
+
 /* The file at path against the bytes want[0..n-1] it should hold (a
  * metadata file, or a chunk file when chunk): *differs, and why in words
  * ("missing", "field 'shape[2]' is not what deltamap writes for this store", "not JSON

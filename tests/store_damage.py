@@ -6,7 +6,10 @@ or copy went wrong would (issue 38).
     store_damage.py DELTAMAP replay
     store_damage.py DELTAMAP fuzz [--seed S] [--seconds T] [--rounds N] [--round R]
 
-The store: zheng2017, mesh 1,1, tiles 3,3,1, --no-dynamic, 72 points.
+The store: zheng2017, mesh 1,1, tiles 3,3,1, --no-dynamic, 72 points; one
+round in four a trajectory run's store instead (pick, 201 samples), which is
+written once: info must name the damaged file (exit 5), and after
+`info --repair` the store must be the undamaged one or info still name it.
 
 Properties, each round:
   * the resume exits 0 and the store is byte for byte the undamaged one
@@ -18,8 +21,9 @@ Properties, each round:
     resume).
 
 replay: the nine damages issue 38 found (the resume exited 0 and left a
-store that differs from the undamaged one), each checked as above and,
-where the damage is one the resume can undo, that it repaired it.
+store that differs from the undamaged one) and one the fuzz found since,
+each checked as above and, where the damage is one the resume can undo,
+that it repaired it.
 
 fuzz: a seeded random damage of one file per round (truncate, flip bytes,
 empty, delete, replace a JSON value, append, edit digits). Round R of seed
@@ -40,6 +44,8 @@ import time
 GRID = "x=-0.06:0.06:6,y=-0.06:0.06:6,z=-0.45:-0.35:2"
 SWEEP = ["sweep", "--robot", "zheng2017", "--mesh", "1,1", "--tile", "3,3,1", "--no-dynamic",
          "--grid", GRID, "--progress", "none", "--threads", "1"]
+TRAJ = ["trajectory", "--robot", "zheng2017", "--path", "pick:duration=0.2", "--mesh", "1,1",
+        "--modes", "4", "--no-reference"]
 KINDS = ["truncate", "flip", "empty", "delete", "json", "append", "digits"]
 
 
@@ -181,6 +187,38 @@ def check_round(dm, ref, ref_files, work, rel, what):
     return fails
 
 
+def check_traj_round(dm, ref_files, work, rel):
+    """A trajectory store (written once, no resume): info names the damaged
+    file (exit 5); info --repair then gives the undamaged store back, or
+    info still names the file (a data chunk needs the run again)."""
+    fails = []
+    damaged = snapshot(work)
+    rc, out = run(dm, ["info", work])
+    if damaged == ref_files:
+        return [f"info exits {rc} on an undamaged trajectory store"] if rc else []
+    if rc == 0 and "made by version" in out:
+        return fails
+    if rc == 0 or f"{work}/{rel}" not in out:
+        fails.append(f"info exits {rc} without naming {rel}")
+    if snapshot(work) != damaged:
+        fails.append("info (without --repair) changed the trajectory store")
+    run(dm, ["info", "--repair", work])
+    if snapshot(work) != ref_files:
+        rc, out = run(dm, ["info", work])
+        if rc == 0 or f"{work}/{rel}" not in out:
+            fails.append(f"after info --repair the trajectory store differs, and info exits {rc} "
+                         f"without naming {rel}")
+    return fails
+
+
+def make_traj(dm, tmp):
+    ref = os.path.join(tmp, "ref.zarr")
+    rc, out = run(dm, TRAJ + ["--out", ref])
+    if rc:
+        sys.exit(f"reference trajectory failed: {out}")
+    return ref, snapshot(ref)
+
+
 def make_ref(dm, tmp):
     ref = os.path.join(tmp, "ref")
     rc, out = run(dm, SWEEP + ["--out", ref])
@@ -238,7 +276,8 @@ def flip_one(path, at):
         fh.write(bytes([b[0] ^ 0x01]))
 
 
-# The nine damages of issue 38: (file, how, repairable by the resume).
+# The nine damages of issue 38, and the fuzz's findings since: (file, how,
+# repairable by the resume).
 REPLAY = [
     ("y/c/0", lambda p: flip_one(p, 3), True),
     ("static_error/zarr.json",
@@ -250,7 +289,20 @@ REPLAY = [
     ("coupling_index_log10/zarr.json", lambda p: set_json(p, ("shape", 2), 3), True),
     ("mode/c/0", relabel, True),
     ("zarr.json", lambda p: set_json(p, ("attributes", "title"), "maps"), False),
+    # found by the first 10-minute run (seed 1796529018, round 4210): a digit
+    # of the recorded robot that no other file depends on, so every file
+    # still matched what the edited record describes and info said ok
+    ("zarr.json", lambda p: edit_text(p, "shear_modulus = 26500000000\\n",
+                                      "shear_modulus = 36500000000\\n"), False),
 ]
+
+
+def edit_text(path, old, new):
+    with open(path) as fh:
+        text = fh.read()
+    assert old in text, old
+    with open(path, "w") as fh:
+        fh.write(text.replace(old, new, 1))
 
 
 def replay(dm):
@@ -273,35 +325,41 @@ def replay(dm):
 
 
 def fuzz(dm, seed, seconds, rounds, only):
+    """One round in four damages a trajectory run's store, the rest a map
+    store."""
     t0 = time.time()
-    findings = n = 0
+    findings = n = ntraj = 0
     with tempfile.TemporaryDirectory(dir=SCRATCH) as tmp:
         ref, ref_files = make_ref(dm, tmp)
+        tref, tref_files = make_traj(dm, tmp)
         r = only if only is not None else 0
         while True:
             if only is None and (time.time() - t0 >= seconds or (rounds and n >= rounds)):
                 break
             rng = random.Random(f"{seed}:{r}")
-            work = fresh(ref, tmp)
+            traj = rng.random() < 0.25
+            work = fresh(tref if traj else ref, tmp)
             rel, what = damage(work, rng)
             kept = os.path.join(tmp, "kept")
             shutil.rmtree(kept, ignore_errors=True)
             shutil.copytree(work, kept)
-            problems = check_round(dm, ref, ref_files, work, rel, what)
+            problems = check_traj_round(dm, tref_files, work, rel) if traj else \
+                check_round(dm, ref, ref_files, work, rel, what)
             if problems:
                 findings += 1
                 dest = os.path.join("build", "store-damage-findings", f"seed{seed}-round{r}")
                 shutil.rmtree(dest, ignore_errors=True)
                 shutil.copytree(kept, dest)
                 for p in problems:
-                    print(f"FINDING: seed {seed} round {r}: {rel}: {what}: {p} "
-                          f"(damaged store kept in {dest})")
+                    print(f"FINDING: seed {seed} round {r}: {'trajectory ' if traj else ''}{rel}: "
+                          f"{what}: {p} (damaged store kept in {dest})")
             n += 1
+            ntraj += traj
             r += 1
             if only is not None:
                 break
-    print(f"store damage fuzz: seed {seed}, {n} rounds in {time.time() - t0:.0f} s, "
-          f"{findings} findings")
+    print(f"store damage fuzz: seed {seed}, {n} rounds ({ntraj} of a trajectory store) in "
+          f"{time.time() - t0:.0f} s, {findings} findings")
     return findings == 0
 
 

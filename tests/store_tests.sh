@@ -138,6 +138,23 @@ if [ $? -eq 5 ] && grep -q "damaged:  $TMP/run.zarr/error/zarr.json: field 'attr
 cp "$TMP/run0.zarr/position/c/0/0" "$TMP/run.zarr/position/c/0/0"
 if diff -r "$TMP/run0.zarr" "$TMP/run.zarr" >/dev/null && "$DM" info "$TMP/run.zarr" >/dev/null; then ok; else bad "info --repair of a trajectory store"; fi
 
+# the group's record (what every other file is checked against) carries its
+# own checksum: a value edited in it is named, and nothing is "repaired" to
+# match it (the store damage fuzz found a trajectory's samples edited making
+# info --repair rewrite every array's shape)
+cp -r "$TMP/run0.zarr" "$TMP/run1.zarr"
+sed -i 's/"samples": \([0-9]*\)/"samples": 9\1/' "$TMP/run1.zarr/zarr.json"
+cp -r "$TMP/run1.zarr" "$TMP/run2.zarr"
+"$DM" info --repair "$TMP/run1.zarr" >"$TMP/info.out"
+if [ $? -eq 5 ] && grep -q "damaged:  $TMP/run1.zarr/zarr.json: attributes.deltamap fails its checksum" "$TMP/info.out" &&
+    diff -r "$TMP/run2.zarr" "$TMP/run1.zarr" >/dev/null; then ok; else bad "an edited trajectory record"; cat "$TMP/info.out"; fi
+cp -r "$TMP/ref" "$TMP/meta5"
+sed -i 's/"modes": 6,/"modes": 7,/' "$TMP/meta5/zarr.json"
+cp -r "$TMP/meta5" "$TMP/meta6"
+"$DM" info --repair "$TMP/meta5" >"$TMP/info.out"
+if [ $? -eq 5 ] && grep -q "damaged:  $TMP/meta5/zarr.json: attributes.deltamap fails its checksum" "$TMP/info.out" &&
+    diff -r "$TMP/meta6" "$TMP/meta5" >/dev/null; then ok; else bad "an edited fingerprint"; cat "$TMP/info.out"; fi
+
 # a store made by an older version: info reads it with a note, verifies its
 # checksums; the resume refuses it and leaves it as it is
 FIX=tests/fixtures/store-0.4.0

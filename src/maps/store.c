@@ -307,6 +307,33 @@ void dm_store_release(dm_store *st)
     st->group_attributes = NULL;
 }
 
+/* ---- the group's record of what made the store -------------------------------- */
+
+/* CRC-32C of rec's canonical text (compact, keys sorted, 17 digits) less
+ * its own "crc32c" member; 0 when it cannot be printed. */
+static uint32_t record_crc(json_t *rec)
+{
+    json_t *copy = json_deep_copy(rec);
+    json_object_del(copy, "crc32c");
+    char *text = copy ? json_dumps(copy, JSON_COMPACT | JSON_SORT_KEYS | JSON_REAL_PRECISION(17))
+                      : NULL;
+    json_decref(copy);
+    uint32_t crc = text ? dm_crc32c(text, strlen(text)) : 0;
+    free(text);
+    return crc;
+}
+
+void dm_store_seal_record(json_t *rec)
+{
+    json_object_set_new(rec, "crc32c", json_integer(record_crc(rec)));
+}
+
+int dm_store_record_sealed(json_t *rec)
+{
+    json_t *crc = json_object_get(rec, "crc32c");
+    return json_is_integer(crc) && json_integer_value(crc) == (json_int_t)record_crc(rec);
+}
+
 /* ---- a file against the bytes it should hold ---------------------------------- */
 
 enum { SAME = 0, MISSING = 1, DIFFERS = 2 };

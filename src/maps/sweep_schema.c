@@ -147,6 +147,7 @@ void dm_sweep_schema_define(sweep_ctx *c, const char *path)
                            c->rb->name, "grid", grid, "grid_kind",
                            g->kind ? "cylindrical" : "cartesian", "arrays", names, "fingerprint",
                            fingerprint(c));
+    dm_store_seal_record(dm);
     st->group_attributes = json_pack("{s:s, s:o}", "title", "deltamap workspace maps", "deltamap", dm);
 }
 

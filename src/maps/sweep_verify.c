@@ -232,12 +232,13 @@ int dm_sweep_check_open(const char *path, int repair, dm_sweep_damage_fn report,
     const char *version = json_string_value(json_object_get(fp, "version"));
     snprintf(chk->made_by, sizeof chk->made_by, "%s", tool ? tool : version ? version : "");
     chk->other_version = version && strcmp(version, DM_SWEEP_VERSION);
+    int sealed = dm_store_record_sealed(json_object_get(attrs, "deltamap"));
     sweep_ctx *c = calloc(1, sizeof *c);
     dm_robot *rb = malloc(sizeof *rb);
     dm_grid *g = malloc(sizeof *g);
     if (!c || !rb || !g)
         rc = dm_fail(err, DM_ENOMEM, "out of memory");
-    else if (fp && !chk->other_version && sweep_from(fp, path, c, rb, g)) {
+    else if (fp && !chk->other_version && sealed && sweep_from(fp, path, c, rb, g)) {
         char why[500], file[1100];
         long found, repaired, chunks;
         chk->verified = 1;
@@ -264,8 +265,11 @@ int dm_sweep_check_open(const char *path, int repair, dm_sweep_damage_fn report,
             snprintf(file, sizeof file, "%s/zarr.json", path);
             chk->problems++;
             if (report)
-                report(user, file, fp ? "its fingerprint is not one of a sweep this version makes"
-                                      : "records no sweep (attributes.deltamap.fingerprint)", 0);
+                report(user, file, !sealed ? "attributes.deltamap fails its checksum (crc32c): "
+                                             "the sweep it records cannot be trusted, nothing is "
+                                             "checked or repaired against it"
+                                   : fp ? "its fingerprint is not one of a sweep this version makes"
+                                        : "records no sweep (attributes.deltamap.fingerprint)", 0);
         }
         rc = dm_store_read_metadata(path, &chk->store, err);
         if (!rc)

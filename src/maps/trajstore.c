@@ -43,10 +43,10 @@ void dm_trajstore_define(dm_store *st, const char *path, const char *robot, cons
         json_array_append_new(names, json_string(st->arr[a].name));
     /* samples and modes: what the arrays' metadata follows from, so a
      * check needs no array's word for it */
-    st->group_attributes = json_pack("{s:s, s:{s:s, s:s, s:s, s:o, s:I, s:i}}", "title",
-                                     DM_TRAJSTORE_TITLE, "deltamap", "tool", TRAJ_VERSION, "robot",
-                                     robot, "path", traj, "arrays", names, "samples",
-                                     (json_int_t)n, "modes", nfreq);
+    json_t *rec = json_pack("{s:s, s:s, s:s, s:o, s:I, s:i}", "tool", TRAJ_VERSION, "robot", robot,
+                            "path", traj, "arrays", names, "samples", (json_int_t)n, "modes", nfreq);
+    dm_store_seal_record(rec);
+    st->group_attributes = json_pack("{s:s, s:o}", "title", DM_TRAJSTORE_TITLE, "deltamap", rec);
 }
 
 int dm_trajstore_is(json_t *attrs)
@@ -110,7 +110,8 @@ int dm_trajstore_check(const char *path, json_t *attrs, int repair, dm_sweep_dam
     chk->trajectory = 1;
     snprintf(chk->made_by, sizeof chk->made_by, "%s", tool ? tool : "");
     chk->other_version = tool && strcmp(tool, TRAJ_VERSION);
-    if (!chk->other_version && layout_from(attrs, path, &chk->store)) {
+    int sealed = dm_store_record_sealed(json_object_get(attrs, "deltamap"));
+    if (!chk->other_version && sealed && layout_from(attrs, path, &chk->store)) {
         chk->verified = 1;
         for (int a = -1; a < chk->store.narr && !rc; a++) {
             size_t n;
@@ -134,8 +135,11 @@ int dm_trajstore_check(const char *path, json_t *attrs, int repair, dm_sweep_dam
             snprintf(file, sizeof file, "%s/zarr.json", path);
             chk->problems++;
             if (report)
-                report(user, file, "records no trajectory run this version writes "
-                       "(attributes.deltamap: robot, path, samples, modes)", 0);
+                report(user, file, sealed ? "records no trajectory run this version writes "
+                                        "(attributes.deltamap: robot, path, samples, modes)"
+                                      : "attributes.deltamap fails its checksum (crc32c): the "
+                                        "run it records cannot be trusted, nothing is checked "
+                                        "or repaired against it", 0);
         }
         rc = dm_store_read_metadata(path, &chk->store, err);
     }
