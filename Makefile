@@ -8,6 +8,7 @@
 #   make test SANITIZE=1 the same built with -fsanitize=address,undefined
 #   make demo            deps + build + run the main job on a built-in robot
 #   make bench           speed and memory figures
+#   make test-arm64      cross-build for aarch64, run the tests under qemu-user (docs/arm64.md)
 #   make fuzz            build the libFuzzer targets (clang) into build/fuzz/
 #   make fuzz-run        run each fuzz target FUZZ_SECONDS (600) with ASan/UBSan
 #   make install         install to $(PREFIX)/bin (PREFIX=/usr/local)
@@ -58,14 +59,14 @@ TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 TEST_BIN:= $(addprefix $(BUILD)/tests/,$(TESTS))
 BIN     := $(BUILD)/deltamap
 
-.PHONY: all deps test unit-tests cli-tests isa-tests store-tests shard-tests alloc-tests slurm-tests fuzz-replay \
+.PHONY: all deps test test-arm64 unit-tests cli-tests isa-tests store-tests shard-tests alloc-tests slurm-tests fuzz-replay \
         fault-tests demo bench install clean help fuzz fuzz-deps fuzz-run
 .DELETE_ON_ERROR:
 
 all: $(BIN)
 
 help:
-	@sed -n '1,13p' Makefile | sed 's/^# \{0,1\}//'
+	@sed -n '1,14p' Makefile | sed 's/^# \{0,1\}//'
 
 deps:
 	@tools/install-deps.sh
@@ -196,6 +197,13 @@ demo: deps
 	$(BIN) sweep --robot chen2018 --grid "x=-0.4:0.4:41,y=-0.4:0.4:41,z=-0.7:-0.4:2" --out maps/demo
 	$(BIN) info maps/demo
 	.venv/bin/python tools/plot_maps.py maps/demo --out maps/demo-plots
+
+# aarch64: the library, CLI and unit tests cross-built through this Makefile
+# and run under qemu-aarch64, then the CLI tests (docs/arm64.md; not in
+# `make test`: the emulated suites take far longer than CI's budget).
+# ARM64_FLAGS: the script's options, e.g. --no-cli or --skip "test_diagnose".
+test-arm64:
+	@tools/test-arm64.sh $(ARM64_FLAGS)
 
 bench: deps
 	@$(MAKE) --no-print-directory $(BUILD)/tests/bench $(BIN)
