@@ -21,7 +21,7 @@
 #  4. cli    tests/cli_tests.sh with DELTAMAP a wrapper that runs the arm64
 #            binary under qemu-aarch64 (--no-cli skips it).
 #
-# A unit test still running after ARM64_TEST_TIMEOUT seconds (5400) is
+# A unit test still running after ARM64_TEST_TIMEOUT seconds (10800) is
 # stopped and counted as failed. Each stage's wall time is printed; the last
 # lines are the summary, and the exit status is non-zero if any stage failed.
 # Logs: build/arm64/logs/ (a test's: T.PATH.log).
@@ -52,7 +52,7 @@ LOGS=$BUILD/logs
 # libc6:arm64, and every library comes from the multiarch packages.
 unset QEMU_LD_PREFIX
 QEMU=qemu-aarch64
-TEST_TIMEOUT=${ARM64_TEST_TIMEOUT:-5400}
+TEST_TIMEOUT=${ARM64_TEST_TIMEOUT:-10800}
 
 now() { date +%s.%N; }
 since() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.1f", b - a }'; }
