@@ -50,6 +50,16 @@ int dm_isa_from_env(dm_isa *isa, dm_error *err);
  * check it first with dm_isa_from_env and refuse a bad one). */
 dm_isa dm_isa_active(void);
 
+/* In a *_kernels.c, the name of its table for the path it is built for:
+ * DM_ISA_TABLE(dm_arrow_kernels_) is dm_arrow_kernels_avx2 in the build
+ * with -DDM_ISA_PATH=avx2 (the Makefile's), ..._default without it. */
+#ifndef DM_ISA_PATH
+#define DM_ISA_PATH default
+#endif
+#define DM_ISA_PASTE_(prefix, path) prefix##path
+#define DM_ISA_NAME_(prefix, path) DM_ISA_PASTE_(prefix, path)
+#define DM_ISA_TABLE(prefix) DM_ISA_NAME_(prefix, DM_ISA_PATH)
+
 /* The CPU's model name ("AMD EPYC 9R14", ...), or the architecture when the
  * system does not say; into buf, always terminated. */
 void dm_isa_cpu_model(char *buf, size_t size);

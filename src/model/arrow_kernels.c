@@ -23,9 +23,6 @@
 
 #include "arrow_impl.h"
 
-#ifndef DM_ISA_PATH
-#define DM_ISA_PATH default
-#endif
 
 #define NP DM_ARROW_BORDER
 #define NB DM_ARROW_BLOCKS
@@ -659,10 +656,7 @@ static void border_schur(const double *ab, int nb, int kd, const int *colend,
         }
 }
 
-#define PASTE(a, b) a##b
-#define TABLE_NAME(path) PASTE(dm_arrow_kernels_, path)
-
-const dm_arrow_kernels TABLE_NAME(DM_ISA_PATH) = {
+const dm_arrow_kernels DM_ISA_TABLE(dm_arrow_kernels_) = {
     .mult = mult,
     .band_chol = band_chol,
     .border_of_factor = border_of_factor,

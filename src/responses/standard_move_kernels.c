@@ -7,9 +7,6 @@
  * fewer instructions in the moves than the baseline build. */
 #include "standard_move_impl.h"
 
-#ifndef DM_ISA_PATH
-#define DM_ISA_PATH default
-#endif
 
 /* Four partial sums: one running sum waits on each addition (a dot of
  * n = 210 cost ~4n cycles, and the carried modes take some 200 per pose). */
@@ -61,10 +58,7 @@ static void node_sums(const double *p4, const double *q, const double *v, int ns
         l[r] = ls[r], d[r] = ds[r], f[r] = fs[r];
 }
 
-#define PASTE(a, b) a##b
-#define TABLE_NAME(path) PASTE(dm_move_kernels_, path)
-
-const dm_move_kernels TABLE_NAME(DM_ISA_PATH) = {
+const dm_move_kernels DM_ISA_TABLE(dm_move_kernels_) = {
     .dot = dot,
     .step_modes = step_modes,
     .node_sums = node_sums,
