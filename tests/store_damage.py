@@ -211,20 +211,21 @@ def check_traj_round(dm, ref_files, work, rel):
     return fails
 
 
-def make_traj(dm, tmp):
-    ref = os.path.join(tmp, "ref.zarr")
-    rc, out = run(dm, TRAJ + ["--out", ref])
+def make_reference(dm, tmp, name, args, what):
+    """The undamaged store a round starts from, and its files' bytes."""
+    ref = os.path.join(tmp, name)
+    rc, out = run(dm, args + ["--out", ref])
     if rc:
-        sys.exit(f"reference trajectory failed: {out}")
+        sys.exit(f"reference {what} failed: {out}")
     return ref, snapshot(ref)
 
 
 def make_ref(dm, tmp):
-    ref = os.path.join(tmp, "ref")
-    rc, out = run(dm, SWEEP + ["--out", ref])
-    if rc:
-        sys.exit(f"reference sweep failed: {out}")
-    return ref, snapshot(ref)
+    return make_reference(dm, tmp, "ref", SWEEP, "sweep")
+
+
+def make_traj(dm, tmp):
+    return make_reference(dm, tmp, "ref.zarr", TRAJ, "trajectory")
 
 
 def fresh(ref, tmp):

@@ -142,18 +142,19 @@ if diff -r "$TMP/run0.zarr" "$TMP/run.zarr" >/dev/null && "$DM" info "$TMP/run.z
 # own checksum: a value edited in it is named, and nothing is "repaired" to
 # match it (the store damage fuzz found a trajectory's samples edited making
 # info --repair rewrite every array's shape)
-cp -r "$TMP/run0.zarr" "$TMP/run1.zarr"
-sed -i 's/"samples": \([0-9]*\)/"samples": 9\1/' "$TMP/run1.zarr/zarr.json"
-cp -r "$TMP/run1.zarr" "$TMP/run2.zarr"
-"$DM" info --repair "$TMP/run1.zarr" >"$TMP/info.out"
-if [ $? -eq 5 ] && grep -q "damaged:  $TMP/run1.zarr/zarr.json: attributes.deltamap fails its checksum" "$TMP/info.out" &&
-    diff -r "$TMP/run2.zarr" "$TMP/run1.zarr" >/dev/null; then ok; else bad "an edited trajectory record"; cat "$TMP/info.out"; fi
-cp -r "$TMP/ref" "$TMP/meta5"
-sed -i 's/"modes": 6,/"modes": 7,/' "$TMP/meta5/zarr.json"
-cp -r "$TMP/meta5" "$TMP/meta6"
-"$DM" info --repair "$TMP/meta5" >"$TMP/info.out"
-if [ $? -eq 5 ] && grep -q "damaged:  $TMP/meta5/zarr.json: attributes.deltamap fails its checksum" "$TMP/info.out" &&
-    diff -r "$TMP/meta6" "$TMP/meta5" >/dev/null; then ok; else bad "an edited fingerprint"; cat "$TMP/info.out"; fi
+# edited_record SOURCE SED-EXPRESSION WHAT: SOURCE's group record edited;
+# info --repair must exit 5 naming its checksum and change no file
+edited_record() {
+    rm -rf "$TMP/rec" "$TMP/rec-copy"
+    cp -r "$1" "$TMP/rec"
+    sed -i "$2" "$TMP/rec/zarr.json"
+    cp -r "$TMP/rec" "$TMP/rec-copy"
+    "$DM" info --repair "$TMP/rec" >"$TMP/info.out"
+    if [ $? -eq 5 ] && grep -q "damaged:  $TMP/rec/zarr.json: attributes.deltamap fails its checksum" "$TMP/info.out" &&
+        diff -r "$TMP/rec-copy" "$TMP/rec" >/dev/null; then ok; else bad "$3"; cat "$TMP/info.out"; fi
+}
+edited_record "$TMP/run0.zarr" 's/"samples": \([0-9]*\)/"samples": 9\1/' "an edited trajectory record"
+edited_record "$TMP/ref" 's/"modes": 6,/"modes": 7,/' "an edited fingerprint"
 
 # a store made by an older version: info reads it with a note, verifies its
 # checksums; the resume refuses it and leaves it as it is
