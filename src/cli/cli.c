@@ -12,6 +12,7 @@
 #include "dm_coupling.h"
 #include "dm_isa.h"
 #include "cli_impl.h"
+#include "cli_shapes.h"
 
 
 static const char MAIN_HELP[] =
@@ -180,7 +181,8 @@ static json_t *json_array_of(const double *v, int n)
 }
 
 static int print_modes_json(const dm_robot *rb, const dm_analysis *an,
-                            const dm_pose_result *res, double nominal_log10)
+                            const dm_pose_result *res, double nominal_log10,
+                            const dm_shape_set *shapes)
 {
     const dm_modes *mo = res->modes;
     json_t *o = json_object(), *modes = json_array(), *C = json_array();
@@ -216,6 +218,7 @@ static int print_modes_json(const dm_robot *rb, const dm_analysis *an,
     json_object_set_new(o, "coupling_index_log10", json_real(res->coupling_index_log10));
     json_object_set_new(o, "coupling_index_change_log10",
                         json_real(res->coupling_index_log10 - nominal_log10));
+    dm_cli_shapes_json(o, modes, shapes);
     int rc = json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(17));
     putchar('\n');
     json_decref(o);
@@ -247,17 +250,21 @@ static int cmd_modes(int argc, char **argv)
     const double *P = o.have_at ? o.at : rb.home_m;
     double nominal = 0;
     dm_coupling *cw = NULL;
+    dm_shape_set *shapes = NULL;
     rc = dm_analysis_run(an, P, o.k, &res, &err);
+    if (!rc && o.json && !(shapes = dm_shape_set_make(an, &res, dm_shape_default_max(&rb), &err)))
+        rc = err.code;
     if (!rc && !(cw = dm_coupling_alloc(&rb, na, nb, &err)))
         rc = err.code;
     if (!rc)
         rc = dm_coupling_nominal_log10(cw, P, &nominal, &err);
     if (!rc)
-        rc = o.json ? print_modes_json(&rb, an, &res, nominal)
+        rc = o.json ? print_modes_json(&rb, an, &res, nominal, shapes)
                     : (print_modes_table(&rb, an, &res, nominal), 0);
     else
         dm_cli_report(&err);
     dm_coupling_free(cw);
+    dm_shape_set_free(shapes);
     dm_analysis_free(an);
     return rc;
 }
