@@ -104,6 +104,19 @@ void dm_model_dense(const dm_model *model, double *K, double *M);
 void dm_model_mult_M(const dm_model *model, const double *X, int q, double *Y);
 void dm_model_mult_K(const dm_model *model, const double *X, int q, double *Y);
 
+/* The rigid platform with its payload (robot [effects]): MP its 6 x 6
+ * mass about P (column-major), F6 += its weight as a load on the
+ * platform's six DOFs (the assembly's own numbers). */
+void dm_model_platform(const dm_robot *robot, double MP[36], double F6[6]);
+
+/* Where rod s (0: +d, 1: -d) of chain i runs at a pose: its ends (the
+ * short-bar points at the elbow and at the platform) and the rigid offsets
+ * that carry them, bar from the elbow and plat_arm from the platform
+ * centre (the assembly's own numbers, for modules that rebuild the
+ * members' frames without assembling). */
+void dm_model_rod_ends(const dm_robot *robot, const dm_pose *pose, int i, int s, double top[3],
+                       double bottom[3], double bar[3], double plat_arm[3]);
+
 /* Global 6-vector of a node given reduced DOFs U. */
 void dm_model_nodemap_apply(const dm_nodemap *map, const double *U, double out[6]);
 

@@ -352,16 +352,22 @@ static void add_joint_spring(dm_model *md, int ref_dof, const double s[3], int o
         }
 }
 
-static int build_rod(dm_model *md, int i, int s, dm_element *e, dm_error *err)
+void dm_model_rod_ends(const dm_robot *rb, const dm_pose *p, int i, int s, double top[3],
+                       double bottom[3], double bar[3], double plat_arm[3])
 {
-    const dm_pose *p = &md->pose;
-    const dm_robot *rb = md->robot;
-    double sign = s == 0 ? 1.0 : -1.0, bar[3], top[3], bottom[3], plat_arm[3];
+    double sign = s == 0 ? 1.0 : -1.0;
     dm_scale3(sign * rb->rod_half_spacing_m, p->t[i], bar);
     dm_axpy3(p->B[i], 1.0, bar, top);
     dm_axpy3(p->C[i], 1.0, bar, bottom);
     dm_sub3(p->C[i], p->P, plat_arm); /* P -> lower end: r_i e_i + bar */
     dm_axpy3(plat_arm, 1.0, bar, plat_arm);
+}
+
+static int build_rod(dm_model *md, int i, int s, dm_element *e, dm_error *err)
+{
+    const dm_pose *p = &md->pose;
+    double bar[3], top[3], bottom[3], plat_arm[3];
+    dm_model_rod_ends(md->robot, p, i, s, top, bottom, bar, plat_arm);
     int base = upper_end_dof(md, i, s), nb = md->nb;
     int lower = lower_end_dof(md, i, s);
     double axis[3];
@@ -508,11 +514,10 @@ void dm_model_add_element_loads(const dm_model *md, const dm_element *e, int q,
 /* Rigid platform (mass, inertia about P) plus the payload point mass at
  * offset o: u = uP + eps x o = S [uP; eps], S = [I3, -skew(o)], so the
  * payload adds m S'S to the mass and S' m g to the load. */
-static void add_platform(dm_model *md)
+void dm_model_platform(const dm_robot *rb, double MP[36], double F6[6])
 {
-    const dm_robot *rb = md->robot;
     const dm_effects *fx = &rb->effects;
-    double *MP = md->platform_mass, S[3][6], Ssk[9], mg[3];
+    double S[3][6], Ssk[9], mg[3];
     memset(MP, 0, 36 * sizeof *MP);
     for (int k = 0; k < 3; k++) {
         MP[7 * k] = rb->platform_mass_kg;
@@ -528,16 +533,21 @@ static void add_platform(dm_model *md)
         for (int b = 0; b < 6; b++)
             for (int r = 0; r < 3; r++)
                 MP[6 * b + a] += fx->payload_kg * S[r][a] * S[r][b];
-    int p = md->platform_dof;
-    for (int c = 0; c < 6; c++)
-        for (int r = 0; r < 6; r++)
-            dm_arrow_add(&md->M, p + r, p + c, MP[6 * c + r]);
     dm_scale3(fx->payload_kg, rb->gravity_ms2, mg);
     for (int k = 0; k < 3; k++)
-        md->F_gravity[p + k] += rb->platform_mass_kg * rb->gravity_ms2[k];
+        F6[k] += rb->platform_mass_kg * rb->gravity_ms2[k];
     for (int a = 0; a < 6; a++)
         for (int r = 0; r < 3; r++)
-            md->F_gravity[p + a] += S[r][a] * mg[r];
+            F6[a] += S[r][a] * mg[r];
+}
+
+static void add_platform(dm_model *md)
+{
+    int p = md->platform_dof;
+    dm_model_platform(md->robot, md->platform_mass, md->F_gravity + p);
+    for (int c = 0; c < 6; c++)
+        for (int r = 0; r < 6; r++)
+            dm_arrow_add(&md->M, p + r, p + c, md->platform_mass[6 * c + r]);
 }
 
 /* Springs to ground at the arm roots, point masses at the elbows. */
