@@ -61,6 +61,7 @@ TEST_BIN:= $(addprefix $(BUILD)/tests/,$(TESTS))
 BIN     := $(BUILD)/deltamap
 
 .PHONY: all deps test test-arm64 unit-tests cli-tests isa-tests store-tests shard-tests alloc-tests slurm-tests fuzz-replay \
+        shapes-tests \
         fault-tests demo bench install clean help fuzz fuzz-deps fuzz-run
 .DELETE_ON_ERROR:
 
@@ -170,6 +171,11 @@ fuzz-run: fuzz-store-damage
 shard-tests: $(BIN)
 	@DELTAMAP=$(BIN) tests/shard_tests.sh
 
+# Shapes for viewers (docs/shapes.md): the .vtu/.pvd read back by VTK,
+# bad input (tests/shapes_tests.py; a few seconds).
+shapes-tests: $(BIN)
+	@.venv/bin/python tests/shapes_tests.py $(BIN)
+
 # The per-pose paths allocate nothing (tests/alloc_tests.sh): every
 # allocation counted by an LD_PRELOAD shim, which the sanitizers' own
 # allocator rules out under SANITIZE=1 (the script then says SKIPPED).
@@ -193,7 +199,7 @@ slurm-tests: $(BIN)
 test: deps
 	@tests/layers.sh
 	@$(MAKE) --no-print-directory unit-tests cli-tests isa-tests store-tests store-damage shard-tests \
-	    alloc-tests slurm-tests fuzz-replay fault-tests
+	    shapes-tests alloc-tests slurm-tests fuzz-replay fault-tests
 	@if [ -e $(BUILD)/slurm-skipped ]; then \
 	    echo "all tests passed but the Slurm test, which was SKIPPED (see above)"; \
 	else echo "all tests passed"; fi

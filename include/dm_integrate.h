@@ -174,6 +174,12 @@ typedef struct dm_integ_sample {
     double freq_hz[DM_INTEG_MAXFREQ];
     int nfreq;
     double coupling_index_log10; /* of the step's frozen K (dm_coupling.h) */
+    /* The whole robot, valid during the sink's call only: the step's frozen
+     * model and its displacement (n reduced DOFs, the output's: with the
+     * quasi-static part), NULL where a run keeps none (a closed-form run
+     * without the reference carries modal coordinates only) */
+    const struct dm_model *model;
+    const double *x;
 } dm_integ_sample;
 
 typedef struct dm_integ_summary {

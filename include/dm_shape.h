@@ -59,6 +59,15 @@ double dm_shape_max_translation(const dm_shape_mesh *mesh, const double *d);
  * max_m (0 when d does not move any node). */
 double dm_shape_scale_to(const dm_shape_mesh *mesh, const double *d, double max_m);
 
+/* Node positions moved by d magnified `factor` times: xyz + factor (u, v, w)
+ * (3 per node). */
+void dm_shape_deformed(const dm_shape_mesh *mesh, const double *d, double factor, double *xyz);
+
+/* The translations (3 per node, times factor) and the rotations (likewise)
+ * of d, apart: the vectors a viewer draws. */
+void dm_shape_split(const dm_shape_mesh *mesh, const double *d, double factor, double *trans,
+                    double *rot);
+
 /* The static gravity deflection U = K^-1 F_gravity (n) with the factor of
  * the model's K (dm_static_factor); its platform DOFs are
  * dm_static_platform_error's static error. */

@@ -10,8 +10,12 @@
 #    /etc/slurm/slurm.conf Slurm's would not start anyway). Where they
 #    cannot be installed the test reports SKIPPED.
 #  - a Python virtual environment in .venv with numpy, matplotlib, zarr and
-#    xarray for the plotting tools and the store-compatibility tests, at the
-#    versions pinned in tools/constraints.txt
+#    xarray for the plotting tools and the store-compatibility tests, vtk
+#    (VTK's own readers: the shapes tests read deltamap's .vtu back) and
+#    plotly (tools/explore_maps.py), at the versions pinned in
+#    tools/constraints.txt
+#  - for the map explorer's browser test (tests/browser_tests.sh), if it can
+#    be installed: chromium (headless); where it cannot, the test says SKIPPED
 # `tools/install-deps.sh --fuzz` installs only what `make fuzz` needs
 # besides: clang with its sanitizer and libFuzzer runtimes, LLVM's OpenMP.
 set -e
@@ -22,6 +26,7 @@ else
     PKGS="build-essential pkg-config liblapacke-dev libopenblas-openmp-dev libsundials-dev
 libcmocka-dev libinih-dev libjansson-dev libcminpack-dev python3 python3-venv"
     SLURM_PKGS="slurmctld slurmd slurm-client munge"
+    BROWSER_PKGS="chromium"
 fi
 missing_of() {
     m=""
@@ -37,7 +42,9 @@ export DEBIAN_FRONTEND=noninteractive
 missing=$(missing_of $PKGS)
 # shellcheck disable=SC2086
 slurm_missing=$(missing_of ${SLURM_PKGS:-})
-[ -z "$missing$slurm_missing" ] || $SUDO apt-get update -qq
+# shellcheck disable=SC2086
+browser_missing=$(missing_of ${BROWSER_PKGS:-})
+[ -z "$missing$slurm_missing$browser_missing" ] || $SUDO apt-get update -qq
 if [ -n "$missing" ]; then
     echo "deps: installing Debian packages:$missing"
     # shellcheck disable=SC2086
@@ -63,8 +70,16 @@ if [ -n "$slurm_missing" ]; then
 elif [ "${1:-}" != "--fuzz" ]; then
     echo "deps: Slurm test packages present"
 fi
+if [ -n "$browser_missing" ]; then
+    echo "deps: installing Debian packages for the browser test:$browser_missing"
+    # shellcheck disable=SC2086
+    $SUDO apt-get install -y -qq --no-install-recommends $browser_missing >/dev/null ||
+        echo "deps: could not install$browser_missing: the browser test will be SKIPPED"
+elif [ "${1:-}" != "--fuzz" ]; then
+    echo "deps: browser test package present"
+fi
 [ "${1:-}" = "--fuzz" ] && exit 0
-PYMODS="numpy matplotlib zarr xarray"
+PYMODS="numpy matplotlib zarr xarray vtk plotly"
 # present, and each pinned package at its pinned version (a second run
 # installs nothing; a .venv made before the pins were moved is brought in line)
 pinned() {

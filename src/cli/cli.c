@@ -13,6 +13,7 @@
 #include "dm_isa.h"
 #include "cli_impl.h"
 #include "cli_shapes.h"
+#include "dm_vtk.h"
 
 
 static const char MAIN_HELP[] =
@@ -51,6 +52,7 @@ static const char MAIN_HELP[] =
 static const char MODES_HELP[] =
     "usage: deltamap modes --robot R [--at X,Y,Z] [--modes K] [--mesh NA,NB]\n"
     "                      [--method partial|dense|all] [--set SECTION.KEY=V]... [--json]\n"
+    "                      [--vtk FILE.vtu]\n"
     "\n"
     "Frozen-configuration modal analysis at one platform pose (docs/model.md §2-5).\n"
     "\n"
@@ -64,7 +66,9 @@ static const char MODES_HELP[] =
     "                  by a Sturm count), dense (the k lowest by LAPACK on the\n"
     "                  dense matrices) or all (every mode, dsygvd)\n"
     "  --set K=V       override a robot-file key, e.g. arm.side=0.025 (repeatable)\n"
-    "  --json          one JSON object on stdout instead of the table\n";
+    "  --json          one JSON object on stdout instead of the table\n"
+    "  --vtk FILE.vtu  also write the robot, its mode shapes and static deflection\n"
+    "                  for ParaView (docs/shapes.md)\n";
 
 static const char ROBOT_HELP[] =
     "usage: deltamap robot R\n"
@@ -75,7 +79,7 @@ static const char ROBOT_HELP[] =
 /* ---- modes ------------------------------------------------------------- */
 
 typedef struct {
-    const char *robot;
+    const char *robot, *vtk;
     const char *sets[16];
     int nset;
     double at[3];
@@ -89,7 +93,7 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
         {"robot", required_argument, 0, 'r'}, {"at", required_argument, 0, 'a'},
         {"modes", required_argument, 0, 'k'}, {"mesh", required_argument, 0, 'm'},
         {"method", required_argument, 0, 'M'}, {"json", no_argument, 0, 'j'},
-        {"set", required_argument, 0, 's'},
+        {"set", required_argument, 0, 's'}, {"vtk", required_argument, 0, 'V'},
         {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     int c;
     memset(o, 0, sizeof *o);
@@ -123,6 +127,7 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
                 return dm_cli_usage("modes", "--method is partial, dense or all", optarg);
             break;
         case 'j': o->json = 1; break;
+        case 'V': o->vtk = optarg; break;
         case 's':
             if (dm_cli_add_set("modes", o->sets, &o->nset, optarg))
                 return EXIT_USAGE;
@@ -234,7 +239,8 @@ static int cmd_modes(int argc, char **argv)
         return rc;
     dm_robot rb;
     dm_error err;
-    if (dm_cli_load_robot(o.robot, o.sets, o.nset, &rb, &err))
+    if (dm_cli_load_robot(o.robot, o.sets, o.nset, &rb, &err) ||
+        (o.vtk && dm_vtk_check_dir(o.vtk, &err)))
         return dm_cli_report(&err);
     int na = o.na ? o.na : rb.na, nb = o.nb ? o.nb : rb.nb;
     dm_analysis *an = dm_analysis_alloc(&rb, na, nb, o.k, o.method, &err);
@@ -252,12 +258,15 @@ static int cmd_modes(int argc, char **argv)
     dm_coupling *cw = NULL;
     dm_shape_set *shapes = NULL;
     rc = dm_analysis_run(an, P, o.k, &res, &err);
-    if (!rc && o.json && !(shapes = dm_shape_set_make(an, &res, dm_shape_default_max(&rb), &err)))
+    if (!rc && (o.json || o.vtk) &&
+        !(shapes = dm_shape_set_make(an, &res, dm_shape_default_max(&rb), &err)))
         rc = err.code;
     if (!rc && !(cw = dm_coupling_alloc(&rb, na, nb, &err)))
         rc = err.code;
     if (!rc)
         rc = dm_coupling_nominal_log10(cw, P, &nominal, &err);
+    if (!rc && o.vtk)
+        rc = dm_cli_modes_vtk(o.vtk, shapes, res.modes->platform_share, res.modes->freq_hz, &err);
     if (!rc)
         rc = o.json ? print_modes_json(&rb, an, &res, nominal, shapes)
                     : (print_modes_table(&rb, an, &res, nominal), 0);

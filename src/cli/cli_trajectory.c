@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "cli_impl.h"
+#include "cli_shapes.h"
 #include "dm_budget.h"
 #include "dm_integrate.h"
 #include "dm_store.h"
@@ -23,6 +24,7 @@ static const char HELP[] =
     "                           [--set SECTION.KEY=V]... [--force-long] [--rigid] [--no-budget]\n"
     "                           [--axes-rotation DEG[,DEG...]] [--threads N]\n"
     "                           [--out FILE.csv] [--json]\n"
+    "                           [--vtk DIR [--vtk-every N] [--vtk-magnify F]]\n"
     "\n"
     "Normal-coordinate integration along a trajectory (docs/model.md §4): the\n"
     "robot is frozen per step, the modal equations are integrated with SUNDIALS\n"
@@ -67,6 +69,11 @@ static const char HELP[] =
     "                   store's format)\n"
     "  --force-long     run even when the estimated work exceeds 4 hours (refused\n"
     "                   before it starts otherwise)\n"
+    "  --vtk DIR        the deformed robot for ParaView (docs/shapes.md): every N-th\n"
+    "                   sample (--vtk-every, default 10) as DIR/frame_NNNNNN.vtu with\n"
+    "                   its nodes moved by F times the elastic displacement\n"
+    "                   (--vtk-magnify, default 1000), and DIR/trajectory.pvd, the\n"
+    "                   time series; DIR must exist\n"
     "  --json           summary as JSON: mean_error_m, peak_error_m, truncation_error,\n"
     "                   coupling_index_log10 and coupling_index_change_log10 {mean, min, max},\n"
     "                   budget\n"
@@ -89,6 +96,7 @@ typedef struct {
     int nset;
     int json, na, nb, rigid, no_budget;
     dm_integ_opts o;
+    dm_cli_traj_vtk vtk;
 } traj_opts;
 
 static int parse(int argc, char **argv, traj_opts *t)
@@ -101,11 +109,14 @@ static int parse(int argc, char **argv, traj_opts *t)
         {"mesh", 1, 0, 'm'}, {"tool", 1, 0, 't'}, {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'},
         {"set", 1, 0, 's'}, {"force", 1, 0, 'F'}, {"force-long", 0, 0, 'L'},
         {"rigid", 0, 0, 'G'}, {"no-budget", 0, 0, 'B'}, {"axes-rotation", 1, 0, 'X'},
-        {"threads", 1, 0, 'T'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"threads", 1, 0, 'T'}, {"vtk", 1, 0, 'V'}, {"vtk-every", 1, 0, 'E'},
+        {"vtk-magnify", 1, 0, 'M'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
     int c;
     double v[2];
     memset(t, 0, sizeof *t);
     dm_integ_opts_default(&t->o);
+    t->vtk.every = 10;
+    t->vtk.magnify = 1000;
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
@@ -182,6 +193,15 @@ static int parse(int argc, char **argv, traj_opts *t)
             if (dm_cli_parse_list(optarg, t->o.tool_m, 3))
                 return dm_cli_usage("trajectory", "--tool takes X,Y,Z in m", optarg);
             break;
+        case 'V': t->vtk.dir = optarg; break;
+        case 'E':
+            if (dm_cli_parse_int(optarg, 1, 1000000000, &t->vtk.every))
+                return dm_cli_usage("trajectory", "--vtk-every takes a whole number >= 1", optarg);
+            break;
+        case 'M':
+            if (dm_cli_parse_list(optarg, &t->vtk.magnify, 1))
+                return dm_cli_usage("trajectory", "--vtk-magnify takes a number", optarg);
+            break;
         case 'h': fputs(HELP, stdout); exit(0);
         default: return dm_cli_usage("trajectory", "unknown or incomplete option", argv[optind - 1]);
         }
@@ -205,6 +225,7 @@ typedef struct sample_list sample_list;
 typedef struct {
     FILE *csv;
     sample_list *kept;
+    dm_cli_traj_vtk *vtk; /* --vtk: its frames (failures: failed, err) */
     dm_coupling_change cc;
     int failed;   /* the coupling change's error (in err) stopped the run */
     dm_error err;
@@ -250,6 +271,8 @@ static int run_sample(void *user, const dm_integ_sample *s)
     run_out *ro = user;
     double change;
     if (next_change(ro, s, &change))
+        return 1;
+    if (ro->vtk && (ro->failed = dm_cli_traj_vtk_frame(ro->vtk, s, &ro->err)))
         return 1;
     if (ro->kept)
         return keep_sample(ro->kept, s, change);
@@ -391,6 +414,8 @@ static int budget_sample(void *user, const dm_budget_sample *b)
     run_out *ro = user;
     double change;
     if (next_change(ro, &b->run, &change))
+        return 1;
+    if (ro->vtk && (ro->failed = dm_cli_traj_vtk_frame(ro->vtk, &b->run, &ro->err)))
         return 1;
     if (ro->csv)
         return csv_budget_row(ro->csv, b, change);
@@ -545,6 +570,10 @@ int dm_cli_trajectory(int argc, char **argv)
         return dm_cli_report(&err);
     if (dm_traj_make(t.path, &rb, &tr, &err))
         return dm_cli_report(&err);
+    if (t.vtk.dir && dm_cli_traj_vtk_check(&t.vtk, &err)) {
+        dm_traj_free(&tr);
+        return dm_cli_report(&err);
+    }
     dm_file_out out = {0};
     int zarr = t.out && ends_with(t.out, ".zarr");
     sample_list kept = {0};
@@ -560,7 +589,7 @@ int dm_cli_trajectory(int argc, char **argv)
                 budget ? BUDGET_COLUMNS : "");
     dm_integ_summary sum;
     dm_budget_summary bsum;
-    run_out ro = {.csv = out.f, .kept = zarr ? &kept : NULL};
+    run_out ro = {.csv = out.f, .kept = zarr ? &kept : NULL, .vtk = t.vtk.dir ? &t.vtk : NULL};
     rc = dm_coupling_change_init(&ro.cc, &rb, t.o.na, t.o.nb, &err);
     if (!rc && budget) {
         rc = dm_budget_trajectory(&rb, &tr, &t.o, !t.rigid, budget_sample, &ro, &bsum, &err);
@@ -571,6 +600,10 @@ int dm_cli_trajectory(int argc, char **argv)
         rc = dm_file_out_commit(&out, &err);
     if (!rc && zarr)
         rc = write_zarr(t.out, &rb, &tr, &kept, kept.n ? kept.s[0].nfreq : 0, &err);
+    if (ro.vtk) {
+        int vrc = dm_cli_traj_vtk_finish(ro.vtk, !rc, &err);
+        rc = rc ? rc : vrc;
+    }
     free(kept.s);
     free(kept.change);
     if (rc) {

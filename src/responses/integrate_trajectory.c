@@ -635,6 +635,8 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
         rc = initial_state(w, err);
         if (!rc) {
             fill_sample(w, 0.0, w->x, mo, &s);
+            s.model = w->md;
+            s.x = w->x;
             rc = sink && sink(user, &s) ? DM_EINTERRUPT : DM_OK;
             rs->peak = dm_norm3(w->x + w->md->platform_dof);
         }
@@ -653,6 +655,8 @@ static int step(run_ws *w, long j, long nsteps, dm_integ_sink sink, void *user, 
     if (rc)
         return rc;
     fill_sample(w, t1, w->xout, mo, &s);
+    s.model = w->md;
+    s.x = w->xout;
     account(&w->o, rs, j, h, w->coupling_log10, &s);
     if (w->ref_stepper) {
         double er = dm_norm3(w->xr + w->md->platform_dof);

@@ -164,6 +164,23 @@ double dm_shape_scale_to(const dm_shape_mesh *mesh, const double *d, double max_
     return m > 0 ? max_m / m : 0.0;
 }
 
+void dm_shape_deformed(const dm_shape_mesh *mesh, const double *d, double factor, double *xyz)
+{
+    for (int j = 0; j < mesh->nnodes; j++)
+        for (int c = 0; c < 3; c++)
+            xyz[3 * j + c] = mesh->xyz_m[3 * j + c] + factor * d[6 * j + c];
+}
+
+void dm_shape_split(const dm_shape_mesh *mesh, const double *d, double factor, double *trans,
+                    double *rot)
+{
+    for (int j = 0; j < mesh->nnodes; j++)
+        for (int c = 0; c < 3; c++) {
+            trans[3 * j + c] = factor * d[6 * j + c];
+            rot[3 * j + c] = factor * d[6 * j + 3 + c];
+        }
+}
+
 int dm_shape_static(const dm_static *ws, const dm_model *model, double *U, dm_error *err)
 {
     memcpy(U, model->F_gravity, (size_t)model->n * sizeof *U);
