@@ -205,13 +205,16 @@ test: deps
 	else echo "all tests passed"; fi
 
 # The main job on a built-in robot: the mode table at the centre, then a
-# workspace sweep into maps/demo (resumable) and its maps as PNG.
+# workspace sweep into maps/demo (resumable), its maps as PNG and the mode
+# shapes at the centre (PNG grid, GIF of mode 1).
 demo: deps
 	@$(MAKE) --no-print-directory $(BIN)
 	$(BIN) modes --robot chen2018 --at 0,0,-0.5 --modes 10
 	$(BIN) sweep --robot chen2018 --grid "x=-0.4:0.4:41,y=-0.4:0.4:41,z=-0.7:-0.4:2" --out maps/demo
 	$(BIN) info maps/demo
 	.venv/bin/python tools/plot_maps.py maps/demo --out maps/demo-plots
+	.venv/bin/python tools/plot_modes.py --robot chen2018 --at 0,0,-0.5 --out maps/demo-plots/modes.png \
+	    --gif maps/demo-plots/mode1.gif
 
 # aarch64: the library, CLI and unit tests cross-built through this Makefile
 # and run under qemu-aarch64, then the CLI tests (docs/arm64.md; not in

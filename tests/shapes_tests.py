@@ -14,6 +14,11 @@ usage: shapes_tests.py DELTAMAP
   magnification taken back out, rods of the robot's length.
 - bad input: --vtk into a missing directory (modes and trajectory), a run
   that keeps no state to draw: a clear error, nothing written.
+- pictures: tools/plot_modes.py on a robot (with a GIF) and on a small
+  sweep of the demo's robot and grid kind (Cartesian) and a cylindrical
+  one; tools/plot_trajectory.py --vtk; each PNG has the drawing's colours
+  (arms blue, rods orange, the undeformed robot grey) and a directory that
+  is not a store is refused with nothing written.
 Prints one line per check and 'shapes: N passed, M failed'.
 """
 import json
@@ -23,6 +28,8 @@ import subprocess
 import sys
 import tempfile
 import xml.etree.ElementTree as ET
+
+from PIL import Image
 
 from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridReader
@@ -171,6 +178,66 @@ def bad_input(tmp):
           "the frames removed, no .pvd")
 
 
+HERE = os.path.dirname(os.path.abspath(__file__))
+TOOLS = os.path.join(HERE, "..", "tools")
+
+
+def tool(name, *args):
+    return subprocess.run([sys.executable, os.path.join(TOOLS, name), *args,
+                           "--deltamap", DELTAMAP] if name == "plot_modes.py" else
+                          [sys.executable, os.path.join(TOOLS, name), *args],
+                          capture_output=True, text=True)
+
+
+def make_stores(tmp):
+    """A small sweep like make demo's (chen2018, Cartesian) and a cylindrical one."""
+    stores = {"cartesian": ("chen2018", "x=-0.3:0.3:7,y=-0.3:0.3:7,z=-0.7:-0.4:2"),
+              "cylindrical": ("han2011", "r=0:0.3:4,phi=0:300:6,z=0.85:0.95:2")}
+    out = {}
+    for kind, (robot, grid) in stores.items():
+        out[kind] = os.path.join(tmp, kind)
+        r = run("sweep", "--robot", robot, "--grid", grid, "--out", out[kind], "--modes", "4")
+        check(r.returncode == 0, f"sweep {robot} {grid} for the picture tests")
+    return out
+
+
+def drawn(png):
+    """Pixels of the drawing's colours: arm blue, rod orange, undeformed grey."""
+    a = np.asarray(Image.open(png).convert("RGB")).astype(int)
+
+    def near(c):
+        return int((np.abs(a - c).sum(axis=-1) < 40).sum())
+    return near((31, 119, 180)), near((255, 127, 14)), near((191, 191, 191))
+
+
+def pictures(tmp, stores):
+    png, gif = os.path.join(tmp, "m.png"), os.path.join(tmp, "m.gif")
+    r = tool("plot_modes.py", "--robot", "chen2018", "--modes", "4", "--out", png, "--gif", gif,
+             "--gif-mode", "2", "--gif-frames", "4")
+    blue, orange, grey = drawn(png) if r.returncode == 0 else (0, 0, 0)
+    check(r.returncode == 0 and min(blue, orange, grey) > 500,
+          f"plot_modes --robot chen2018: PNG with {blue} blue, {orange} orange, {grey} grey px")
+    check(os.path.isfile(gif) and Image.open(gif).n_frames == 4, "  --gif: 4 frames")
+    for kind, store in stores.items():
+        out = os.path.join(tmp, f"{kind}.png")
+        r = tool("plot_modes.py", "--store", store, "--modes", "3", "--out", out)
+        ok = r.returncode == 0 and min(drawn(out)) > 300
+        check(ok, f"plot_modes --store ({kind}): {r.stderr.strip() or 'drawn'}")
+    out = os.path.join(tmp, "bad.png")
+    r = tool("plot_modes.py", "--store", tmp, "--out", out)
+    check(r.returncode != 0 and "not a deltamap store" in r.stderr and not os.path.exists(out),
+          f"plot_modes --store on a plain directory: {r.stderr.strip()}")
+    d, csv = os.path.join(tmp, "peak"), os.path.join(tmp, "peak.csv")
+    os.mkdir(d)
+    run("trajectory", "--robot", "chen2018", "--path",
+        "p2p:from=0,0,-0.5;to=0.1,0,-0.5;duration=0.05", "--mesh", "2,2", "--no-reference",
+        "--out", csv, "--vtk", d, "--vtk-every", "1")
+    r = tool("plot_trajectory.py", csv, "--vtk", d)
+    peak = os.path.join(tmp, "peak-peak.png")
+    check(r.returncode == 0 and os.path.isfile(peak) and min(drawn(peak)) > 300,
+          "plot_trajectory --vtk: the deformed robot at the peak, drawn")
+
+
 def main():
     with tempfile.TemporaryDirectory() as tmp:
         modes_vtu(tmp, ["--robot", "chen2018"], 6)
@@ -178,6 +245,7 @@ def main():
                         "--set", "effects.joint_stiffness=2e6"], 4)
         trajectory_pvd(tmp)
         bad_input(tmp)
+        pictures(tmp, make_stores(tmp))
     print(f"shapes: {passed} passed, {failed} failed")
     return 1 if failed else 0
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Plot a trajectory run written by `deltamap trajectory --out FILE.csv`.
 
-    .venv/bin/python tools/plot_trajectory.py RUN.csv [-o RUN.png] [--title T]
+    .venv/bin/python tools/plot_trajectory.py RUN.csv [-o RUN.png] [--title T] [--vtk DIR]
 
 Three panels over time: the platform's translational error components and
 its magnitude (mm), the rotational components (mrad), and the first
@@ -9,8 +9,15 @@ frequencies of the frozen configuration (Hz). A run with an error budget
 (a robot with geometry errors or clearances) gets a fourth panel: |e| of
 each source alone, their sum, the combined model and combined − sum
 (Zheng §5). A rigid budget run (--rigid) has only the budget panel.
+
+--vtk DIR (the same run's `trajectory --vtk DIR` frames, docs/shapes.md)
+also draws the robot's deformed shape at the instant of peak error, from
+the frame nearest it in time (--vtk-every 1 has a frame at every sample),
+over the undeformed robot in grey, as RUN-peak.png.
 """
 import argparse
+import os
+import xml.etree.ElementTree as ET
 
 import matplotlib
 
@@ -31,8 +38,11 @@ def main():
     ap.add_argument("csv")
     ap.add_argument("-o", "--output")
     ap.add_argument("--title")
+    ap.add_argument("--vtk", help="the run's trajectory --vtk DIR: the deformed robot at the peak")
     a = ap.parse_args()
     d = load(a.csv)
+    if a.vtk:
+        peak_shape(d, a)
     t = d["t_s"]
     names = d.dtype.names
     budget = "combined_m" in names
@@ -84,6 +94,51 @@ def draw_budget(ax, t, d, title):
     ax.legend(h1 + h2, l1 + l2, ncol=3, fontsize=8)
     ax.grid(alpha=0.3)
     ax.set_xlabel("time (s)")
+
+
+def peak_shape(d, a):
+    """The frame of DIR nearest the peak |error| drawn in 3-D (its own PNG)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridReader
+
+    pvd = os.path.join(a.vtk, "trajectory.pvd")
+    if not os.path.isfile(pvd):
+        raise SystemExit(f"{pvd}: no such file (the run's trajectory --vtk DIR?)")
+    sets = [(float(s.get("timestep")), s.get("file"))
+            for s in ET.parse(pvd).getroot().iter("DataSet")]
+    i = int(np.nanargmax(d["error_m"]))
+    tp = d["t_s"][i]
+    tf, name = min(sets, key=lambda s: abs(s[0] - tp))
+    r = vtkXMLUnstructuredGridReader()
+    r.SetFileName(os.path.join(a.vtk, name))
+    r.Update()
+    g = r.GetOutput()
+    x = vtk_to_numpy(g.GetPoints().GetData())
+    u = vtk_to_numpy(g.GetPointData().GetArray("displacement"))
+    mag = vtk_to_numpy(g.GetFieldData().GetArray("magnification"))[0]
+    kind = vtk_to_numpy(g.GetCellData().GetArray("kind"))
+    lines = [(g.GetCell(c).GetPointId(0), g.GetCell(c).GetPointId(1))
+             for c in range(g.GetNumberOfCells())]
+    fig = plt.figure(figsize=(6.5, 6))
+    ax = fig.add_subplot(projection="3d")
+    colours = ["#1f77b4", "#ff7f0e", "black", "black"]
+    for (p, q), k in zip(lines, kind):
+        ax.plot(*(1e3 * (x - mag * u)[[p, q]]).T, color="0.75", lw=1.2)
+        ax.plot(*(1e3 * x[[p, q]]).T, color=colours[k], lw=2 if k < 2 else 1.5)
+    lo, hi = 1e3 * x.min(axis=0), 1e3 * x.max(axis=0)
+    ax.set_box_aspect(np.maximum(hi - lo, 1e-3))
+    ax.view_init(elev=18, azim=-62)
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_zlabel("z (mm)")
+    ax.set_title(f"peak |Δ| {1e3 * d['error_m'][i]:.4f} mm at t = {tp:.4g} s; the robot at "
+                 f"t = {tf:.4g} s,\ndisplacements magnified {mag:g}× (grey: undeformed)",
+                 fontsize=10)
+    fig.tight_layout()
+    out = (a.output or a.csv).rsplit(".", 1)[0] + "-peak.png"
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    print(out)
 
 
 def save(fig, a):

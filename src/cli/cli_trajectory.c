@@ -72,7 +72,7 @@ static const char HELP[] =
     "  --vtk DIR        the deformed robot for ParaView (docs/shapes.md): every N-th\n"
     "                   sample (--vtk-every, default 10) as DIR/frame_NNNNNN.vtu with\n"
     "                   its nodes moved by F times the elastic displacement\n"
-    "                   (--vtk-magnify, default 1000), and DIR/trajectory.pvd, the\n"
+    "                   (--vtk-magnify, default 100), and DIR/trajectory.pvd, the\n"
     "                   time series; DIR must exist\n"
     "  --json           summary as JSON: mean_error_m, peak_error_m, truncation_error,\n"
     "                   coupling_index_log10 and coupling_index_change_log10 {mean, min, max},\n"
@@ -116,7 +116,7 @@ static int parse(int argc, char **argv, traj_opts *t)
     memset(t, 0, sizeof *t);
     dm_integ_opts_default(&t->o);
     t->vtk.every = 10;
-    t->vtk.magnify = 1000;
+    t->vtk.magnify = 100;
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
