@@ -120,6 +120,11 @@ int dm_members_at(const dm_members *members, const dm_pose *pose, dm_members_pos
  * the boundary DOFs (global) at the pose. */
 void dm_members_coupling(const dm_members *members, const dm_members_pose *mp, int m, double *C);
 
+/* The boundary DOFs member m reaches (C's structurally non-zero columns):
+ * its elbow, and its base (arm on a compliant base) or the platform (rod).
+ * Returns their count (6, 9 or 12). */
+int dm_members_columns(const dm_members *members, int m, int cols[12]);
+
 /* z (n) = Q' U: the model's DOFs U as (boundary, member interiors), and
  * back, U = Q z. */
 void dm_members_gather(const dm_members *members, const dm_members_pose *mp, const double *U,

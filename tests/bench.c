@@ -11,7 +11,12 @@
  *      its map, and on 2 threads over a 256 x 256 grid (a large map's anchor
  *      lattice); trajectories; tracker diagnoses; one fit's evaluations with
  *      the prediction workspace reused against one made per evaluation;
- *   4. peak memory (max RSS) of two sweeps whose grids differ 10x.
+ *   4. peak memory (max RSS) of two sweeps whose grids differ 10x;
+ *   5. the member-basis engine (issue 39, dm_members + dm_boundary) beside
+ *      today's statics: the cache's one-off build, and per pose the
+ *      boundary solve (statics, compliance, ln det K) against today's
+ *      assembly + arrow factor + the same outputs, both against bare
+ *      dsygvx(10) at the same poses, min of 5 timings per pose.
  * Section 1's rows and section 3's per-pose sweep line are measured on
  * every kernel path the CPU has (include/dm_isa.h), each in a child
  * process of its own (a process runs one path) with DELTAMAP_ISA set;
@@ -31,6 +36,7 @@
 #include <unistd.h>
 
 #include "dm_analysis.h"
+#include "dm_boundary.h"
 #include "dm_diagnose.h"
 #include "dm_integrate.h"
 #include "dm_isa.h"
@@ -628,14 +634,76 @@ static void on_every_path(const char *job)
     }
 }
 
+/* Section 5: along a tile's path, per pose the minimum of REPS timings
+ * of each part run REPS times in a row (warm caches; the machine is
+ * shared: the minimum is the figure least disturbed by other load),
+ * summed over the path. */
+static void members_row(const char *preset, int mesh)
+{
+    enum { REPS = 5 };
+    dm_robot rb;
+    dm_pose pose;
+    dm_robot_load(preset, &rb, NULL);
+    dm_model *md = dm_model_alloc(&rb, mesh, mesh, NULL);
+    dm_static *st = dm_static_alloc(md, NULL);
+    int n = md->n;
+    double *A = malloc(sizeof(double) * n * n), *B = malloc(sizeof(double) * n * n);
+    double *w = malloc(sizeof(double) * n), *Z = malloc(sizeof(double) * n * 10);
+    lapack_int *ifail = malloc(sizeof(lapack_int) * n);
+    dm_kin_inverse(&rb, rb.home_m, &pose, NULL);
+    dm_model_build(md, &pose, NULL);
+    double t0 = now_s();
+    dm_members *ms = dm_members_build(md, 0, NULL);
+    double tbuild = now_s() - t0, t[4] = {0};
+    dm_boundary *bw = dm_boundary_alloc(ms, NULL);
+    for (int j = 0; j < NPOSE; j++) {
+        double P[3], u6[6], C[36], best[4] = {INFINITY, INFINITY, INFINITY, INFINITY};
+        dm_boundary_statics bs;
+        pose_at(&rb, j, P);
+        for (int r = 0; r < REPS; r++) { /* each part REPS times in a row: warm caches */
+            double a = now_s();
+            dm_kin_inverse(&rb, P, &pose, NULL);
+            best[0] = fmin(best[0], now_s() - a);
+        }
+        for (int r = 0; r < REPS; r++) {
+            double b = now_s();
+            dm_model_build(md, &pose, NULL);
+            dm_static_factor(st, md, NULL);
+            dm_static_platform_error(st, md, md->F_gravity, u6, NULL);
+            dm_static_compliance(st, md, C, NULL);
+            best[1] = fmin(best[1], now_s() - b);
+        }
+        for (int r = 0; r < REPS; r++) {
+            double c = now_s();
+            dm_boundary_solve(bw, &pose, &bs, NULL);
+            best[2] = fmin(best[2], now_s() - c);
+        }
+        for (int r = 0; r < REPS; r++)
+            best[3] = fmin(best[3], bare_dsygvx(md, A, B, w, Z, ifail));
+        for (int k = 0; k < 4; k++)
+            t[k] += best[k] / NPOSE;
+    }
+    double us = 1e6;
+    printf("%-9s %d,%d n=%3d nbound=%2d | cache %6.1f ms once | per pose: kin %4.1f us | today "
+           "asm+statics %6.1f us = %6.4f x dsygvx(10) | members' statics %5.1f us = %6.4f x "
+           "dsygvx(10), %5.1fx faster | bare dsygvx(10) %6.0f us\n",
+           preset, mesh, mesh, n, ms->nbound, tbuild * 1e3, t[0] * us, t[1] * us, t[1] / t[3],
+           t[2] * us, t[2] / t[3], t[1] / t[2], t[3] * us);
+    free(A), free(B), free(w), free(Z), free(ifail);
+    dm_boundary_free(bw);
+    dm_members_free(ms);
+    dm_static_free(st);
+    dm_model_free(md);
+}
+
 /* `bench` runs every section; `bench 1 3` only those, and in section 1
  * `bench 1 chen2018` only that preset (to iterate on one figure). */
 static int wanted(int argc, char **argv, const char *what)
 {
     int any = 0;
     for (int i = 1; i < argc; i++) {
-        int is_section = argv[i][0] >= '1' && argv[i][0] <= '4' && !argv[i][1];
-        if (is_section == (what[0] >= '1' && what[0] <= '4' && !what[1])) {
+        int is_section = argv[i][0] >= '1' && argv[i][0] <= '5' && !argv[i][1];
+        if (is_section == (what[0] >= '1' && what[0] <= '5' && !what[1])) {
             any = 1;
             if (!strcmp(argv[i], what))
                 return 1;
@@ -722,5 +790,14 @@ int main(int argc, char **argv)
         printf("   %5d points: %6.1f MB max RSS\n", 16 * 16, m1);
         printf("   %5d points: %6.1f MB max RSS   (10x the grid: ratio %.2f)\n", 51 * 51, m2, m2 / m1);
     }
+    if (wanted(argc, argv, "5"))
+        printf("\n5. member bases (issue 39), one thread, path %s (no kernels of their own): the "
+               "statics of a pose from the members against today's, along a tile's path, min of 5 "
+               "back-to-back timings per part and pose\n",
+               dm_isa_name(dm_isa_active()));
+    for (int m = 0; m < 3 && wanted(argc, argv, "5"); m++)
+        for (int p = 0; p < 3; p++)
+            if (wanted(argc, argv, presets[p]))
+                members_row(presets[p], meshes[m]);
     return 0;
 }

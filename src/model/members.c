@@ -511,6 +511,19 @@ void dm_members_coupling(const dm_members *ms, const dm_members_pose *mp, int m,
     }
 }
 
+int dm_members_columns(const dm_members *ms, int m, int cols[12])
+{
+    const dm_member_basis *mb = &ms->member[m];
+    int i = mb->chain, nc = 0;
+    int other = mb->kind == DM_MEMBER_ARM ? ms->bbase[i] : ms->bplat;
+    int nother = mb->kind == DM_MEMBER_ARM ? 3 * (ms->bbase[i] >= 0) : 6;
+    for (int k = 0; k < 6; k++)
+        cols[nc++] = ms->belbow[i] + k;
+    for (int k = 0; k < nother; k++)
+        cols[nc++] = other + k;
+    return nc;
+}
+
 /* One run of a member's interior between the model (global) and the
  * member's frame: to_local 1: z = L u, 0: u = L' z. */
 static void turn_run(const dm_members_run *run, const double L[9], int to_local, double *u, double *z)

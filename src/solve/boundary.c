@@ -1,0 +1,174 @@
+/* The statics of a pose from the member bases (dm_boundary.h). */
+#include "dm_boundary.h"
+
+#include <assert.h>
+#include <lapacke.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct dm_boundary {
+    const dm_members *ms;
+    dm_members_pose mp;
+    int nB;
+    double *S;      /* nB x nB: Schur complement of K, then its Cholesky factor */
+    double *F;      /* nB: condensed gravity load, then x_B */
+    double *X6;     /* nB x 6: S^-1 on the platform's unit loads */
+    double *C;      /* 9 x nB: one member's coupling */
+    double *z;      /* n: (boundary, interiors) */
+    double gl[DM_MEMBERS_N][3]; /* gravity in each member's frame */
+};
+
+dm_boundary *dm_boundary_alloc(const dm_members *ms, dm_error *err)
+{
+    dm_boundary *bw = calloc(1, sizeof *bw);
+    if (bw) {
+        size_t nB = (size_t)ms->nbound;
+        bw->ms = ms;
+        bw->nB = ms->nbound;
+        bw->S = malloc(sizeof(double) * nB * nB);
+        bw->F = malloc(sizeof(double) * nB);
+        bw->X6 = malloc(sizeof(double) * nB * 6);
+        bw->C = malloc(sizeof(double) * nB * 9);
+        bw->z = malloc(sizeof(double) * ms->n);
+    }
+    if (!bw || !bw->S || !bw->F || !bw->X6 || !bw->C || !bw->z) {
+        dm_boundary_free(bw);
+        dm_fail(err, DM_ENOMEM, "out of memory for the boundary workspace");
+        return NULL;
+    }
+    return bw;
+}
+
+void dm_boundary_free(dm_boundary *bw)
+{
+    if (!bw)
+        return;
+    free(bw->S);
+    free(bw->F);
+    free(bw->X6);
+    free(bw->C);
+    free(bw->z);
+    free(bw);
+}
+
+/* S += Cc' Khat Cc and F += Cc' Ghat (lambda g) for member m, Cc the
+ * columns of C the member reaches. */
+static void add_member(dm_boundary *bw, int m)
+{
+    const dm_member_basis *mb = &bw->ms->member[m];
+    const double *L = bw->mp.lambda[m], *g = bw->mp.gravity;
+    int nb = mb->nb, nB = bw->nB, cols[12];
+    int nc = dm_members_columns(bw->ms, m, cols);
+    double Cc[9 * 12], KC[9 * 12], f[9];
+    dm_members_coupling(bw->ms, &bw->mp, m, bw->C);
+    for (int a = 0; a < nc; a++)
+        memcpy(Cc + a * nb, bw->C + (size_t)cols[a] * nb, sizeof(double) * nb);
+    for (int r = 0; r < 3; r++)
+        bw->gl[m][r] = L[3 * r] * g[0] + L[3 * r + 1] * g[1] + L[3 * r + 2] * g[2];
+    for (int r = 0; r < nb; r++) {
+        f[r] = 0;
+        for (int k = 0; k < 3; k++)
+            f[r] += mb->Ghat[k * nb + r] * bw->gl[m][k];
+    }
+    for (int a = 0; a < nc; a++) /* KC = Khat Cc */
+        for (int r = 0; r < nb; r++) {
+            double s = 0;
+            for (int k = 0; k < nb; k++)
+                s += mb->Khat[k * nb + r] * Cc[a * nb + k];
+            KC[a * nb + r] = s;
+        }
+    for (int b = 0; b < nc; b++) {
+        double s = 0;
+        for (int r = 0; r < nb; r++)
+            s += Cc[b * nb + r] * f[r];
+        bw->F[cols[b]] += s;
+        for (int a = b; a < nc; a++) { /* into S's lower triangle */
+            double v = 0;
+            for (int r = 0; r < nb; r++)
+                v += Cc[a * nb + r] * KC[b * nb + r];
+            int hi = cols[a] > cols[b] ? cols[a] : cols[b], lo = cols[a] + cols[b] - hi;
+            bw->S[(size_t)lo * nB + hi] += v;
+        }
+    }
+}
+
+int dm_boundary_solve(dm_boundary *bw, const dm_pose *pose, dm_boundary_statics *res,
+                      dm_error *err)
+{
+    const dm_members *ms = bw->ms;
+    int nB = bw->nB, p = ms->bplat, rc = dm_members_at(ms, pose, &bw->mp, err);
+    if (rc)
+        return rc;
+    memcpy(bw->S, ms->Kb, sizeof(double) * nB * nB);
+    memcpy(bw->F, ms->Fb, sizeof(double) * nB);
+    res->logdet_K = 0;
+    for (int m = 0; m < DM_MEMBERS_N; m++) {
+        add_member(bw, m);
+        res->logdet_K += ms->member[m].logdet_ii;
+    }
+    if (LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'L', nB, bw->S, nB))
+        return dm_fail(err, DM_ENUMERIC,
+                       "boundary problem (member bases) is not positive definite at this pose");
+    for (int k = 0; k < nB; k++)
+        res->logdet_K += 2 * log(bw->S[(size_t)k * nB + k]);
+    memset(bw->X6, 0, sizeof(double) * nB * 6);
+    for (int j = 0; j < 6; j++)
+        bw->X6[(size_t)j * nB + p + j] = 1.0;
+    LAPACKE_dpotrs_work(LAPACK_COL_MAJOR, 'L', nB, 1, bw->S, nB, bw->F, nB);
+    LAPACKE_dpotrs_work(LAPACK_COL_MAJOR, 'L', nB, 6, bw->S, nB, bw->X6, nB);
+    for (int j = 0; j < 6; j++) {
+        res->static_error[j] = bw->F[p + j];
+        for (int r = 0; r < 6; r++) /* symmetric to the last bit, as S^-1 is */
+            res->compliance[6 * j + r] =
+                r >= j ? bw->X6[(size_t)j * nB + p + r] : bw->X6[(size_t)r * nB + p + j];
+    }
+    res->full = 0;
+    return DM_OK;
+}
+
+void dm_boundary_displacement(dm_boundary *bw, double *U)
+{
+    const dm_members *ms = bw->ms;
+    memcpy(bw->z, bw->F, sizeof(double) * bw->nB);
+    for (int m = 0; m < DM_MEMBERS_N; m++) {
+        const dm_member_basis *mb = &ms->member[m];
+        double xb[9];
+        dm_members_coupling(ms, &bw->mp, m, bw->C);
+        for (int r = 0; r < mb->nb; r++) {
+            xb[r] = 0;
+            for (int c = 0; c < bw->nB; c++)
+                xb[r] += bw->C[(size_t)c * mb->nb + r] * bw->F[c];
+        }
+        double *zi = bw->z + ms->interior0[m];
+        for (int r = 0; r < mb->ni; r++) { /* u_i = Ui (lambda g) + Psi C x_B */
+            double s = 0;
+            for (int k = 0; k < 3; k++)
+                s += mb->Ui[(size_t)k * mb->ni + r] * bw->gl[m][k];
+            for (int k = 0; k < mb->nb; k++)
+                s += mb->Psi[(size_t)k * mb->ni + r] * xb[k];
+            zi[r] = s;
+        }
+    }
+    dm_members_scatter(ms, &bw->mp, bw->z, U);
+}
+
+int dm_boundary_statics_or_full(dm_boundary *bw, dm_model *md, dm_static *st,
+                                const dm_pose *pose, dm_boundary_statics *res, dm_error *err)
+{
+    dm_error ignored;
+    int rc = bw ? dm_boundary_solve(bw, pose, res, &ignored) : DM_EINVAL;
+    if (rc != DM_EINVAL) /* served, or a singular pose either way */
+        return rc ? dm_fail(err, rc, "%s", ignored.msg) : DM_OK;
+    res->full = 1;
+    rc = dm_model_build(md, pose, err);
+    if (!rc)
+        rc = dm_static_factor(st, md, err);
+    if (!rc)
+        rc = dm_static_platform_error(st, md, md->F_gravity, res->static_error, err);
+    if (!rc)
+        rc = dm_static_compliance(st, md, res->compliance, err);
+    if (!rc)
+        res->logdet_K = dm_static_logdet(st);
+    return rc;
+}

@@ -1,0 +1,258 @@
+/* The statics from member bases (dm_boundary, issue 39 step 2) against
+ * an extended-precision solve (and beside the full model's factor): static
+ * error, compliance, ln det K and the whole static displacement, for the three presets at meshes 1,1, 4,4 and
+ * 8,8, without and with every pose-free effect; the fallback to the full
+ * model under geometric stiffness. */
+#include "dm_test.h"
+
+#include <stdlib.h>
+
+#include "dm_boundary.h"
+#include "dm_reference.h"
+#include "dm_rng.h"
+
+static const char *const ALL_EFFECTS[] = {
+    "effects.actuator_stiffness=2000",     "effects.joint_stiffness=1e6",
+    "effects.base_stiffness=2e5,3e5,5e5",  "effects.elbow_mass=0.3",
+    "effects.payload_mass=1.5",            "effects.payload_offset=0.03,-0.02,-0.05",
+    "effects.error_arm_length=0.001,-0.002,0", NULL};
+
+static void load(dm_robot *rb, const char *preset, const char *const *sets)
+{
+    dm_error err;
+    assert_int_equal(dm_robot_load(preset, rb, NULL), 0);
+    for (int k = 0; sets && sets[k]; k++) {
+        int rc = dm_robot_set(rb, sets[k], &err);
+        if (rc)
+            print_error("%s: %s\n", sets[k], err.msg);
+        assert_int_equal(rc, 0);
+    }
+}
+
+static void random_pose(const dm_robot *rb, dm_rng *rng, dm_pose *pose)
+{
+    for (int tries = 0; tries < 100; tries++) {
+        double P[3];
+        for (int k = 0; k < 3; k++)
+            P[k] = rb->home_m[k] + (k < 2 ? 0.08 : 0.04) * (2 * dm_rng_uniform(rng) - 1);
+        if (!dm_kin_pose(rb, P, pose, NULL))
+            return;
+    }
+    fail_msg("no reachable pose near home");
+}
+
+/* The full model's statics at a pose (deltamap's arrow Cholesky). */
+static void full_solve(dm_model *md, dm_static *st, const dm_pose *pose, dm_boundary_statics *f)
+{
+    assert_int_equal(dm_model_build(md, pose, NULL), 0);
+    assert_int_equal(dm_static_factor(st, md, NULL), 0);
+    assert_int_equal(dm_static_platform_error(st, md, md->F_gravity, f->static_error, NULL), 0);
+    assert_int_equal(dm_static_compliance(st, md, f->compliance, NULL), 0);
+    f->logdet_K = dm_static_logdet(st);
+}
+
+/* The exact answers at a pose: K^-1 [F, platform unit loads] and ln det K
+ * in long double (dm_reference.h) from the dense K, and LAPACK's bound
+ * for a backward-stable Cholesky solve of that K (LUG §4.4). */
+typedef struct {
+    int n, p;
+    double *x;   /* n x 7: displacement under gravity, then the six compliance columns */
+    double W;    /* F' K^-1 F */
+    double logdet;
+    dm_solve_bound bound;
+} reference;
+
+static void reference_at(const dm_model *md, reference *ref)
+{
+    int n = md->n, p = md->platform_dof;
+    double *K = malloc(sizeof(double) * n * n), *B = calloc((size_t)n * 7, sizeof(double));
+    ldbl *X = malloc(sizeof(ldbl) * n * 7), *L = malloc(sizeof(ldbl) * n * n);
+    assert_true(K && B && X && L);
+    dm_model_dense(md, K, NULL);
+    memcpy(B, md->F_gravity, sizeof(double) * n);
+    for (int j = 0; j < 6; j++)
+        B[(size_t)(j + 1) * n + p + j] = 1.0;
+    assert_int_equal(dm_reference_solve(K, n, B, 7, X), 0);
+    for (size_t k = 0; k < (size_t)n * n; k++)
+        L[k] = K[k];
+    assert_int_equal(ref_cholesky(L, n), 0);
+    ldbl logdet = 0, W = 0;
+    for (int k = 0; k < n; k++) {
+        logdet += 2 * logl(L[(size_t)k * n + k]);
+        W += (ldbl)md->F_gravity[k] * X[k];
+    }
+    ref->n = n;
+    ref->p = p;
+    ref->x = malloc(sizeof(double) * n * 7);
+    for (size_t k = 0; k < (size_t)n * 7; k++)
+        ref->x[k] = (double)X[k];
+    ref->W = (double)W;
+    ref->logdet = (double)logdet;
+    assert_int_equal(dm_solve_bound_init(K, n, 1, &ref->bound), 0);
+    free(K);
+    free(B);
+    free(X);
+    free(L);
+}
+
+/* Worst errors against the reference, each scaled by what bounds the
+ * quantity (Cauchy-Schwarz, K^-1 SPD): |C_jk| <= sqrt(C_jj C_kk),
+ * |u_j| <= sqrt(C_jj W) at the platform, the whole displacement by its
+ * largest entry, ln det K by itself; `lapack` counts the values whose
+ * error exceeded 1e-10 of that scale but stayed within LAPACK's bound. */
+typedef struct {
+    double C, u6, u, logdet;
+    int lapack, values;
+} errors;
+
+/* |got - exact| <= max(1e-10 scale, LAPACK's bound for component i of
+ * column col). */
+static void check(errors *e, double *worst, const reference *ref, int col, int i, double got,
+                  double scale)
+{
+    const double *x = ref->x + (size_t)col * ref->n;
+    double d = fabs(got - x[i]), bound = dm_solve_bound_at(&ref->bound, x, i);
+    if (!(d <= fmax(1e-10 * scale, bound)))
+        print_error("column %d, DOF %d: %.17g, exact %.17g, error %.2e > 1e-10 x %.2e and "
+                    "LAPACK's %.2e\n", col, i, got, x[i], d, scale, bound);
+    assert_true(d <= fmax(1e-10 * scale, bound));
+    e->lapack += d > 1e-10 * scale;
+    e->values++;
+    *worst = fmax(*worst, d / scale);
+}
+
+static void compare(const reference *ref, const dm_boundary_statics *b, const double *u,
+                    errors *e)
+{
+    int n = ref->n, p = ref->p;
+    double C[6];
+    for (int j = 0; j < 6; j++)
+        C[j] = ref->x[(size_t)(j + 1) * n + p + j];
+    for (int j = 0; j < 6; j++) {
+        check(e, &e->u6, ref, 0, p + j, b->static_error[j], sqrt(C[j] * ref->W));
+        for (int k = 0; k < 6; k++)
+            check(e, &e->C, ref, k + 1, p + j, b->compliance[6 * k + j], sqrt(C[j] * C[k]));
+    }
+    double umax = 0;
+    for (int k = 0; k < n; k++)
+        umax = fmax(umax, fabs(ref->x[k]));
+    for (int k = 0; u && k < n; k++)
+        check(e, &e->u, ref, 0, k, u[k], umax);
+    double d = fabs(b->logdet_K - ref->logdet) / fabs(ref->logdet);
+    assert_true(d <= 1e-10);
+    e->logdet = fmax(e->logdet, d);
+}
+
+/* One robot at one mesh: home and 3 random poses; the boundary engine
+ * (eb) and the full solve (ef) against the same reference. */
+static void one_case(const char *preset, int na, int nb, int effects, dm_rng *rng, errors *eb,
+                     errors *ef)
+{
+    dm_robot rb;
+    dm_pose pose;
+    load(&rb, preset, effects ? ALL_EFFECTS : NULL);
+    dm_model *md = dm_model_alloc(&rb, na, nb, NULL);
+    assert_non_null(md);
+    dm_static *st = dm_static_alloc(md, NULL);
+    assert_non_null(st);
+    assert_int_equal(dm_kin_pose(&rb, rb.home_m, &pose, NULL), 0);
+    assert_int_equal(dm_model_build(md, &pose, NULL), 0);
+    dm_members *ms = dm_members_build(md, 0, NULL);
+    assert_non_null(ms);
+    dm_boundary *bw = dm_boundary_alloc(ms, NULL);
+    assert_non_null(bw);
+    double *u = malloc(sizeof(double) * md->n);
+    for (int t = 0; t < 4; t++) {
+        if (t)
+            random_pose(&rb, rng, &pose);
+        dm_boundary_statics b, f;
+        reference ref;
+        assert_int_equal(dm_boundary_solve(bw, &pose, &b, NULL), 0);
+        assert_int_equal(b.full, 0);
+        dm_boundary_displacement(bw, u);
+        full_solve(md, st, &pose, &f);
+        reference_at(md, &ref);
+        compare(&ref, &b, u, eb);
+        compare(&ref, &f, NULL, ef);
+        free(ref.x);
+        dm_solve_bound_free(&ref.bound);
+    }
+    free(u);
+    dm_boundary_free(bw);
+    dm_members_free(ms);
+    dm_static_free(st);
+    dm_model_free(md);
+}
+
+/* Both engines against the long-double reference: within 1e-10 of each
+ * quantity's scale, or, where K's condition allows no better (soft
+ * springs at fine meshes), within LAPACK's bound for any backward-stable
+ * solve; ln det K within 1e-10. The worst figures of both are printed. */
+static void statics_equal_the_exact_solve(void **state)
+{
+    (void)state;
+    const char *presets[] = {"chen2018", "zheng2017", "han2011"};
+    const int meshes[3][2] = {{1, 1}, {4, 4}, {8, 8}};
+    dm_rng rng = {2026};
+    errors eb[2] = {{0}}, ef[2] = {{0}};
+    for (int r = 0; r < 3; r++)
+        for (int m = 0; m < 3; m++)
+            for (int fx = 0; fx < 2; fx++)
+                one_case(presets[r], meshes[m][0], meshes[m][1], fx, &rng, &eb[fx], &ef[fx]);
+    for (int fx = 0; fx < 2; fx++) {
+        print_message("%s: members: compliance %.2e, static error %.2e, displacement %.2e, "
+                      "ln det K %.2e; %d of %d values past 1e-10 (within LAPACK's bound)\n",
+                      fx ? "all effects" : "no effects", eb[fx].C, eb[fx].u6, eb[fx].u,
+                      eb[fx].logdet, eb[fx].lapack, eb[fx].values);
+        print_message("             full:    compliance %.2e, static error %.2e, ln det K %.2e; "
+                      "%d of %d past 1e-10\n",
+                      ef[fx].C, ef[fx].u6, ef[fx].logdet, ef[fx].lapack, ef[fx].values);
+    }
+}
+
+/* Geometric stiffness: no member cache can be built, so the caller has
+ * none and the full model serves (res.full); its numbers are the full
+ * solve's, bit for bit. Without it the members serve. */
+static void geometric_stiffness_falls_back(void **state)
+{
+    (void)state;
+    const char *on[] = {"effects.geometric_stiffness=on", NULL};
+    for (int gs = 0; gs < 2; gs++) {
+        dm_robot rb;
+        dm_pose pose;
+        dm_rng rng = {99};
+        load(&rb, "chen2018", gs ? on : NULL);
+        dm_model *md = dm_model_alloc(&rb, 4, 4, NULL);
+        dm_static *st = md ? dm_static_alloc(md, NULL) : NULL;
+        assert_non_null(st);
+        random_pose(&rb, &rng, &pose);
+        assert_int_equal(dm_model_build(md, &pose, NULL), 0);
+        dm_members *ms = dm_members_build(md, 0, NULL);
+        assert_true((ms == NULL) == gs);
+        dm_boundary *bw = ms ? dm_boundary_alloc(ms, NULL) : NULL;
+        dm_boundary_statics b, f;
+        assert_int_equal(dm_boundary_statics_or_full(bw, md, st, &pose, &b, NULL), 0);
+        assert_int_equal(b.full, gs);
+        full_solve(md, st, &pose, &f);
+        if (gs) {
+            assert_memory_equal(b.static_error, f.static_error, sizeof b.static_error);
+            assert_memory_equal(b.compliance, f.compliance, sizeof b.compliance);
+            assert_true(b.logdet_K == f.logdet_K);
+        } else {
+            assert_rel(b.static_error[2], f.static_error[2], 1e-10, "dz through the members");
+        }
+        dm_boundary_free(bw);
+        dm_members_free(ms);
+        dm_static_free(st);
+        dm_model_free(md);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(statics_equal_the_exact_solve),
+        cmocka_unit_test(geometric_stiffness_falls_back),
+    };
+    return cmocka_run_group_tests_name("boundary", tests, NULL, NULL);
+}
