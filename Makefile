@@ -61,7 +61,7 @@ TEST_BIN:= $(addprefix $(BUILD)/tests/,$(TESTS))
 BIN     := $(BUILD)/deltamap
 
 .PHONY: all deps test test-arm64 unit-tests cli-tests isa-tests store-tests shard-tests alloc-tests slurm-tests fuzz-replay \
-        shapes-tests \
+        shapes-tests browser-tests \
         fault-tests demo bench install clean help fuzz fuzz-deps fuzz-run
 .DELETE_ON_ERROR:
 
@@ -176,6 +176,13 @@ shard-tests: $(BIN)
 shapes-tests: $(BIN)
 	@.venv/bin/python tests/shapes_tests.py $(BIN)
 
+# The map explorer's page in headless Chromium (tests/browser_tests.py,
+# ~15 s). Without Chromium (make deps installs it where it can): SKIPPED
+# (exit 77), which `make test` reports as such, never as passed.
+browser-tests: $(BIN)
+	@rm -f $(BUILD)/browser-skipped; .venv/bin/python tests/browser_tests.py $(BIN); rc=$$?; \
+	if [ $$rc -eq 77 ]; then touch $(BUILD)/browser-skipped; else exit $$rc; fi
+
 # The per-pose paths allocate nothing (tests/alloc_tests.sh): every
 # allocation counted by an LD_PRELOAD shim, which the sanitizers' own
 # allocator rules out under SANITIZE=1 (the script then says SKIPPED).
@@ -199,14 +206,17 @@ slurm-tests: $(BIN)
 test: deps
 	@tests/layers.sh
 	@$(MAKE) --no-print-directory unit-tests cli-tests isa-tests store-tests store-damage shard-tests \
-	    shapes-tests alloc-tests slurm-tests fuzz-replay fault-tests
+	    shapes-tests browser-tests alloc-tests slurm-tests fuzz-replay fault-tests
 	@if [ -e $(BUILD)/slurm-skipped ]; then \
 	    echo "all tests passed but the Slurm test, which was SKIPPED (see above)"; \
 	else echo "all tests passed"; fi
+	@if [ -e $(BUILD)/browser-skipped ]; then \
+	    echo "(the browser test was SKIPPED: no chromium, see above)"; fi
 
 # The main job on a built-in robot: the mode table at the centre, then a
-# workspace sweep into maps/demo (resumable), its maps as PNG and the mode
-# shapes at the centre (PNG grid, GIF of mode 1).
+# workspace sweep into maps/demo (resumable), its maps as PNG and in the
+# browser (maps/demo-plots/maps.html) and the mode shapes at the centre
+# (PNG grid, GIF of mode 1).
 demo: deps
 	@$(MAKE) --no-print-directory $(BIN)
 	$(BIN) modes --robot chen2018 --at 0,0,-0.5 --modes 10
@@ -215,6 +225,7 @@ demo: deps
 	.venv/bin/python tools/plot_maps.py maps/demo --out maps/demo-plots
 	.venv/bin/python tools/plot_modes.py --robot chen2018 --at 0,0,-0.5 --out maps/demo-plots/modes.png \
 	    --gif maps/demo-plots/mode1.gif
+	.venv/bin/python tools/explore_maps.py maps/demo --out maps/demo-plots/maps.html
 
 # aarch64: the library, CLI and unit tests cross-built through this Makefile
 # and run under qemu-aarch64, then the CLI tests (docs/arm64.md; not in

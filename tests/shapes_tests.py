@@ -19,6 +19,13 @@ usage: shapes_tests.py DELTAMAP
   one; tools/plot_trajectory.py --vtk; each PNG has the drawing's colours
   (arms blue, rods orange, the undeformed robot grey) and a directory that
   is not a store is refused with nothing written.
+- map explorer: tools/explore_maps.py on both stores writes one HTML file
+  with plotly's JavaScript inlined (no <script src>); the figure it builds
+  holds, for every map and slice, the store's values where the status is
+  ok (to the digits kept) and a mask with the status's name elsewhere;
+  bad input (not a store, an unknown array, a missing output directory):
+  a clear error, nothing written. (The page in a browser:
+  tests/browser_tests.py.)
 Prints one line per check and 'shapes: N passed, M failed'.
 """
 import json
@@ -191,7 +198,7 @@ def tool(name, *args):
 
 def make_stores(tmp):
     """A small sweep like make demo's (chen2018, Cartesian) and a cylindrical one."""
-    stores = {"cartesian": ("chen2018", "x=-0.3:0.3:7,y=-0.3:0.3:7,z=-0.7:-0.4:2"),
+    stores = {"cartesian": ("chen2018", "x=-0.6:0.6:7,y=-0.6:0.6:7,z=-0.7:-0.4:2"),
               "cylindrical": ("han2011", "r=0:0.3:4,phi=0:300:6,z=0.85:0.95:2")}
     out = {}
     for kind, (robot, grid) in stores.items():
@@ -238,6 +245,58 @@ def pictures(tmp, stores):
           "plot_trajectory --vtk: the deformed robot at the peak, drawn")
 
 
+def explorer(tmp, stores):
+    sys.path.insert(0, TOOLS)
+    import explore_maps
+
+    for kind, store in stores.items():
+        out = os.path.join(tmp, f"{kind}.html")
+        r = tool("explore_maps.py", store, "--out", out)
+        html = open(out).read() if r.returncode == 0 else ""
+        check(r.returncode == 0 and "<script src" not in html and len(html) > 3e6,
+              f"explore_maps ({kind}): {len(html) / 1e6:.1f} MB, plotly inlined, no <script src>")
+        st, meta = explore_maps.open_store(store)
+        status = np.asarray(st["status"])
+        names = tuple(st.dims["status"])
+        fig = explore_maps.build(st, meta, set(), list(names), 6)
+        menu = fig.layout.updatemenus[0].buttons
+        nmaps = sum(1 if len(st.dims[n]) == 3 else st.arrays[n].shape[3]
+                    for n in st.arrays if n != "status" and len(st.dims[n]) >= 3)
+        ok = len(menu) == 3 * nmaps and (status != 0).any() and (status == 0).any()
+        for b in menu[::7]:  # every 7th view, each slice of it
+            label, axis = b.label.rsplit(" — slice ", 1)
+            name, _, which = label.partition(" · ")
+            a = np.asarray(st[name], dtype=float)
+            if which:
+                a = a[..., [explore_maps.EXTRA[st.dims[name][3]](i)
+                            for i in range(a.shape[3])].index(which)]
+            ax = names.index(axis)
+            slider = b.args[1]["sliders"][0]
+            for i, step in enumerate(slider["steps"]):
+                mask, z = step["args"][0]["z"]
+                text = step["args"][0]["text"][0]
+                s_ = np.take(status, i, axis=ax).T
+                v = np.take(a, i, axis=ax).T
+                zz = np.array([[np.nan if q is None else q for q in row] for row in z])
+                good = (s_ == 0) & np.isfinite(v)
+                ok &= np.allclose(zz[good], v[good], rtol=1e-5, atol=0)
+                ok &= bool(np.isnan(zz[s_ != 0]).all())
+                ok &= bool((np.array(mask)[s_ != 0] == 1).all())
+                ok &= all(text[r][c] == explore_maps.STATUS[int(s_[r, c])]
+                          for r, c in zip(*np.nonzero(s_ != 0)))
+        check(ok, f"  {len(menu)} views (3 slice axes x {nmaps} maps): values = store's where "
+                  "ok, masked with the status's name elsewhere")
+    bad = [(["--out", os.path.join(tmp, "x.html")], tmp, "not a deltamap store"),
+           (["--array", "nope", "--out", os.path.join(tmp, "x.html")], stores["cartesian"],
+            "--array nope: no such map"),
+           (["--out", os.path.join(tmp, "nodir", "x.html")], stores["cartesian"],
+            "does not exist")]
+    for args, store, msg in bad:
+        r = tool("explore_maps.py", store, *args)
+        check(r.returncode != 0 and msg in r.stderr and not os.path.exists(args[-1]),
+              f"explore_maps bad input: {r.stderr.strip()[:110]}")
+
+
 def main():
     with tempfile.TemporaryDirectory() as tmp:
         modes_vtu(tmp, ["--robot", "chen2018"], 6)
@@ -245,7 +304,9 @@ def main():
                         "--set", "effects.joint_stiffness=2e6"], 4)
         trajectory_pvd(tmp)
         bad_input(tmp)
-        pictures(tmp, make_stores(tmp))
+        stores = make_stores(tmp)
+        pictures(tmp, stores)
+        explorer(tmp, stores)
     print(f"shapes: {passed} passed, {failed} failed")
     return 1 if failed else 0
 
