@@ -1,7 +1,8 @@
 /* dm_diagnose — what the model gets wrong about measured data, and why.
  *
  * Residuals r = measured - predicted, normalised by each sample's sigma.
- * For every candidate effect of docs/model.md §6 the effect's parameters are
+ * For every candidate effect of docs/model.md §6 (the rows of the effect
+ * table, dm_effects.h, that the data's kind can see) the effect's parameters are
  * fitted by nonlinear least squares (cminpack lmdif, parameters in log10;
  * geometry errors as they are, by the chord method) on a training part of
  * the data and scored on the held-out rest: poses whose index is 2 mod 3
@@ -26,13 +27,14 @@
 #ifndef DM_DIAGNOSE_H
 #define DM_DIAGNOSE_H
 
+#include "dm_effects.h"
 #include "dm_measure.h"
 #include "dm_progress.h"
 #include "dm_robot.h"
 
-#define DM_DIAG_MAXV 18    /* parameters of one effect (geometry_errors: 6 families x 3 chains) */
+#define DM_DIAG_MAXV DM_EFFECTS_MAXV /* parameters of one effect (dm_effects.h) */
 #define DM_DIAG_MAXP 18    /* free parameters of a fit */
-#define DM_DIAG_MAXCAND 24 /* candidate effects */
+#define DM_DIAG_MAXCAND DM_EFFECTS_MAXROWS /* candidate effects: rows of the effect table */
 #define DM_DIAG_TIE 2.0    /* score difference below which two effects tie */
 #define DM_DIAG_CLEAR 6.0  /* "strong" evidence (Kass & Raftery, on the BIC scale): what a
                               per-chain variant must gain over its global effect */
@@ -42,41 +44,9 @@
 #define DM_DIAG_DETERMINED 0.1 /* a combination is determined when its 1-sigma is at most
                                   this (relative, or in units of the candidate's scale) */
 
-typedef struct dm_candidate {
-    const char *name;        /* effect name, as in the robot file's [effects] */
-    const char *unit;
-    double lo, hi;           /* log10 search range (lo == hi: a switch) */
-    unsigned kinds;          /* bit per dm_data_kind that can see it */
-    int nparam;              /* 0 (a switch), 1, 3 (one per chain) or 18 (geometry_errors) */
-    int linear;              /* parameters fitted as they are (may be negative), from 0 */
-    double scale;            /* linear: the size of an error worth knowing (unit); the
-                                data's power to see them is judged in these units */
-    double typical;          /* a plausible magnitude (`plan`'s default) */
-    const char *global;      /* a per-chain variant: the global effect it is one chain of */
-} dm_candidate;
-
-const dm_candidate *dm_candidates(int *count);
-const dm_candidate *dm_candidate_find(const char *name);
-
-/* Scale of parameter k of candidate c in its fitted units (log10 for
- * springs and masses: 1/ln 10, i.e. relative; linear: c->scale, or the
- * family's for geometry_errors). */
-double dm_candidate_param_scale(const dm_candidate *c, int k);
-
-/* "error_base_radius[1]" for parameter k of c (chains 0..2), or c's name. */
-void dm_candidate_param_name(const dm_candidate *c, int k, char *buf, size_t n);
-
-/* Apply effect `name` with its parameter values v[nparam] (ignored for
- * switches) to a robot. A name that is not a candidate is set as the robot
- * file's [effects] key of that name with the value v[0] (so every effect
- * can be synthesised); the robot-file parser refuses unknown keys. Apply
- * effects to the robot without them: a second base_stiffness does not
- * replace the first (the per-chain keys written by the first win). */
-int dm_effect_apply(dm_robot *robot, const char *name, const double *v, dm_error *err);
-
 typedef struct dm_fit {
     int ncand;                   /* 1 or 2 effects */
-    const dm_candidate *cand[2];
+    const dm_effect *cand[2];
     double value[2][DM_DIAG_MAXV], sigma[2][DM_DIAG_MAXV]; /* fitted values, 1-sigma */
     double train_chi2, held_chi2, held_rms, gain_percent, score;
     int nfree;                   /* parameters fitted (geometry_errors: combinations seen) */
@@ -115,7 +85,7 @@ typedef struct dm_noise_test {
 
 /* What the data determine of a fit with several parameters: the singular
  * value decomposition of its Jacobian (parameters in scaled units, see
- * dm_candidate_param_scale). Combination k (unit vector weight[k] over the
+ * dm_effects_param_scale). Combination k (unit vector weight[k] over the
  * fit's parameters, effect by effect) has 1-sigma sigma[k], ascending; it
  * is determined when sigma[k] <= DM_DIAG_DETERMINED. */
 typedef struct dm_ident {

@@ -32,7 +32,7 @@
 #define DM_PLAN_MAXEFF 6
 
 typedef struct dm_plan_effect {
-    const dm_candidate *cand;
+    const dm_effect *cand;
     double value[DM_DIAG_MAXV]; /* the assumed magnitude (per chain for three parameters) */
 } dm_plan_effect;
 
@@ -87,9 +87,10 @@ typedef struct dm_plan_result {
     dm_plan_pair pair[DM_PLAN_MAXEFF * (DM_PLAN_MAXEFF - 1) / 2];
 } dm_plan_result;
 
-/* Parse "NAME[=V[,V,V]],NAME..." (values default to each candidate's
- * typical magnitude). Unknown names and effects the kind of data cannot
- * see are errors. */
+/* Parse an effect spec, "NAME[=V[,V,V]],NAME..." (dm_effects_parse_spec:
+ * values default to each effect's typical magnitude). Unknown names,
+ * effects that are no diagnosis candidate and effects the kind of data
+ * cannot see are errors. */
 int dm_plan_parse_effects(const char *spec, dm_data_kind kind, dm_plan_effect *effects,
                           int *count, dm_error *err);
 

@@ -12,6 +12,7 @@
 
 #include <stdio.h>
 
+#include "dm_effects.h"
 #include "dm_error.h"
 
 typedef enum {
@@ -42,40 +43,6 @@ typedef struct dm_member {
     double density_kgm3;
     dm_section section;       /* derived by dm_robot_finish */
 } dm_member;
-
-/* Model extensions (docs/model.md §6); all off (zero) in the baseline. */
-typedef struct dm_effects {
-    double actuator_stiffness_nm_per_rad; /* 0 = clamped arm root */
-    double joint_stiffness_n_per_m;       /* 0 = rigid rod-end joints */
-    double payload_kg;
-    double payload_offset_m[3];           /* platform axes */
-    double elbow_mass_kg;                 /* at each elbow */
-    double base_stiffness_n_per_m[3][3];  /* [chain][X,Y,Z]; 0 = rigid */
-    int geometric_stiffness;              /* 0/1 */
-    /* geometry errors per chain (Zheng table 1): the real robot differs from
-     * the nominal one its controller assumes */
-    double err_arm_length_m[3], err_rod_length_m[3];
-    double err_base_radius_m[3], err_platform_radius_m[3];
-    double err_theta_rad[3], err_alpha0_rad[3];
-    double clearance_m;                   /* radial clearance of each rod-end ball joint */
-    /* clearance of each actuator's revolute joint: the arm slides along its
-     * axis (axial) and across it (radial) the way the joint is loaded */
-    double actuator_clearance_axial_m, actuator_clearance_radial_m;
-} dm_effects;
-
-/* Does the robot have any geometry error (then the real pose differs from
- * the commanded one)? */
-int dm_effects_geometry_errors(const dm_effects *effects);
-
-/* Has the robot any joint clearance (a dead band that flips with the load)? */
-int dm_effects_clearance(const dm_effects *effects);
-
-/* Is any effect switched on (else the robot is the baseline)? */
-int dm_effects_any(const dm_effects *effects);
-
-/* Does chain i sit on a compliant base (its arm root gets three
- * translations tied to ground by springs)? Chains without springs stay rigid. */
-int dm_effects_base_compliant(const dm_effects *effects, int chain);
 
 #define DM_NAME_LEN 64
 #define DM_SOURCE_LEN 512
@@ -127,16 +94,21 @@ int dm_robot_write(const dm_robot *robot, FILE *out);
 
 /* Change one value, "SECTION.KEY=VALUE" with the keys of the robot file
  * (e.g. "arm.side=0.025", "damping.beta=1e-4"), validated like a file;
- * derived values (sections, shear modulus) follow. On error the robot is
- * unchanged and the message names the assignment and key. */
+ * derived values (sections, shear modulus) follow. A key of [effects] or
+ * [damping] is read as the file's reader reads it and set by
+ * dm_robot_set_number: the two setters agree, base_stiffness included
+ * (dm_effects.h). On error the robot is unchanged and the message names
+ * the assignment and key. */
 int dm_robot_set(dm_robot *robot, const char *assignment, dm_error *err);
 
 /* Set the numbers of one key of [effects] or [damping] in place, typed:
  * v holds 1 number (3 for a vector key; on/off keys take 0 or 1; degree
- * keys take degrees), validated as the robot file's reader would. The
- * path of the fits' every evaluation: no text, no allocation. Keys other
- * values derive from (members, geometry, platform) are refused: change
- * them with dm_robot_set. On error the robot is unchanged. */
+ * keys take degrees), validated as the robot file's reader would (one
+ * validator serves the reader, this and dm_robot_set, which sets these
+ * keys through this). The path of the fits' every evaluation: no text, no
+ * allocation. Keys other values derive from (members, geometry, platform)
+ * are refused: change them with dm_robot_set. base_stiffness sets every
+ * chain (the rule in dm_effects.h). On error the robot is unchanged. */
 int dm_robot_set_number(dm_robot *robot, const char *section, const char *key, const double *v,
                         dm_error *err);
 

@@ -421,7 +421,7 @@ static void diagnosis_time(int decimate, const char *path)
     const double beta = 1.2e-3;
     dm_robot_load("zheng2017", &rb, NULL);
     truth = rb;
-    dm_effect_apply(&truth, "damping_beta", &beta, NULL);
+    dm_effects_apply(&truth, "damping_beta", &beta, NULL);
     if (dm_synthesize(&truth, &so, &d, NULL))
         return;
     int m = 0;
@@ -463,7 +463,7 @@ static void fit_evaluation_rate(int mesh)
     for (int e = 0; e < NEVAL && !rc; e++) {
         const double kg = 0.1 * pow(30.0, e / (NEVAL - 1.0));
         at = rb;
-        rc = dm_effect_apply(&at, "payload_mass", &kg, NULL);
+        rc = dm_effects_apply(&at, "payload_mass", &kg, NULL);
         for (int reuse = 0; reuse < 2 && !rc; reuse++) {
             double t0 = now_s();
             rc = reuse ? dm_predictor_run(p, &at, pred, NULL)

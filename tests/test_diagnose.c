@@ -71,7 +71,7 @@ static void make_data(dm_data_kind kind, const char *const *names, const double 
     rb = base;
     for (int i = 0; i < n; i++) {
         double v[3] = {values[i], values[i], values[i]};
-        assert_int_equal(dm_effect_apply(&rb, names[i], v, &err), 0);
+        assert_int_equal(dm_effects_apply(&rb, names[i], v, &err), 0);
     }
     dm_synth_opts o = {.kind = kind, .npose = 12, .modes = 6, .noise = 0, .seed = seed, .na = 1, .nb = 1};
     assert_int_equal(dm_synthesize(&rb, &o, d, &err), 0);
@@ -86,7 +86,7 @@ static void make_tracker_data(const char *name, const double v[3], const char *p
     dm_robot base, rb;
     assert_int_equal(dm_robot_load("zheng2017", &base, NULL), 0);
     rb = base;
-    assert_int_equal(dm_effect_apply(&rb, name, v, NULL), 0);
+    assert_int_equal(dm_effects_apply(&rb, name, v, NULL), 0);
     dm_synth_opts o = {.kind = DM_DATA_TRACKER, .noise = 0, .seed = seed, .na = 1, .nb = 1,
                        .path = path};
     assert_int_equal(dm_synthesize(&rb, &o, d, NULL), 0);
@@ -137,7 +137,7 @@ static void diagnose(const dm_dataset *d, int pairs, dm_diagnosis *dg)
 static void run_kind(dm_data_kind kind)
 {
     for (int h = 0; h < NHIDDEN; h++) {
-        const dm_candidate *c = dm_candidate_find(HIDDEN[h].name);
+        const dm_effect *c = dm_effects_find(HIDDEN[h].name);
         if (!(c->kinds & (1u << kind)))
             continue; /* e.g. masses are invisible to deflection surveys */
         for (uint64_t seed = 1; seed <= 3; seed++) {
@@ -309,7 +309,7 @@ static const tracked TRACKED[] = {
 };
 #define NTRACKED (int)(sizeof TRACKED / sizeof TRACKED[0])
 
-static void draw_tracked(const tracked *t, const dm_candidate *c, dm_rng *rng, double v[3])
+static void draw_tracked(const tracked *t, const dm_effect *c, dm_rng *rng, double v[3])
 {
     for (int k = 0; k < 3; k++)
         v[k] = c->nparam == 3 ? (dm_rng_uniform(rng) < 0.5 ? -1 : 1) *
@@ -337,7 +337,7 @@ static const dm_fit *fit_of(const dm_diagnosis *dg, const char *name)
  * the two tie; either way the hidden effect's own fit recovers it. */
 static void tracker_case(const tracked *t, uint64_t seed)
 {
-    const dm_candidate *c = dm_candidate_find(t->name);
+    const dm_effect *c = dm_effects_find(t->name);
     dm_rng rng = {seed * 7919 + 17};
     double v[3], ratio;
     dm_dataset d;
@@ -476,7 +476,7 @@ static void several_geometry_families_at_once(void **state)
     static const char *const FAMILY[3] = {"error_arm_length", "error_theta_deg", "error_base_radius"};
     static const int OFFSET[3] = {0, 12, 6}; /* their places in geometry_errors */
     static const double TRUTH[3][3] = {{2e-4, -1e-4, 1.5e-4}, {0.04, -0.05, 0.03}, {-1e-4, 2e-4, 1e-4}};
-    const dm_candidate *u = dm_candidate_find("geometry_errors");
+    const dm_effect *u = dm_effects_find("geometry_errors");
     for (uint64_t seed = 1; seed <= 2; seed++) {
         dm_robot base, rb;
         dm_dataset d;
@@ -485,7 +485,7 @@ static void several_geometry_families_at_once(void **state)
         assert_int_equal(dm_robot_load("zheng2017", &base, NULL), 0);
         rb = base;
         for (int f = 0; f < 3; f++) {
-            assert_int_equal(dm_effect_apply(&rb, FAMILY[f], TRUTH[f], NULL), 0);
+            assert_int_equal(dm_effects_apply(&rb, FAMILY[f], TRUTH[f], NULL), 0);
             for (int k = 0; k < 3; k++)
                 truth[OFFSET[f] + k] = TRUTH[f][k];
         }
@@ -503,7 +503,7 @@ static void several_geometry_families_at_once(void **state)
         for (int k = 0; k < id->ndetermined; k++) { /* in scaled units */
             double e = 0, t = 0;
             for (int j = 0; j < 18; j++) {
-                double sc = dm_candidate_param_scale(u, j);
+                double sc = dm_effects_param_scale(u, j);
                 e += id->weight[k][j] * (dg.best.value[0][j] - truth[j]) / sc;
                 t += id->weight[k][j] * truth[j] / sc;
             }

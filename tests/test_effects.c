@@ -5,9 +5,12 @@
 
 #include <lapacke.h>
 #include <stdlib.h>
+#include <unistd.h>
 
 #include "dm_analysis.h"
 #include "dm_beam.h"
+#include "dm_effects.h"
+#include "dm_sweep.h"
 
 #define K10 10
 
@@ -259,6 +262,192 @@ static void geometric_stiffness_on_robots(void **state)
     assert_true(down < 0);
 }
 
+/* ---- the effect table, walked row by row --------------------------------------
+ *
+ * Every row with a robot-file key set to a non-zero value (its typical
+ * magnitude; a per-chain key a different one on each chain, signed where
+ * the key takes signs, so that a chain or sign mix-up shows) must survive
+ * the robot file's round trip, come out the same from the text and the
+ * typed setter, and change a sweep's fingerprint. A row that the writer,
+ * a setter or dm_effects_any missed fails here. */
+
+/* The row's numbers (degrees for degree keys, as both setters take them)
+ * and their text. */
+static int row_value(const dm_effect *e, double v[3], char *text, size_t n)
+{
+    if (e->value == DM_EFFECTS_ONOFF) {
+        v[0] = 1;
+        snprintf(text, n, "on");
+        return 1;
+    }
+    static const double each[3] = {1.0, -1.5, 2.0};
+    int three = e->value >= DM_EFFECTS_VEC3;
+    for (int k = 0; k < 3; k++)
+        v[k] = e->typical * (e->value == DM_EFFECTS_VEC3 || e->value == DM_EFFECTS_VEC3_DEG
+                                 ? each[k]
+                                 : fabs(each[k]));
+    if (three)
+        snprintf(text, n, "%.17g,%.17g,%.17g", v[0], v[1], v[2]);
+    else
+        snprintf(text, n, "%.17g", v[0]);
+    return three ? 3 : 1;
+}
+
+/* The robot with one row set by the text setter. */
+static void set_row_text(dm_robot *rb, const dm_effect *e)
+{
+    double v[3];
+    char text[200], assign[300];
+    dm_error err;
+    row_value(e, v, text, sizeof text);
+    snprintf(assign, sizeof assign, "%s.%s=%s", e->section, e->key, text);
+    int rc = dm_robot_set(rb, assign, &err);
+    if (rc)
+        print_error("%s: %s\n", assign, err.msg);
+    assert_int_equal(rc, 0);
+}
+
+static void round_trip(const dm_robot *rb, const char *what)
+{
+    char *text = NULL;
+    size_t len = 0;
+    FILE *mem = open_memstream(&text, &len);
+    assert_non_null(mem);
+    assert_int_equal(dm_robot_write(rb, mem), 0);
+    assert_int_equal(fclose(mem), 0);
+    dm_robot back;
+    dm_error err;
+    int rc = dm_robot_parse_string(text, rb->source, &back, &err);
+    if (rc)
+        print_error("%s: %s\n%s", what, err.msg, text);
+    assert_int_equal(rc, 0);
+    free(text);
+    if (memcmp(&back, rb, sizeof back)) {
+        print_error("%s: the robot file does not read back the robot\n", what);
+        fail();
+    }
+}
+
+static int same_robot(dm_robot a, dm_robot b) /* the source text aside */
+{
+    memset(a.source, 0, sizeof a.source);
+    memset(b.source, 0, sizeof b.source);
+    return !memcmp(&a, &b, sizeof a);
+}
+
+static void every_row_round_trips_and_setters_agree(void **state)
+{
+    (void)state;
+    int n, nkeys = 0;
+    const dm_effect *tab = dm_effects_table(&n);
+    dm_robot base, all;
+    assert_int_equal(dm_robot_load("zheng2017", &base, NULL), 0);
+    assert_false(dm_effects_any(&base.effects));
+    all = base;
+    for (int i = 0; i < n; i++) {
+        const dm_effect *e = &tab[i];
+        if (!e->section)
+            continue;
+        nkeys++;
+        dm_robot text = base, typed = base;
+        double v[3];
+        char buf[200];
+        row_value(e, v, buf, sizeof buf);
+        set_row_text(&text, e);
+        assert_int_equal(dm_robot_set_number(&typed, e->section, e->key, v, NULL), 0);
+        if (!same_robot(text, typed)) {
+            print_error("%s: the text and typed setters differ\n", e->name);
+            fail();
+        }
+        assert_false(same_robot(text, base)); /* the row changed something */
+        if (!strcmp(e->section, "effects")) {
+            assert_true(dm_effects_is_set(&text.effects, e));
+            assert_true(dm_effects_any(&text.effects));
+        }
+        round_trip(&text, e->name);
+        set_row_text(&all, e);
+    }
+    assert_int_equal(nkeys, n - 1); /* every row but geometry_errors has a key */
+    for (int i = 0; i < n; i++) /* all rows at once: each still set after the round trip */
+        if (tab[i].section && !strcmp(tab[i].section, "effects"))
+            assert_true(dm_effects_is_set(&all.effects, &tab[i]));
+    round_trip(&all, "every row");
+}
+
+/* The base_stiffness rule (dm_effects.h): in a file the global key fills
+ * the chains without their own; an assignment sets all three chains, by
+ * either setter. */
+static void base_stiffness_rule(void **state)
+{
+    (void)state;
+    dm_robot rb, text, typed;
+    assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
+    assert_int_equal(dm_robot_set(&rb, "effects.base_stiffness_1=4e6,5e6,6e6", NULL), 0);
+    text = typed = rb;
+    const double k[3] = {1e6, 2e6, 3e6};
+    assert_int_equal(dm_robot_set(&text, "effects.base_stiffness=1e6,2e6,3e6", NULL), 0);
+    assert_int_equal(dm_robot_set_number(&typed, "effects", "base_stiffness", k, NULL), 0);
+    assert_true(same_robot(text, typed));
+    for (int c = 0; c < 3; c++)
+        assert_memory_equal(text.effects.base_stiffness_n_per_m[c], k, sizeof k);
+    const char *file = "[robot]\nname = t\n[geometry]\nbase_radius = 0.15\n"
+                       "platform_radius = 0.085\narm_length = 0.2\nrod_length = 0.5\n"
+                       "rod_half_spacing = 0.03\n[arm]\nshape = square\nside = 0.02\n"
+                       "youngs_modulus = 7e10\npoisson_ratio = 0.3\ndensity = 2700\n"
+                       "[rod]\nshape = circle\ndiameter = 0.008\nyoungs_modulus = 7e10\n"
+                       "poisson_ratio = 0.3\ndensity = 2700\n[platform]\nmass = 0.5\n"
+                       "[effects]\nbase_stiffness_1 = 4e6, 5e6, 6e6\n"
+                       "base_stiffness = 1e6, 2e6, 3e6\n";
+    dm_robot parsed;
+    dm_error err;
+    int rc = dm_robot_parse_string(file, "rule.ini", &parsed, &err);
+    if (rc)
+        print_error("%s\n", err.msg);
+    assert_int_equal(rc, 0);
+    const double own[3] = {4e6, 5e6, 6e6};
+    assert_memory_equal(parsed.effects.base_stiffness_n_per_m[0], k, sizeof k);
+    assert_memory_equal(parsed.effects.base_stiffness_n_per_m[1], own, sizeof own);
+    assert_memory_equal(parsed.effects.base_stiffness_n_per_m[2], k, sizeof k);
+}
+
+/* Each row changes the sweep's fingerprint: a store of the baseline
+ * refuses to be resumed by the robot with that row set. */
+static void every_row_changes_the_sweep_fingerprint(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/dm_effects_XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    dm_robot base;
+    assert_int_equal(dm_robot_load("zheng2017", &base, NULL), 0);
+    dm_grid g;
+    assert_int_equal(dm_grid_parse("x=0,y=0,z=-0.4", &g, NULL), 0);
+    dm_sweep_opts o;
+    dm_sweep_opts_default(&o);
+    o.na = o.nb = 1, o.k = 2, o.dynamic = 0, o.threads = 1;
+    static volatile sig_atomic_t no_stop;
+    dm_sweep_stats st;
+    dm_error err;
+    assert_int_equal(dm_sweep_run(&base, &g, &o, dir, &no_stop, &st, &err), 0);
+    assert_int_equal(dm_sweep_run(&base, &g, &o, dir, &no_stop, &st, &err), 0); /* resumed */
+    int n;
+    const dm_effect *tab = dm_effects_table(&n);
+    for (int i = 0; i < n; i++) {
+        if (!tab[i].section)
+            continue;
+        dm_robot rb = base;
+        set_row_text(&rb, &tab[i]);
+        int rc = dm_sweep_run(&rb, &g, &o, dir, &no_stop, &st, &err);
+        if (rc != DM_EINVAL || !strstr(err.msg, "another robot")) {
+            print_error("%s: the baseline's store was not refused (rc %d: %s)\n", tab[i].name,
+                        rc, rc ? err.msg : "");
+            fail();
+        }
+    }
+    char cmd[64];
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    assert_int_equal(system(cmd), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -269,6 +458,9 @@ int main(void)
         cmocka_unit_test(elbow_mass_is_linear_and_lowers_frequencies),
         cmocka_unit_test(geometric_stiffness_follows_euler),
         cmocka_unit_test(geometric_stiffness_on_robots),
+        cmocka_unit_test(every_row_round_trips_and_setters_agree),
+        cmocka_unit_test(base_stiffness_rule),
+        cmocka_unit_test(every_row_changes_the_sweep_fingerprint),
     };
     return cmocka_run_group_tests_name("effects", tests, NULL, NULL);
 }

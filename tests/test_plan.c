@@ -84,7 +84,7 @@ static void check_plan(const char *robot, dm_data_kind kind, const char *spec, i
     for (int i = 0; i < n; i++) {
         names[i] = eff[i].cand->name;
         memcpy(start[i], eff[i].value, sizeof start[i]);
-        assert_int_equal(dm_effect_apply(&truth, names[i], eff[i].value, NULL), 0);
+        assert_int_equal(dm_effects_apply(&truth, names[i], eff[i].value, NULL), 0);
     }
     double sd_plan[2], sd_random[2];
     scatter(&base, &truth, &plan, &po, names, n, (const double(*)[DM_DIAG_MAXV])start, 0, sd_plan);

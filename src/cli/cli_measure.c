@@ -325,17 +325,6 @@ static void fit_name(const dm_fit *f, char *buf, size_t n)
              f->ncand > 1 ? f->cand[1]->name : "");
 }
 
-/* The geometry families inside geometry_errors, in its order. */
-static const dm_candidate *family_of(const dm_candidate *c, int f)
-{
-    int nc;
-    const dm_candidate *all = dm_candidates(&nc);
-    for (int i = 0, k = 0; i < nc; i++)
-        if (all[i].linear && all[i].nparam == 3 && k++ == f)
-            return &all[i];
-    return c;
-}
-
 static json_t *list_json(const double *v, int n)
 {
     json_t *a = json_array();
@@ -348,14 +337,14 @@ static json_t *list_json(const double *v, int n)
  * of the geometry families) a list per family. */
 static json_t *values_json(const dm_fit *f, int i, const double *v)
 {
-    const dm_candidate *c = f->cand[i];
+    const dm_effect *c = f->cand[i];
     if (c->nparam <= 1)
         return json_real(v[0]);
     if (c->nparam == 3)
         return list_json(v, 3);
     json_t *o = json_object();
     for (int g = 0; g < c->nparam / 3; g++)
-        json_object_set_new(o, family_of(c, g)->name, list_json(v + 3 * g, 3));
+        json_object_set_new(o, dm_effects_family(g)->name, list_json(v + 3 * g, 3));
     return o;
 }
 
@@ -390,7 +379,7 @@ static void print_triple(const double *v, const double *sg, const char *unit)
 static void print_values(const dm_fit *f)
 {
     for (int i = 0; i < f->ncand; i++) {
-        const dm_candidate *c = f->cand[i];
+        const dm_effect *c = f->cand[i];
         printf("%s%s", i ? ", " : "", c->name);
         if (c->nparam == 0) {
             printf(" on");
@@ -401,7 +390,7 @@ static void print_values(const dm_fit *f)
             print_triple(f->value[i], f->sigma[i], c->unit);
         } else {
             for (int g = 0; g < c->nparam / 3; g++) {
-                const dm_candidate *fam = family_of(c, g);
+                const dm_effect *fam = dm_effects_family(g);
                 printf("%s%s = ", g ? ", " : ": ", fam->name);
                 print_triple(f->value[i] + 3 * g, f->sigma[i] + 3 * g, fam->unit);
             }
@@ -427,7 +416,7 @@ static void param_name(const dm_fit *f, int j, char *buf, size_t n)
 {
     for (int i = 0; i < f->ncand; j -= f->cand[i]->nparam, i++)
         if (j < f->cand[i]->nparam) {
-            dm_candidate_param_name(f->cand[i], j, buf, n);
+            dm_effects_param_name(f->cand[i], j, buf, n);
             return;
         }
     snprintf(buf, n, "?");
@@ -844,22 +833,8 @@ int dm_cli_synth(int argc, char **argv)
     dm_error err;
     dm_dataset d;
     int rc = dm_cli_load_robot(robot, sets, nset, &rb, &err);
-    for (int i = 0; i < neff && !rc; i++) {
-        char name[64];
-        double v[DM_DIAG_MAXV];
-        for (int k = 0; k < DM_DIAG_MAXV; k++)
-            v[k] = 1;
-        const char *eq = strchr(effects[i], '=');
-        snprintf(name, sizeof name, "%.*s", eq ? (int)(eq - effects[i]) : (int)strlen(effects[i]),
-                 effects[i]);
-        const dm_candidate *cd = dm_candidate_find(name);
-        int np = cd && cd->nparam > 1 ? cd->nparam : 1;
-        if (eq && strcmp(eq + 1, "on") && dm_cli_parse_list(eq + 1, v, np))
-            return dm_cli_usage("synth", np > 1 ? "--effect takes NAME=V1,V2[,V3]"
-                                                : "--effect takes NAME=VALUE",
-                                effects[i]);
-        rc = dm_effect_apply(&rb, name, v, &err);
-    }
+    for (int i = 0; i < neff && !rc; i++)
+        rc = dm_effects_apply_spec(&rb, effects[i], &err);
     if (!rc && at) { /* the template's poses */
         dm_dataset tpl;
         if (!(rc = dm_dataset_read_template(at, &tpl, &err))) {

@@ -120,7 +120,7 @@ static const char *unit_of(const dm_plan_result *r)
 /* The detectable magnitude, in words fitting the kind of effect. */
 static void print_detect(const dm_plan_effect *e, double v)
 {
-    const dm_candidate *c = e->cand;
+    const dm_effect *c = e->cand;
     if (c->nparam == 0)
         printf("moves the data by %.3g sigma", v);
     else if (!strncmp(c->name, "damping_", 8))
@@ -155,7 +155,7 @@ static void print_plan(const dm_robot *rb, const dm_plan_result *r)
         int np = ef->cand->nparam;
         for (int k = 0; k < (np ? np : 1); k++, j += np ? 1 : 0) {
             char name[96], assumed[64], planned[64], random[32];
-            dm_candidate_param_name(ef->cand, k, name, sizeof name);
+            dm_effects_param_name(ef->cand, k, name, sizeof name);
             if (!np) {
                 printf(" %-26s %-22s %-22s %-12s ", name, "on", "-", "-");
             } else {

@@ -18,116 +18,25 @@
 #define K_STATIC (1u << DM_DATA_STATIC)
 #define K_TRACK (1u << DM_DATA_TRACKER)
 
-/* Ranges: springs from very soft to far stiffer than the structure. Masses
- * seen by statics cannot be: a deflection survey is relative to the same
- * pose without the force. Typical magnitudes are `plan`'s defaults; the
- * scale of a geometry error is the size worth knowing (0.05 % of a 0.2 m
- * arm; 0.05 deg turns a 0.2 m arm's end by about as much). */
-#define ALL (K_MODAL | K_STATIC | K_TRACK)
-static const dm_candidate CANDIDATES[] = {
-    {"actuator_stiffness", "N*m/rad", 2.0, 8.0, ALL, 1, 0, 0, 2e4, NULL},
-    {"joint_stiffness", "N/m", 4.0, 10.0, ALL, 1, 0, 0, 2e6, NULL},
-    {"base_stiffness", "N/m", 4.0, 10.0, ALL, 1, 0, 0, 2e6, NULL},
-    {"base_stiffness_0", "N/m", 4.0, 10.0, ALL, 1, 0, 0, 2e6, "base_stiffness"},
-    {"base_stiffness_1", "N/m", 4.0, 10.0, ALL, 1, 0, 0, 2e6, "base_stiffness"},
-    {"base_stiffness_2", "N/m", 4.0, 10.0, ALL, 1, 0, 0, 2e6, "base_stiffness"},
-    {"payload_mass", "kg", -2.0, 1.5, K_MODAL | K_TRACK, 1, 0, 0, 0.5, NULL},
-    {"elbow_mass", "kg", -2.0, 1.0, K_MODAL | K_TRACK, 1, 0, 0, 1.0, NULL},
-    {"geometric_stiffness", "", 0, 0, ALL, 0, 0, 0, 1, NULL},
-    /* joint clearance: jumps when a force flips a rod's load */
-    {"clearance", "m", -7.0, -3.0, K_STATIC | K_TRACK, 1, 0, 0, 2e-5, NULL},
-    /* axial play of the actuator joints; their radial play shifts each arm
-     * along the rods' pull, which to first order is rod-end clearance of
-     * half its size: `clearance` stands for both */
-    {"actuator_clearance_axial", "m", -7.0, -3.0, K_STATIC | K_TRACK, 1, 0, 0, 5e-5, NULL},
-    /* geometry errors move the platform: only a tracker sees them */
-    {"error_arm_length", "m", 0, 1, K_TRACK, 3, 1, 1e-4, 1e-4, NULL},
-    {"error_rod_length", "m", 0, 1, K_TRACK, 3, 1, 1e-4, 1e-4, NULL},
-    {"error_base_radius", "m", 0, 1, K_TRACK, 3, 1, 1e-4, 1e-4, NULL},
-    {"error_platform_radius", "m", 0, 1, K_TRACK, 3, 1, 1e-4, 1e-4, NULL},
-    {"error_theta_deg", "deg", 0, 1, K_TRACK, 3, 1, 0.05, 0.05, NULL},
-    {"error_alpha0_deg", "deg", 0, 1, K_TRACK, 3, 1, 0.05, 0.05, NULL},
-    /* Rayleigh C = alpha M + beta K: the decay of the vibration a tracker
-     * sees. Two candidates, so that each fit is one-dimensional and a pair
-     * finds both; the ranges span modal damping ratios 1e-4 to 1 at the
-     * presets' first modes (50-200 Hz). */
-    {"damping_alpha", "1/s", -1.0, 3.0, K_TRACK, 1, 0, 0, 50, NULL},
-    {"damping_beta", "s", -6.0, -2.0, K_TRACK, 1, 0, 0, 1e-3, NULL},
-    /* the six geometry families at once (in table order, three chains
-     * each): on one path several of them look alike, and only their union,
-     * fitted in the combinations the data see, says what is determined */
-    {"geometry_errors", "m, deg", 0, 1, K_TRACK, 18, 1, 1e-4, 1e-4, NULL},
-};
-#define NCAND ((int)(sizeof CANDIDATES / sizeof CANDIDATES[0]))
-#define GEOM_FIRST 11 /* error_arm_length: the first of the six families */
-#define UNION (&CANDIDATES[NCAND - 1])
-_Static_assert(NCAND <= DM_DIAG_MAXCAND, "dm_diagnosis.rank holds every candidate");
+_Static_assert(K_MODAL == DM_EFFECTS_MODAL && K_STATIC == DM_EFFECTS_STATIC &&
+                   K_TRACK == DM_EFFECTS_TRACKER,
+               "the effect table's data-kind bits are dm_data_kind's");
 
-const dm_candidate *dm_candidates(int *count)
-{
-    *count = NCAND;
-    return CANDIDATES;
-}
-
-const dm_candidate *dm_candidate_find(const char *name)
-{
-    for (int i = 0; i < NCAND; i++)
-        if (!strcmp(CANDIDATES[i].name, name))
-            return &CANDIDATES[i];
-    return NULL;
-}
+/* The candidates are the effect table's rows that some data can see
+ * (dm_effects.h); the union of the geometry families is one of them. */
+#define UNION (dm_effects_union())
 
 /* One geometry family (three per-chain parameters)? */
-static int is_family(const dm_candidate *c) { return c->linear && c->nparam == 3; }
-
-double dm_candidate_param_scale(const dm_candidate *c, int k)
+static int is_family(const dm_effect *c)
 {
-    assert(k >= 0 && k < c->nparam);
-    if (!c->linear)
-        return 1.0 / log(10.0); /* a unit of log10 is ln 10 relative */
-    return c == UNION ? CANDIDATES[GEOM_FIRST + k / 3].scale : c->scale;
-}
-
-void dm_candidate_param_name(const dm_candidate *c, int k, char *buf, size_t n)
-{
-    assert(k >= 0 && (k < c->nparam || k == 0) && n > 0); /* 0: a switch's name */
-    if (c == UNION)
-        snprintf(buf, n, "%s[%d]", CANDIDATES[GEOM_FIRST + k / 3].name, k % 3);
-    else if (c->nparam == 3)
-        snprintf(buf, n, "%s[%d]", c->name, k);
-    else
-        snprintf(buf, n, "%s", c->name);
-}
-
-int dm_effect_apply(dm_robot *rb, const char *name, const double *v, dm_error *err)
-{
-    const dm_candidate *c = dm_candidate_find(name);
-    if (c == UNION) {
-        for (int f = 0; f < 6; f++) {
-            int rc = dm_effect_apply(rb, CANDIDATES[GEOM_FIRST + f].name, v + 3 * f, err);
-            if (rc)
-                return rc;
-        }
-        return DM_OK;
-    }
-    /* typed, in place: no robot file written and read per evaluation */
-    const double on[1] = {1};
-    if (!strcmp(name, "geometric_stiffness")) /* no parameter: v may be NULL */
-        return dm_robot_set_number(rb, "effects", name, on, err);
-    if (!strncmp(name, "damping_", 8))
-        return dm_robot_set_number(rb, "damping", name + 8, v, err);
-    if (!strncmp(name, "base_stiffness", 14)) { /* one stiffness, all three axes */
-        const double all3[3] = {v[0], v[0], v[0]};
-        return dm_robot_set_number(rb, "effects", name, all3, err);
-    }
-    return dm_robot_set_number(rb, "effects", name, v, err);
+    return c->scope == DM_EFFECTS_EACH_CHAIN && c->nparam == 3;
 }
 
 int dm_fit_apply(const dm_robot *rb, const dm_fit *f, dm_robot *out, dm_error *err)
 {
     *out = *rb;
     for (int i = 0; i < f->ncand; i++) {
-        int rc = dm_effect_apply(out, f->cand[i]->name, f->value[i], err);
+        int rc = dm_effects_apply(out, f->cand[i]->name, f->value[i], err);
         if (rc)
             return rc;
     }
@@ -255,7 +164,7 @@ typedef struct {
     dm_predictor *predictor; /* made once per fit, run by every evaluation */
     double *pred;
     int ncand, nfixed;
-    const dm_candidate *cand[2];
+    const dm_effect *cand[2];
     double fixed[2][DM_DIAG_MAXV];
 } problem;
 
@@ -273,7 +182,7 @@ static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_error *err
     dm_robot rb = *p->s->rb;
     int rc = DM_OK;
     for (int i = 0; i < p->ncand && !rc; i++)
-        rc = dm_effect_apply(&rb, p->cand[i]->name, value[i], err);
+        rc = dm_effects_apply(&rb, p->cand[i]->name, value[i], err);
     if (!rc && !memo_get(p->s->memo, &rb, p->view.n, p->pred)) {
         dm_predictor_window(p->predictor, p->view.n);
         rc = dm_predictor_run(p->predictor, &rb, p->pred, err);
@@ -298,7 +207,7 @@ static double chi2(const shared *s, const double *pred, int want_held)
 
 /* log10 parameters stay within two decades of their search range: beyond
  * it the data cannot see them and the search would only wander. */
-static double from_log(const dm_candidate *c, double x)
+static double from_log(const dm_effect *c, double x)
 {
     return pow(10.0, fmin(c->hi + 2, fmax(c->lo - 2, x)));
 }
@@ -309,7 +218,7 @@ static void to_values(const problem *p, const double *x, double value[2][DM_DIAG
 {
     assert(p->ncand >= 1 && p->ncand <= 2 && p->nfixed <= p->ncand);
     for (int i = 0, j = 0; i < p->ncand; i++) {
-        const dm_candidate *c = p->cand[i];
+        const dm_effect *c = p->cand[i];
         for (int k = 0; k < DM_DIAG_MAXV; k++)
             value[i][k] = i < p->nfixed   ? p->fixed[i][k]
                           : k >= c->nparam ? 1.0
@@ -336,7 +245,7 @@ static void param_scales(const problem *p, int first, double *sc)
     assert(first >= 0 && p->ncand <= 2);
     for (int i = first, j = 0; i < p->ncand; i++)
         for (int k = 0; k < p->cand[i]->nparam; k++)
-            sc[j++] = dm_candidate_param_scale(p->cand[i], k);
+            sc[j++] = dm_effects_param_scale(p->cand[i], k);
 }
 
 /* cminpack callback */
@@ -374,7 +283,7 @@ static double sum_squares(const double *f, int m)
 /* Coarse scan of the log10 values of a free parameter: a start for LM
  * that is not trapped where the data cannot see it (a spring far too
  * stiff, damping far too light). */
-static void scan_start(problem *p, double *x, const dm_candidate *c, int m, double *fvec,
+static void scan_start(problem *p, double *x, const dm_effect *c, int m, double *fvec,
                        int steps)
 {
     double best = INFINITY, bx = 0.5 * (c->lo + c->hi);
@@ -636,7 +545,7 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][DM_DIAG_MAXV
     double x[DM_DIAG_MAXP], sc[DM_DIAG_MAXP], value[2][DM_DIAG_MAXV] = {{0}};
     double sig[DM_DIAG_MAXP] = {0};
     for (int i = 0; i < p->ncand; i++) {
-        const dm_candidate *c = p->cand[i];
+        const dm_effect *c = p->cand[i];
         ntotal += c->nparam;
         linear &= i < p->nfixed || c->linear;
         for (int k = 0; i >= p->nfixed && k < c->nparam; k++)
@@ -660,7 +569,7 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][DM_DIAG_MAXV
         out_of_memory(p->s);
         return;
     }
-    const dm_candidate *lone = n == 1 && !linear && !start ? p->cand[p->ncand - 1] : NULL;
+    const dm_effect *lone = n == 1 && !linear && !start ? p->cand[p->ncand - 1] : NULL;
     int staged = p->s->d->kind == DM_DATA_TRACKER && !linear && !start && n > 0;
     for (int w = staged ? 0 : NWINDOWS - 1; w < NWINDOWS && n > 0; w++) {
         set_window(p, WINDOWS[w]);
@@ -702,8 +611,8 @@ static int by_score(const void *a, const void *b)
     if (x->score != y->score)
         return (x->score > y->score) - (x->score < y->score);
     for (int i = 0; i < 2; i++) {
-        const dm_candidate *cx = i < x->ncand ? x->cand[i] : NULL;
-        const dm_candidate *cy = i < y->ncand ? y->cand[i] : NULL;
+        const dm_effect *cx = i < x->ncand ? x->cand[i] : NULL;
+        const dm_effect *cy = i < y->ncand ? y->cand[i] : NULL;
         if (cx != cy)
             return (cx > cy) - (cx < cy);
     }
@@ -739,14 +648,15 @@ static int union_wanted(const dm_diagnosis *dg, const dm_fit *fits, int n, doubl
  * as the six families together). */
 static void rank_singles(const shared *s, dm_diagnosis *dg, double need)
 {
-    int idx[NCAND], nc = 0;
-    for (int c = 0; c < NCAND; c++)
-        if (CANDIDATES[c].kinds & (1u << s->d->kind) && &CANDIDATES[c] != UNION)
+    int ntab, idx[DM_EFFECTS_MAXROWS], nc = 0;
+    const dm_effect *tab = dm_effects_table(&ntab);
+    for (int c = 0; c < ntab; c++)
+        if (tab[c].kinds & (1u << s->d->kind) && &tab[c] != UNION)
             idx[nc++] = c;
     dm_progress_begin(s->pm, "single effects", "fits", nc);
 #pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(s->o))
     for (int j = 0; j < nc; j++) {
-        problem p = {.s = s, .ncand = 1, .cand = {&CANDIDATES[idx[j]], NULL}};
+        problem p = {.s = s, .ncand = 1, .cand = {&tab[idx[j]], NULL}};
         fit(&p, dg, NULL, &dg->rank[j]);
         dm_progress_add(s->pm, 1);
     }
@@ -764,13 +674,13 @@ static void rank_singles(const shared *s, dm_diagnosis *dg, double need)
 /* ---- parsimony -------------------------------------------------------------- */
 
 /* Does a contain b, or b a (a geometry family and the union of all)? */
-static int nested(const dm_candidate *a, const dm_candidate *b)
+static int nested(const dm_effect *a, const dm_effect *b)
 {
     return (a == UNION && is_family(b)) || (b == UNION && is_family(a));
 }
 
 /* The rank of the best single fit of a candidate accepted by `want`, or -1. */
-static int rank_where(const dm_diagnosis *dg, int (*want)(const dm_candidate *, const void *),
+static int rank_where(const dm_diagnosis *dg, int (*want)(const dm_effect *, const void *),
                       const void *arg)
 {
     for (int r = 0; r < dg->nrank; r++)
@@ -779,8 +689,8 @@ static int rank_where(const dm_diagnosis *dg, int (*want)(const dm_candidate *, 
     return -1;
 }
 
-static int named(const dm_candidate *c, const void *name) { return !strcmp(c->name, name); }
-static int family(const dm_candidate *c, const void *arg) { return (void)arg, is_family(c); }
+static int named(const dm_effect *c, const void *name) { return !strcmp(c->name, name); }
+static int family(const dm_effect *c, const void *arg) { return (void)arg, is_family(c); }
 
 /* The single effect of the verdict: the best scoring, unless a simpler one
  * is close enough. A per-chain variant must beat its global effect by
@@ -813,7 +723,7 @@ static void choose_single(dm_diagnosis *dg, double need)
  * that contains it are not alternatives.) */
 static void find_ties(dm_diagnosis *dg)
 {
-    const dm_candidate *b = dg->best.cand[0];
+    const dm_effect *b = dg->best.cand[0];
     dg->ntie = 0;
     for (int r = 0; r < dg->nrank; r++) {
         const dm_fit *f = &dg->rank[r];
@@ -826,27 +736,27 @@ static void find_ties(dm_diagnosis *dg)
 /* The pair with the per-chain member of `f` replaced by its global effect
  * (0 when f has none, or when its other member is that effect or another
  * of its chains). */
-static int global_twin(const dm_fit *f, const dm_candidate *cand[2])
+static int global_twin(const dm_fit *f, const dm_effect *cand[2])
 {
     for (int i = 0; i < 2; i++) {
-        const dm_candidate *c = f->cand[i], *o = f->cand[1 - i];
+        const dm_effect *c = f->cand[i], *o = f->cand[1 - i];
         if (c->global && !named(o, c->global) && !(o->global && !strcmp(o->global, c->global))) {
             cand[0] = o;
-            cand[1] = dm_candidate_find(c->global);
+            cand[1] = dm_effects_find(c->global);
             return 1;
         }
     }
     return 0;
 }
 
-static const dm_fit *single_fit(const dm_diagnosis *dg, const dm_candidate *c)
+static const dm_fit *single_fit(const dm_diagnosis *dg, const dm_effect *c)
 {
     int r = rank_where(dg, named, c->name);
     return r < 0 ? NULL : &dg->rank[r];
 }
 
 /* The joint fit in fits[0..n-1] of the pair {a, b}, or -1. */
-static int find_pair(const dm_fit *fits, int n, const dm_candidate *a, const dm_candidate *b)
+static int find_pair(const dm_fit *fits, int n, const dm_effect *a, const dm_effect *b)
 {
     for (int j = 0; j < n; j++)
         if (fits[j].ok && ((fits[j].cand[0] == a && fits[j].cand[1] == b) ||
@@ -857,10 +767,10 @@ static int find_pair(const dm_fit *fits, int n, const dm_candidate *a, const dm_
 
 /* The group of look-alikes a candidate belongs to: a global effect and its
  * per-chain variants are one. */
-static const char *lookalike_group(const dm_candidate *c) { return c->global ? c->global : c->name; }
+static const char *lookalike_group(const dm_effect *c) { return c->global ? c->global : c->name; }
 
 /* Can a and b form a pair? */
-static int pairable(const dm_candidate *a, const dm_candidate *b)
+static int pairable(const dm_effect *a, const dm_effect *b)
 {
     return a != b && !nested(a, b) && a->nparam + b->nparam <= DM_DIAG_MAXP;
 }
@@ -938,7 +848,7 @@ static void add_second_effect(const shared *s, dm_diagnosis *dg, double need)
     for (int j = 0; j < nj; j++)
         if (joint[j].ok && (pick < 0 || by_score(&joint[j], &joint[pick]) < 0))
             pick = j;
-    const dm_candidate *c[2];
+    const dm_effect *c[2];
     int passed = -1;
     if (pick >= 0 && global_twin(&joint[pick], c)) {
         int t = find_pair(joint, nj, c[0], c[1]);
@@ -1249,9 +1159,10 @@ static void check_verdict(const shared *s, dm_diagnosis *dg)
 static int check_work(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts *o,
                       dm_error *err)
 {
-    int nc = 0;
-    for (int c = 0; c < NCAND; c++)
-        nc += (CANDIDATES[c].kinds & (1u << d->kind)) && &CANDIDATES[c] != UNION;
+    int ntab, nc = 0;
+    const dm_effect *tab = dm_effects_table(&ntab);
+    for (int c = 0; c < ntab; c++)
+        nc += (tab[c].kinds & (1u << d->kind)) && &tab[c] != UNION;
     double bytes, one = dm_predict_estimate_s(rb, d, o->na, o->nb, &bytes);
     double fits = nc * PREDICTIONS_PER_FIT(d->kind) * (o->pairs ? PAIR_FACTOR : 1) + DM_DIAG_MAXP;
     int threads = thread_count(o);
@@ -1391,7 +1302,7 @@ static int fit_effects(const dm_robot *rb, const dm_dataset *d, const char *cons
     if (n < 1 || n > 2)
         return dm_fail(err, DM_EINVAL, "fit one or two effects, not %d", n);
     for (int i = 0; i < n; i++) {
-        if (!(p.cand[i] = dm_candidate_find(names[i])))
+        if (!(p.cand[i] = dm_effects_find(names[i])))
             return dm_fail(err, DM_EINVAL, "'%s' is not a candidate effect", names[i]);
         np += p.cand[i]->nparam;
     }

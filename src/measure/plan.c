@@ -26,68 +26,26 @@
 
 /* ---- effects ------------------------------------------------------------------- */
 
-static int is_number_start(char c) { return (c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.'; }
-
+/* The effect specs of dm_effects.h, each a candidate these data can see. */
 int dm_plan_parse_effects(const char *spec, dm_data_kind kind, dm_plan_effect *eff, int *count,
                           dm_error *err)
 {
-    char buf[1024], *save = NULL;
-    int n = 0, nv = 0;
-    snprintf(buf, sizeof buf, "%s", spec);
-    for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
-        if (is_number_start(*tok)) { /* a further value of the effect before */
-            char *end;
-            double v = strtod(tok, &end);
-            if (!n || *end || nv >= eff[n - 1].cand->nparam || !isfinite(v))
-                return dm_fail(err, DM_EINVAL, "effects '%s': '%s' is not a value of an effect",
-                               spec, tok);
-            eff[n - 1].value[nv++] = v;
-            continue;
-        }
-        if (n && nv > 1 && nv < eff[n - 1].cand->nparam)
-            return dm_fail(err, DM_EINVAL, "effects '%s': %s takes 1 or %d values", spec,
-                           eff[n - 1].cand->name, eff[n - 1].cand->nparam);
-        if (n == DM_PLAN_MAXEFF)
-            return dm_fail(err, DM_EINVAL, "effects '%s': at most %d effects", spec,
-                           DM_PLAN_MAXEFF);
-        char *eq = strchr(tok, '=');
-        if (eq)
-            *eq = '\0';
-        const dm_candidate *c = dm_candidate_find(tok);
-        if (!c)
+    dm_effects_spec s[DM_PLAN_MAXEFF];
+    int n = 0, rc = dm_effects_parse_spec(spec, s, DM_PLAN_MAXEFF, &n, err);
+    for (int i = 0; i < n && !rc; i++) {
+        const dm_effect *c = s[i].effect;
+        if (!c->kinds)
             return dm_fail(err, DM_EINVAL, "effects '%s': '%s' is not a candidate effect "
-                           "(see deltamap diagnose --help)", spec, tok);
+                           "(see deltamap diagnose --help)", spec, c->name);
         if (!(c->kinds & (1u << kind)))
             return dm_fail(err, DM_EINVAL, "effects '%s': %s data cannot see %s", spec,
                            dm_data_kind_name(kind), c->name);
-        for (int k = 0; k < n; k++)
-            if (eff[k].cand == c)
-                return dm_fail(err, DM_EINVAL, "effects '%s': %s named twice", spec, c->name);
-        eff[n].cand = c;
-        for (int k = 0; k < DM_DIAG_MAXV; k++)
-            eff[n].value[k] = c->typical;
-        nv = 0;
-        if (eq) {
-            char *end;
-            eff[n].value[0] = strtod(eq + 1, &end);
-            if (end == eq + 1 || *end || !isfinite(eff[n].value[0]) ||
-                (!c->linear && !(eff[n].value[0] > 0)))
-                return dm_fail(err, DM_EINVAL, "effects '%s': %s takes a magnitude%s, not '%s'",
-                               spec, c->name, c->linear ? "" : " > 0", eq + 1);
-            nv = 1;
-        }
-        n++;
-        if (nv == 1)
-            for (int k = 1; k < DM_DIAG_MAXV; k++)
-                eff[n - 1].value[k] = eff[n - 1].value[0];
+        eff[i].cand = c;
+        memcpy(eff[i].value, s[i].value, sizeof eff[i].value);
     }
-    if (n && nv > 1 && nv < eff[n - 1].cand->nparam)
-        return dm_fail(err, DM_EINVAL, "effects '%s': %s takes 1 or %d values", spec,
-                       eff[n - 1].cand->name, eff[n - 1].cand->nparam);
-    if (!n)
-        return dm_fail(err, DM_EINVAL, "effects: name at least one effect");
-    *count = n;
-    return DM_OK;
+    if (!rc)
+        *count = n;
+    return rc;
 }
 
 /* The named effects' parameters in fitted units (log10, or as they are
@@ -108,7 +66,7 @@ static void model_init(model *m, const dm_robot *rb, const dm_plan_effect *eff, 
     for (int e = 0; e < neff; e++)
         for (int k = 0; k < eff[e].cand->nparam; k++, m->p++) {
             m->x0[m->p] = eff[e].cand->linear ? eff[e].value[k] : log10(eff[e].value[k]);
-            m->sc[m->p] = dm_candidate_param_scale(eff[e].cand, k);
+            m->sc[m->p] = dm_effects_param_scale(eff[e].cand, k);
         }
 }
 
@@ -117,14 +75,14 @@ static int robot_at(const model *m, const double *x, int only, dm_robot *rb, dm_
 {
     *rb = *m->rb;
     for (int e = 0, j = 0; e < m->neff; e++) {
-        const dm_candidate *c = m->eff[e].cand;
+        const dm_effect *c = m->eff[e].cand;
         double v[DM_DIAG_MAXV];
         for (int k = 0; k < DM_DIAG_MAXV; k++)
             v[k] = k >= c->nparam ? 1.0 : c->linear ? x[j + k] : pow(10.0, x[j + k]);
         j += c->nparam;
         if (only >= 0 && e != only)
             continue;
-        int rc = dm_effect_apply(rb, c->name, v, err);
+        int rc = dm_effects_apply(rb, c->name, v, err);
         if (rc)
             return rc;
     }
@@ -736,7 +694,7 @@ static int first_param(const model *m, int e)
  * the assessment's progress). */
 static int detect_predictions(const model *m, int e)
 {
-    const dm_candidate *c = m->eff[e].cand;
+    const dm_effect *c = m->eff[e].cand;
     if (c->nparam == 0 || c->linear)
         return 1;
     return strncmp(c->name, "damping_", 8) ? 2 + BISECTIONS : 0;
@@ -748,7 +706,7 @@ static double detectable(const model *m, dm_predictor *pw, int e, const double *
                          dm_progress_meter *pm)
 {
     assert(e >= 0 && e < m->neff);
-    const dm_candidate *c = m->eff[e].cand;
+    const dm_effect *c = m->eff[e].cand;
     int j0 = first_param(m, e);
     double x[DM_DIAG_MAXP];
     memcpy(x, m->x0, sizeof x);

@@ -18,17 +18,18 @@
 
 #include <ini.h>
 
+/* The kinds an effect's key takes are the effect table's (dm_effects.h). */
 typedef enum {
-    KEY_POSITIVE,   /* double > 0 */
-    KEY_NONNEG,     /* double >= 0 */
-    KEY_REAL,       /* any finite double */
+    KEY_POSITIVE = DM_EFFECTS_POSITIVE,       /* double > 0 */
+    KEY_NONNEG = DM_EFFECTS_NONNEG,           /* double >= 0 */
+    KEY_ONOFF = DM_EFFECTS_ONOFF,             /* on | off */
+    KEY_VEC3 = DM_EFFECTS_VEC3,               /* three finite doubles "a, b, c" */
+    KEY_VEC3_NONNEG = DM_EFFECTS_VEC3_NONNEG, /* three doubles >= 0 */
+    KEY_VEC3_DEG = DM_EFFECTS_VEC3_DEG,       /* three doubles in degrees, stored in radians */
+    KEY_REAL = DM_EFFECTS_NO_KEY + 1,         /* any finite double */
     KEY_DEGREES,    /* finite double in degrees, stored in radians */
     KEY_COUNT,      /* integer >= 1 */
-    KEY_VEC3,       /* three finite doubles "a, b, c" */
-    KEY_VEC3_NONNEG,/* three doubles >= 0 */
-    KEY_VEC3_DEG,   /* three doubles in degrees, stored in radians */
     KEY_SHAPE,      /* rect | square | circle | tube */
-    KEY_ONOFF,      /* on | off */
     KEY_ELBOW,      /* out | in */
     KEY_NAME        /* free text */
 } key_kind;
@@ -69,41 +70,47 @@ static const key_spec KEYS[] = {
     {"platform", "mass", KEY_POSITIVE, R_OFF(platform_mass_kg), 1, "kg"},
     {"platform", "inertia", KEY_VEC3_NONNEG, R_OFF(platform_inertia_kgm2), 0, "kg*m^2"},
     {"environment", "gravity", KEY_VEC3, R_OFF(gravity_ms2), 0, "m/s^2"},
-    {"damping", "alpha", KEY_NONNEG, R_OFF(rayleigh_alpha), 0, "1/s"},
-    {"damping", "beta", KEY_NONNEG, R_OFF(rayleigh_beta), 0, "s"},
     {"mesh", "na", KEY_COUNT, R_OFF(na), 0, ""},
     {"mesh", "nb", KEY_COUNT, R_OFF(nb), 0, ""},
     {"workspace", "home", KEY_VEC3, R_OFF(home_m), 0, "m"},
     {"workspace", "singular_condition", KEY_POSITIVE, R_OFF(singular_cond), 0, ""},
-    {"effects", "actuator_stiffness", KEY_POSITIVE, R_OFF(effects.actuator_stiffness_nm_per_rad), 0, "N*m/rad"},
-    {"effects", "joint_stiffness", KEY_POSITIVE, R_OFF(effects.joint_stiffness_n_per_m), 0, "N/m"},
-    {"effects", "payload_mass", KEY_POSITIVE, R_OFF(effects.payload_kg), 0, "kg"},
-    {"effects", "payload_offset", KEY_VEC3, R_OFF(effects.payload_offset_m), 0, "m"},
-    {"effects", "elbow_mass", KEY_POSITIVE, R_OFF(effects.elbow_mass_kg), 0, "kg"},
-    {"effects", "base_stiffness", KEY_VEC3_NONNEG, 0, 0, "N/m"},
-    {"effects", "base_stiffness_0", KEY_VEC3_NONNEG, R_OFF(effects.base_stiffness_n_per_m[0]), 0, "N/m"},
-    {"effects", "base_stiffness_1", KEY_VEC3_NONNEG, R_OFF(effects.base_stiffness_n_per_m[1]), 0, "N/m"},
-    {"effects", "base_stiffness_2", KEY_VEC3_NONNEG, R_OFF(effects.base_stiffness_n_per_m[2]), 0, "N/m"},
-    {"effects", "geometric_stiffness", KEY_ONOFF, R_OFF(effects.geometric_stiffness), 0, ""},
-    {"effects", "clearance", KEY_POSITIVE, R_OFF(effects.clearance_m), 0, "m"},
-    {"effects", "actuator_clearance_axial", KEY_POSITIVE, R_OFF(effects.actuator_clearance_axial_m), 0, "m"},
-    {"effects", "actuator_clearance_radial", KEY_POSITIVE, R_OFF(effects.actuator_clearance_radial_m), 0, "m"},
-    {"effects", "error_arm_length", KEY_VEC3, R_OFF(effects.err_arm_length_m), 0, "m"},
-    {"effects", "error_rod_length", KEY_VEC3, R_OFF(effects.err_rod_length_m), 0, "m"},
-    {"effects", "error_base_radius", KEY_VEC3, R_OFF(effects.err_base_radius_m), 0, "m"},
-    {"effects", "error_platform_radius", KEY_VEC3, R_OFF(effects.err_platform_radius_m), 0, "m"},
-    {"effects", "error_theta_deg", KEY_VEC3_DEG, R_OFF(effects.err_theta_rad), 0, "deg"},
-    {"effects", "error_alpha0_deg", KEY_VEC3_DEG, R_OFF(effects.err_alpha0_rad), 0, "deg"},
 };
 #define NKEYS (sizeof KEYS / sizeof KEYS[0])
+/* Every key of the file: KEYS, then the effect table's rows (those with a
+ * key: [effects] and [damping]). */
+#define NALL (NKEYS + DM_EFFECTS_MAXROWS)
 
-/* What an unknown [effects] key is told. */
-static const char NOT_AN_EFFECT[] =
-    "not a model extension (actuator_stiffness, joint_stiffness, payload_mass, "
-    "payload_offset, elbow_mass, base_stiffness[_0|_1|_2], geometric_stiffness, clearance, "
-    "actuator_clearance_axial, actuator_clearance_radial, error_arm_length, "
-    "error_rod_length, error_base_radius, error_platform_radius, error_theta_deg, "
-    "error_alpha0_deg)";
+/* Key i of NALL into *ks; 0 when i is no key (a row without one, or past
+ * the table's end). */
+static int key_at(size_t i, key_spec *ks)
+{
+    if (i < NKEYS) {
+        *ks = KEYS[i];
+        return 1;
+    }
+    int n;
+    const dm_effect *tab = dm_effects_table(&n);
+    if (i - NKEYS >= (size_t)n || !tab[i - NKEYS].section)
+        return 0;
+    const dm_effect *e = &tab[i - NKEYS];
+    *ks = (key_spec){e->section, e->key, (key_kind)e->value, e->offset, 0, e->unit};
+    return 1;
+}
+
+/* Is it the key whose value every chain gets (base_stiffness)? */
+static int every_chain(const key_spec *ks)
+{
+    const dm_effect *e = dm_effects_find_key(ks->section, ks->key);
+    return e && e->scope == DM_EFFECTS_ALL_CHAINS;
+}
+
+/* What an unknown [effects] key is told: "not a model extension (...)". */
+static void not_an_effect(char *buf, size_t n)
+{
+    char keys[600];
+    dm_effects_key_list(keys, sizeof keys);
+    snprintf(buf, n, "not a model extension (%s)", keys);
+}
 
 /* Sections whose unknown keys get a more specific message. */
 static const char *const RESERVED_SECTIONS[] = {"effects", NULL};
@@ -112,7 +119,7 @@ typedef struct {
     dm_robot *robot;
     const char *source;
     int line;              /* line being parsed (counted by our reader) */
-    int key_line[NKEYS];   /* line where each key was set, 0 = absent */
+    int key_line[NALL];    /* line where each key was set, 0 = absent */
     double poisson[2];     /* arm, rod */
     double base_global[3]; /* [effects] base_stiffness, for chains without their own */
     dm_error *err;
@@ -157,7 +164,7 @@ static int key_error(parse_state *st, int line, const char *section,
 static int key_error(parse_state *st, int line, const char *section,
                      const char *key, const char *fmt, ...)
 {
-    char what[512];
+    char what[768];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(what, sizeof what, fmt, ap);
@@ -172,14 +179,58 @@ static int is_vec3(key_kind k)
     return k == KEY_VEC3 || k == KEY_VEC3_NONNEG || k == KEY_VEC3_DEG;
 }
 
-static int store_value(parse_state *st, const key_spec *ks, const char *value)
+/* The numbers a numeric key's text holds, or what is wrong with its form
+ * (the robot file's reader and dm_robot_set read values through this). */
+static const char *text_numbers(const key_spec *ks, const char *text, double v[3])
 {
-    assert(ks->offset + (ks->kind == KEY_NAME ? DM_NAME_LEN
-                         : is_vec3(ks->kind)   ? 3 * sizeof(double)
-                                               : sizeof(double)) <=
-           sizeof *st->robot);
+    if (ks->kind == KEY_ONOFF) {
+        if (strcmp(text, "on") && strcmp(text, "off"))
+            return "is not on or off";
+        v[0] = !strcmp(text, "on");
+        return NULL;
+    }
+    if (is_vec3(ks->kind))
+        return parse_vec3(text, v) ? "is not three numbers 'a, b, c'" : NULL;
+    return parse_double(text, v) ? "is not a number in range" : NULL;
+}
+
+/* What the robot file requires of a numeric key's numbers: the one check
+ * of the reader and both setters. */
+static const char *value_problem(const key_spec *ks, const double *v, int n, int *bad)
+{
+    for (int i = 0; i < n; i++) {
+        *bad = i;
+        if (!isfinite(v[i]) || (v[i] != 0 && fabs(v[i]) < DBL_MIN))
+            return "not a number in range";
+        if (ks->kind == KEY_POSITIVE && !(v[i] > 0))
+            return "must be > 0";
+        if (ks->kind == KEY_NONNEG && v[i] < 0)
+            return "must be >= 0";
+        if (ks->kind == KEY_VEC3_NONNEG && v[i] < 0)
+            return "has a negative component";
+        if (ks->kind == KEY_ONOFF && v[i] != 0 && v[i] != 1)
+            return "must be 0 (off) or 1 (on)";
+    }
+    return NULL;
+}
+
+/* Store a numeric key's checked numbers (degrees as radians, on/off as an int). */
+static void put_numbers(dm_robot *rb, const key_spec *ks, const double *v, int n)
+{
+    assert(ks->offset + (size_t)n * sizeof(double) <= sizeof *rb);
+    char *dst = (char *)rb + ks->offset;
+    double scale = ks->kind == KEY_VEC3_DEG || ks->kind == KEY_DEGREES ? M_PI / 180.0 : 1.0;
+    if (ks->kind == KEY_ONOFF)
+        *(int *)dst = v[0] != 0;
+    else
+        for (int i = 0; i < n; i++)
+            ((double *)dst)[i] = v[i] * scale;
+}
+
+/* The keys that are not numbers. */
+static int store_word(parse_state *st, const key_spec *ks, const char *value)
+{
     char *dst = (char *)st->robot + ks->offset;
-    double v = 0, v3[3];
     switch (ks->kind) {
     case KEY_NAME:
         if (strlen(value) >= DM_NAME_LEN || !*value)
@@ -200,18 +251,14 @@ static int store_value(parse_state *st, const key_spec *ks, const char *value)
         return key_error(st, st->line, ks->section, ks->key,
                          "'%s' is not a section shape (rect, square, circle, tube)", value);
     }
-    case KEY_ONOFF:
-        if (strcmp(value, "on") && strcmp(value, "off"))
-            return key_error(st, st->line, ks->section, ks->key, "'%s' is not on or off", value);
-        *(int *)dst = !strcmp(value, "on");
-        return 1;
     case KEY_ELBOW:
         if (strcmp(value, "out") && strcmp(value, "in"))
             return key_error(st, st->line, ks->section, ks->key,
                              "'%s' is not an elbow branch (out, in)", value);
         *(int *)dst = !strcmp(value, "in");
         return 1;
-    case KEY_COUNT: {
+    default: { /* KEY_COUNT */
+        assert(ks->kind == KEY_COUNT);
         char *end;
         long n = strtol(value, &end, 10);
         if (end == value || *end || n < 1 || n > 64)
@@ -220,39 +267,32 @@ static int store_value(parse_state *st, const key_spec *ks, const char *value)
         *(int *)dst = (int)n;
         return 1;
     }
-    case KEY_VEC3:
-    case KEY_VEC3_NONNEG:
-    case KEY_VEC3_DEG:
-        if (parse_vec3(value, v3))
-            return key_error(st, st->line, ks->section, ks->key,
-                             "'%s' is not three numbers 'a, b, c'", value);
-        if (ks->kind == KEY_VEC3_NONNEG && (v3[0] < 0 || v3[1] < 0 || v3[2] < 0))
-            return key_error(st, st->line, ks->section, ks->key,
-                             "'%s' has a negative component", value);
-        for (int k = 0; k < 3 && ks->kind == KEY_VEC3_DEG; k++)
-            v3[k] *= M_PI / 180.0;
-        memcpy(!strcmp(ks->key, "base_stiffness") ? (char *)st->base_global : dst, v3, sizeof v3);
-        return 1;
-    default:
-        break;
     }
-    if (parse_double(value, &v))
-        return key_error(st, st->line, ks->section, ks->key, "'%s' is not a number in range",
-                         value);
-    if (ks->kind == KEY_POSITIVE && !(v > 0))
-        return key_error(st, st->line, ks->section, ks->key, "must be > 0, got %s", value);
-    if (ks->kind == KEY_NONNEG && v < 0)
-        return key_error(st, st->line, ks->section, ks->key, "must be >= 0, got %s", value);
-    if (ks->kind == KEY_DEGREES)
-        v *= M_PI / 180.0;
+}
+
+static int store_value(parse_state *st, const key_spec *ks, const char *value)
+{
+    if (ks->kind >= KEY_COUNT)
+        return store_word(st, ks, value);
+    double v[3];
+    int n = is_vec3(ks->kind) ? 3 : 1;
+    const char *problem = text_numbers(ks, value, v);
+    if (problem)
+        return key_error(st, st->line, ks->section, ks->key, "'%s' %s", value, problem);
+    int bad;
+    if ((problem = value_problem(ks, v, n, &bad)))
+        return key_error(st, st->line, ks->section, ks->key, "%s, got %s", problem, value);
     if (!strcmp(ks->key, "poisson_ratio")) {
-        if (!(v > -1.0 && v < 0.5))
+        if (!(v[0] > -1.0 && v[0] < 0.5))
             return key_error(st, st->line, ks->section, ks->key,
                              "must lie in (-1, 0.5), got %s", value);
-        st->poisson[!strcmp(ks->section, "rod")] = v;
+        st->poisson[!strcmp(ks->section, "rod")] = v[0];
         return 1;
     }
-    *(double *)dst = v;
+    if (every_chain(ks)) /* given to the chains without their own once all is read */
+        memcpy(st->base_global, v, sizeof st->base_global);
+    else
+        put_numbers(st->robot, ks, v, n);
     return 1;
 }
 
@@ -261,22 +301,24 @@ static int handler(void *user, const char *section, const char *name, const char
     parse_state *st = user;
     if (st->err && st->err->code)
         return 0; /* report only the first error */
-    for (size_t i = 0; i < NKEYS; i++) {
-        if (strcmp(KEYS[i].section, section) || strcmp(KEYS[i].key, name))
+    key_spec ks;
+    for (size_t i = 0; i < NALL; i++) {
+        if (!key_at(i, &ks) || strcmp(ks.section, section) || strcmp(ks.key, name))
             continue;
         if (st->key_line[i])
             return key_error(st, st->line, section, name,
                              "given twice (first on line %d)", st->key_line[i]);
         st->key_line[i] = st->line;
-        return store_value(st, &KEYS[i], value);
+        return store_value(st, &ks, value);
     }
+    char why[700];
+    not_an_effect(why, sizeof why);
     for (int r = 0; RESERVED_SECTIONS[r]; r++)
         if (!strcmp(section, RESERVED_SECTIONS[r]))
-            return key_error(st, st->line, section, name,
-                             "%s", NOT_AN_EFFECT);
+            return key_error(st, st->line, section, name, "%s", why);
     int known_section = 0;
-    for (size_t i = 0; i < NKEYS; i++)
-        known_section |= !strcmp(KEYS[i].section, section);
+    for (size_t i = 0; i < NALL; i++)
+        known_section |= key_at(i, &ks) && !strcmp(ks.section, section);
     if (!known_section)
         return key_error(st, st->line, section, name,
                          "unknown section [%s]", section);
@@ -324,8 +366,9 @@ static void set_defaults(dm_robot *robot)
 
 static int key_index(const char *section, const char *key)
 {
-    for (size_t i = 0; i < NKEYS; i++)
-        if (!strcmp(KEYS[i].section, section) && !strcmp(KEYS[i].key, key))
+    key_spec ks;
+    for (size_t i = 0; i < NALL; i++)
+        if (key_at(i, &ks) && !strcmp(ks.section, section) && !strcmp(ks.key, key))
             return (int)i;
     return -1;
 }
@@ -378,39 +421,6 @@ static int finish_member(parse_state *st, const char *sec, dm_member *m, double 
     return dm_section_compute(m, &m->section, st->err);
 }
 
-int dm_effects_geometry_errors(const dm_effects *e)
-{
-    for (int i = 0; i < 3; i++)
-        if (e->err_arm_length_m[i] || e->err_rod_length_m[i] || e->err_base_radius_m[i] ||
-            e->err_platform_radius_m[i] || e->err_theta_rad[i] || e->err_alpha0_rad[i])
-            return 1;
-    return dm_effects_clearance(e);
-}
-
-int dm_effects_clearance(const dm_effects *e)
-{
-    return e->clearance_m > 0 || e->actuator_clearance_axial_m > 0 ||
-           e->actuator_clearance_radial_m > 0;
-}
-
-int dm_effects_any(const dm_effects *e)
-{
-    int any = e->actuator_stiffness_nm_per_rad || e->joint_stiffness_n_per_m || e->payload_kg ||
-              e->elbow_mass_kg || e->geometric_stiffness || dm_effects_geometry_errors(e);
-    for (int i = 0; i < 3; i++)
-        any |= dm_effects_base_compliant(e, i) || e->payload_offset_m[i] != 0;
-    return any;
-}
-
-int dm_effects_base_compliant(const dm_effects *e, int i)
-{
-    assert(i >= 0 && i < 3);
-    for (int k = 0; k < 3; k++)
-        if (e->base_stiffness_n_per_m[i][k] > 0)
-            return 1;
-    return 0;
-}
-
 /* A chain's base springs are set on all three axes or on none (rigid):
  * one free translation would make the robot a mechanism. */
 static int check_effects(parse_state *st)
@@ -442,7 +452,7 @@ static int check_effects(parse_state *st)
 
 static int check_required(parse_state *st)
 {
-    for (size_t i = 0; i < NKEYS; i++)
+    for (size_t i = 0; i < NKEYS; i++) /* the effect table's keys are never required */
         if (KEYS[i].required && !st->key_line[i])
             return dm_fail(st->err, DM_EINVAL, "%s: [%s] %s: required key missing (%s)",
                            st->source, KEYS[i].section, KEYS[i].key,
@@ -648,48 +658,33 @@ static void write_member(FILE *out, const char *sec, const dm_member *m)
             m->youngs_pa, m->shear_pa, m->density_kgm3);
 }
 
-static void write_effects(FILE *out, const dm_effects *e)
+/* [effects] from the effect table, in its order, each key when its row
+ * says (dm_effects_write). */
+static void write_effects(FILE *out, const dm_robot *rb)
 {
+    int n;
+    const dm_effect *tab = dm_effects_table(&n);
     fprintf(out, "\n[effects]\n");
-    if (e->actuator_stiffness_nm_per_rad > 0)
-        fprintf(out, "actuator_stiffness = %.17g\n", e->actuator_stiffness_nm_per_rad);
-    if (e->joint_stiffness_n_per_m > 0)
-        fprintf(out, "joint_stiffness = %.17g\n", e->joint_stiffness_n_per_m);
-    if (e->payload_kg > 0) {
-        const double *o = e->payload_offset_m;
-        fprintf(out, "payload_mass = %.17g\npayload_offset = %.17g, %.17g, %.17g\n", e->payload_kg,
-                o[0], o[1], o[2]);
-    }
-    if (e->elbow_mass_kg > 0)
-        fprintf(out, "elbow_mass = %.17g\n", e->elbow_mass_kg);
-    for (int i = 0; i < 3; i++) {
-        const double *k = e->base_stiffness_n_per_m[i];
-        if (dm_effects_base_compliant(e, i))
-            fprintf(out, "base_stiffness_%d = %.17g, %.17g, %.17g\n", i, k[0], k[1], k[2]);
-    }
-    fprintf(out, "geometric_stiffness = %s\n", e->geometric_stiffness ? "on" : "off");
-    if (e->clearance_m > 0)
-        fprintf(out, "clearance = %.17g\n", e->clearance_m);
-    if (e->actuator_clearance_axial_m > 0)
-        fprintf(out, "actuator_clearance_axial = %.17g\n", e->actuator_clearance_axial_m);
-    if (e->actuator_clearance_radial_m > 0)
-        fprintf(out, "actuator_clearance_radial = %.17g\n", e->actuator_clearance_radial_m);
-    const struct {
-        const char *key;
-        const double *v;
-        int degrees;
-    } errs[] = {{"error_arm_length", e->err_arm_length_m, 0},
-                {"error_rod_length", e->err_rod_length_m, 0},
-                {"error_base_radius", e->err_base_radius_m, 0},
-                {"error_platform_radius", e->err_platform_radius_m, 0},
-                {"error_theta_deg", e->err_theta_rad, 1},
-                {"error_alpha0_deg", e->err_alpha0_rad, 1}};
-    for (int k = 0; k < 6; k++) {
-        double v[3];
-        for (int i = 0; i < 3; i++)
-            v[i] = errs[k].degrees ? degrees_of(errs[k].v[i]) : errs[k].v[i];
-        if (v[0] || v[1] || v[2])
-            fprintf(out, "%s = %.17g, %.17g, %.17g\n", errs[k].key, v[0], v[1], v[2]);
+    for (int i = 0; i < n; i++) {
+        const dm_effect *e = &tab[i];
+        if (!e->section || strcmp(e->section, "effects") || e->write == DM_EFFECTS_WRITE_NEVER)
+            continue;
+        int set = dm_effects_is_set(&rb->effects, e);
+        if (e->write == DM_EFFECTS_WRITE_WITH_PREVIOUS && i > 0)
+            set |= dm_effects_is_set(&rb->effects, &tab[i - 1]);
+        if (!set && e->write != DM_EFFECTS_WRITE_ALWAYS)
+            continue;
+        const char *at = (const char *)rb + e->offset;
+        if (e->value == DM_EFFECTS_ONOFF) {
+            fprintf(out, "%s = %s\n", e->key, *(const int *)(const void *)at ? "on" : "off");
+            continue;
+        }
+        const double *v = (const double *)(const void *)at;
+        fprintf(out, "%s = ", e->key);
+        for (int k = 0; k < (e->value >= DM_EFFECTS_VEC3 ? 3 : 1); k++)
+            fprintf(out, "%s%.17g", k ? ", " : "",
+                    e->value == DM_EFFECTS_VEC3_DEG ? degrees_of(v[k]) : v[k]);
+        fprintf(out, "\n");
     }
 }
 
@@ -712,7 +707,7 @@ int dm_robot_write(const dm_robot *rb, FILE *out)
     fprintf(out, "\n[mesh]\nna = %d\nnb = %d\n", rb->na, rb->nb);
     fprintf(out, "\n[workspace]\nhome = %.17g, %.17g, %.17g\nsingular_condition = %.17g\n",
             h[0], h[1], h[2], rb->singular_cond);
-    write_effects(out, &rb->effects);
+    write_effects(out, rb);
     return ferror(out) ? DM_EIO : DM_OK;
 }
 
@@ -762,12 +757,35 @@ static int edit_text(const char *text, const char *section, const char *key, con
     return DM_OK;
 }
 
+/* Keys whose value no derived value depends on: set in place, typed. */
+static int settable(const key_spec *ks)
+{
+    return !strcmp(ks->section, "effects") || !strcmp(ks->section, "damping");
+}
+
+/* A settable key's text, read as the file's reader reads it, set by the
+ * typed setter: one path, one check, for both setters. */
+static int set_from_text(dm_robot *robot, const key_spec *ks, const char *assignment,
+                         const char *value, dm_error *err)
+{
+    double v[3];
+    const char *problem = text_numbers(ks, value, v);
+    if (problem)
+        return dm_fail(err, DM_EINVAL, "%s with %s: [%s] %s: '%s' %s", robot->source, assignment,
+                       ks->section, ks->key, value, problem);
+    return dm_robot_set_number(robot, ks->section, ks->key, v, err);
+}
+
 int dm_robot_set(dm_robot *robot, const char *assignment, dm_error *err)
 {
     char section[64], key[64], value[256];
     if (sscanf(assignment, "%63[^.=].%63[^=]=%255s", section, key, value) != 3)
         return dm_fail(err, DM_EINVAL, "'%s' is not SECTION.KEY=VALUE (e.g. arm.side=0.025)",
                        assignment);
+    key_spec ks;
+    int i = key_index(section, key);
+    if (i >= 0 && key_at((size_t)i, &ks) && settable(&ks))
+        return set_from_text(robot, &ks, assignment, value, err);
     char *text = NULL, *edited = NULL;
     size_t len = 0;
     FILE *mem = open_memstream(&text, &len);
@@ -796,74 +814,50 @@ int dm_robot_set(dm_robot *robot, const char *assignment, dm_error *err)
 
 /* ---- typed values -------------------------------------------------------------- */
 
-static const key_spec *find_key(const char *section, const char *key)
+/* As the reader: a chain's base springs on all three axes or none. */
+static int check_base_springs(const dm_robot *rb, const char *key, dm_error *err)
 {
-    for (size_t i = 0; i < NKEYS; i++)
-        if (!strcmp(KEYS[i].section, section) && !strcmp(KEYS[i].key, key))
-            return &KEYS[i];
-    return NULL;
-}
-
-/* Keys whose value no derived value depends on: set in place. */
-static int settable(const key_spec *ks)
-{
-    return !strcmp(ks->section, "effects") || !strcmp(ks->section, "damping");
-}
-
-/* What the robot file's reader requires of the key's numbers. */
-static const char *value_problem(const key_spec *ks, const double *v, int n)
-{
-    for (int i = 0; i < n; i++) {
-        if (!isfinite(v[i]) || (v[i] != 0 && fabs(v[i]) < DBL_MIN))
-            return "not a number in range";
-        if (ks->kind == KEY_POSITIVE && !(v[i] > 0))
-            return "must be > 0";
-        if ((ks->kind == KEY_NONNEG || ks->kind == KEY_VEC3_NONNEG) && v[i] < 0)
-            return "must be >= 0";
-        if (ks->kind == KEY_ONOFF && v[i] != 0 && v[i] != 1)
-            return "must be 0 (off) or 1 (on)";
-    }
-    return NULL;
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3 && dm_effects_base_compliant(&rb->effects, i); k++)
+            if (!(rb->effects.base_stiffness_n_per_m[i][k] > 0))
+                return dm_fail(err, DM_EINVAL,
+                               "%s: [effects] %s: chain %d has no spring along %c; a "
+                               "compliant base needs kX, kY, kZ > 0 (or all 0: rigid)",
+                               rb->source, key, i, "XYZ"[k]);
+    return DM_OK;
 }
 
 int dm_robot_set_number(dm_robot *robot, const char *section, const char *key, const double *v,
                         dm_error *err)
 {
-    const key_spec *ks = find_key(section, key);
-    if (!ks && !strcmp(section, "effects"))
-        return dm_fail(err, DM_EINVAL, "%s: [effects] %s: %s", robot->source, key, NOT_AN_EFFECT);
-    if (!ks)
+    key_spec ks;
+    int i = key_index(section, key);
+    if (i < 0 && !strcmp(section, "effects")) {
+        char why[700];
+        not_an_effect(why, sizeof why);
+        return dm_fail(err, DM_EINVAL, "%s: [effects] %s: %s", robot->source, key, why);
+    }
+    if (i < 0 || !key_at((size_t)i, &ks))
         return dm_fail(err, DM_EINVAL, "%s: [%s] %s: no such key of a robot file",
                        robot->source, section, key);
-    if (!settable(ks))
+    if (!settable(&ks))
         return dm_fail(err, DM_EINVAL,
                        "[%s] %s: other values derive from it; change it with dm_robot_set",
                        section, key);
-    int n = is_vec3(ks->kind) ? 3 : 1;
-    const char *problem = value_problem(ks, v, n);
+    int n = is_vec3(ks.kind) ? 3 : 1;
+    int bad;
+    const char *problem = value_problem(&ks, v, n, &bad);
     if (problem)
         return dm_fail(err, DM_EINVAL, "%s: [%s] %s: %s, got %.17g", robot->source, section,
-                       key, problem, v[0]);
+                       key, problem, v[bad]);
     dm_robot changed = *robot; /* a copy, unchanged on error */
-    double scale = ks->kind == KEY_VEC3_DEG || ks->kind == KEY_DEGREES ? M_PI / 180.0 : 1.0;
-    assert(ks->offset + n * sizeof(double) <= sizeof changed);
-    char *dst = (char *)&changed + ks->offset;
-    if (!strcmp(key, "base_stiffness")) /* the global value: every chain's */
-        for (int i = 0; i < 3; i++)
-            memcpy(changed.effects.base_stiffness_n_per_m[i], v, sizeof(double) * 3);
-    else if (ks->kind == KEY_ONOFF)
-        *(int *)dst = v[0] != 0;
+    if (every_chain(&ks)) /* base_stiffness: every chain's (the rule in dm_effects.h) */
+        for (int c = 0; c < 3; c++)
+            memcpy(changed.effects.base_stiffness_n_per_m[c], v, sizeof(double) * 3);
     else
-        for (int i = 0; i < n; i++)
-            ((double *)dst)[i] = v[i] * scale;
-    /* as the reader: a chain's base springs on all three axes or none */
-    for (int i = 0; i < 3; i++)
-        for (int k = 0; k < 3 && dm_effects_base_compliant(&changed.effects, i); k++)
-            if (!(changed.effects.base_stiffness_n_per_m[i][k] > 0))
-                return dm_fail(err, DM_EINVAL,
-                               "%s: [effects] %s: chain %d has no spring along %c; a "
-                               "compliant base needs kX, kY, kZ > 0 (or all 0: rigid)",
-                               robot->source, key, i, "XYZ"[k]);
-    *robot = changed;
-    return DM_OK;
+        put_numbers(&changed, &ks, v, n);
+    int rc = check_base_springs(&changed, key, err);
+    if (!rc)
+        *robot = changed;
+    return rc;
 }
