@@ -29,6 +29,7 @@
 
 #include "dm_effects.h"
 #include "dm_measure.h"
+#include "dm_modal.h"
 #include "dm_progress.h"
 #include "dm_robot.h"
 
@@ -64,7 +65,7 @@ typedef struct dm_fit {
  * DM_DIAG_BAND/(2G) quantile (Bonferroni over G groups), so that the whole
  * test rejects an exact model at most DM_DIAG_BAND of the time. Quantiles by
  * Wilson-Hilferty (at most 2.5 % above the exact ones from 3 samples up). */
-#define DM_DIAG_MAXGROUP 64
+#define DM_DIAG_MAXGROUP DM_MAX_MODES /* mode ranks (or 3 axes) */
 typedef struct dm_noise_test {
     int n;                       /* held-out samples */
     double chi2, limit;          /* their prediction chi-square and its limit */

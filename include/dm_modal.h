@@ -43,6 +43,15 @@ typedef enum {
     DM_DIR_X = 0, DM_DIR_Y, DM_DIR_Z, DM_DIR_RX, DM_DIR_RY, DM_DIR_RZ
 } dm_direction;
 
+/* The most modes a pose's result holds where it is of fixed size: the
+ * sweep's maps and its stores, synth's and plan's modal data, a measured
+ * mode's rank (the solvers themselves have no such limit). */
+#define DM_MAX_MODES 64
+/* The same as text, for help and error messages: "64". */
+#define DM_MAX_MODES_TEXT DM_MODAL_TEXT_(DM_MAX_MODES)
+#define DM_MODAL_TEXT_(n) DM_MODAL_TEXT__(n)
+#define DM_MODAL_TEXT__(n) #n
+
 typedef struct dm_modal dm_modal;
 
 typedef struct dm_modes {

@@ -5,8 +5,10 @@
 #include <stdlib.h>
 #include <unistd.h>
 
+#include "dm_coupling.h"
 #include "dm_store.h"
 #include "dm_sweep.h"
+#include "../src/maps/sweep_impl.h" /* the array table, walked */
 
 static char *tmpdir(void)
 {
@@ -344,6 +346,215 @@ static void resume_repairs_derived_files(void **state)
     rmtree(two);
 }
 
+/* ---- the array table (sweep_impl.h) ------------------------------------------- */
+
+static size_t elem_size(const dm_sweep_array *d)
+{
+    return d->dtype == DM_DTYPE_FLOAT64 ? sizeof(double) : sizeof(int);
+}
+
+/* The table against dm_point_result: each row's field holds its array's
+ * values at a point (DM_MAX_MODES for the mode dimension), the fields
+ * tile the struct with nothing but alignment between them (a field no
+ * row stores would show as a gap), status comes first and the groups in
+ * order, so a sweep's arrays are a prefix. */
+static void array_table_matches_point_result(void **state)
+{
+    (void)state;
+    int n = dm_sweep_narrays, order[64];
+    assert_true(n > 0 && n <= 64);
+    assert_string_equal(dm_sweep_arrays[0].name, "status");
+    assert_int_equal(dm_sweep_arrays[0].dtype, DM_DTYPE_UINT8);
+    for (int a = 0; a < n; a++) {
+        const dm_sweep_array *d = &dm_sweep_arrays[a];
+        assert_int_equal(d->size, dm_sweep_extra_len(d->extra, DM_MAX_MODES) * elem_size(d));
+        assert_true(d->dtype == DM_DTYPE_FLOAT64 ? isnan(d->fill) : d->fill == (int)d->fill);
+        if (a)
+            assert_true(d->group >= dm_sweep_arrays[a - 1].group);
+        for (int b = 0; b < a; b++)
+            assert_string_not_equal(d->name, dm_sweep_arrays[b].name);
+        order[a] = a;
+    }
+    for (int i = 1; i < n; i++) /* rows by their field's offset */
+        for (int j = i; j > 0 && dm_sweep_arrays[order[j]].offset < dm_sweep_arrays[order[j - 1]].offset; j--) {
+            int t = order[j];
+            order[j] = order[j - 1], order[j - 1] = t;
+        }
+    size_t end = 0;
+    for (int i = 0; i < n; i++) {
+        const dm_sweep_array *d = &dm_sweep_arrays[order[i]];
+        size_t align = elem_size(d), aligned = (end + align - 1) / align * align;
+        if (d->offset != aligned)
+            fail_msg("%s at offset %zu: a field without an array, or an overlap, before it (from %zu)",
+                     d->name, d->offset, end);
+        end = d->offset + d->size;
+    }
+    assert_int_equal((end + sizeof(double) - 1) / sizeof(double) * sizeof(double), sizeof(dm_point_result));
+    int core = dm_sweep_ndata(0, 0), tol = dm_sweep_ndata(1, 0);
+    assert_true(core > 0 && core < tol && tol < n && dm_sweep_ndata(1, 1e-5) == n);
+    assert_int_equal(dm_sweep_ndata(0, 1e-5), core); /* a spec without the Monte Carlo: none */
+    for (int a = 0; a < n; a++)
+        assert_int_equal(dm_sweep_arrays[a].group, a < core ? G_CORE : a < tol ? G_TOLERANCE : G_SPEC);
+}
+
+/* What an array should hold at a point, from the single-pose functions. */
+typedef struct {
+    const char *name;
+    double v[DM_MAX_MODES + EXTRA_MODES];
+    int n;       /* values (any_of: candidates) */
+    double tol;  /* relative to the largest |v|; 0: exactly */
+    int any_of;  /* each stored value is one of v (mode families) */
+} expected_array;
+
+#define WK 4 /* modes of the walk's sweep */
+
+/* Every array's values at reachable pose P: the analysis, the standard
+ * moves, the nominal robot's coupling index and the tolerance Monte Carlo
+ * run on their own. Returns how many. */
+static int expect_at(const dm_robot *rb, const dm_sweep_opts *o, const double P[3],
+                     expected_array *e)
+{
+    dm_analysis *an = dm_analysis_alloc(rb, 1, 1, WK + EXTRA_MODES, DM_EIGEN_PARTIAL, NULL);
+    dm_pose_result r;
+    assert_int_equal(dm_analysis_run(an, P, WK + EXTRA_MODES, &r, NULL), 0);
+    static const double xyz[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    dm_move_result mv[3];
+    dm_move_ws *ws = dm_move_alloc(dm_model_dofs(rb, 1, 1), WK, NULL);
+    assert_int_equal(dm_standard_moves(ws, an->model, r.modes, WK, an->statics, xyz, 3, &o->move, mv, NULL), 0);
+    dm_coupling *nominal = dm_coupling_alloc(rb, 1, 1, NULL);
+    double nominal_log10;
+    assert_int_equal(dm_coupling_nominal_log10(nominal, P, &nominal_log10, NULL), 0);
+    dm_tolerance_spec ts = o->tolerance_spec;
+    ts.na = ts.nb = ts.flexibility = 1; /* the sweep's mesh, flexible */
+    dm_tolerance_result t;
+    assert_int_equal(dm_tolerance_pose(rb, &ts, P, 1, &t, NULL), 0);
+    /* tolerances (relative to the array's largest |value|): modal values
+     * 1e-9, two converged solves (the sweep's from an anchor's seed) agree
+     * to ~1e-11 (values_equal_single_pose_analysis; 4e-13 seen here); the
+     * moves' maxima and settling times 1e-8, each found to 1e-9 relative
+     * (dm_move_result) from those modes (2e-12 seen); the statics 1e-12,
+     * the same direct solve at the same pose (2e-16 seen); the Monte Carlo
+     * exactly, as `deltamap tolerance --at` (store_tests.sh) */
+    expected_array list[] = {
+        {"status", {r.near_singular ? DM_POINT_NEAR_SINGULAR : DM_POINT_OK}, 1, 0, 0},
+        {"frequencies_hz", {0}, WK, 1e-9, 0},
+        {"frequencies_tracked_hz", {0}, WK + EXTRA_MODES, 1e-9, 1},
+        {"static_error", {0}, 6, 1e-12, 0},
+        {"compliance_max", {r.compliance_max_m_per_n}, 1, 1e-12, 0},
+        {"compliance_direction", {r.compliance_dir[0], r.compliance_dir[1], r.compliance_dir[2]}, 3, 1e-12, 0},
+        {"stiffness_min", {r.stiffness_min_n_per_m}, 1, 1e-12, 0},
+        {"singularity", {r.pose.cond}, 1, 1e-12, 0},
+        {"move_peak_m", {mv[0].peak_m, mv[1].peak_m, mv[2].peak_m}, 3, 1e-8, 0},
+        {"move_residual_m", {mv[0].residual_m, mv[1].residual_m, mv[2].residual_m}, 3, 1e-8, 0},
+        {"move_settling_s", {mv[0].settling_s, mv[1].settling_s, mv[2].settling_s}, 3, 1e-8, 0},
+        {"coupling_index_log10", {r.coupling_index_log10}, 1, 1e-12, 0},
+        {"coupling_index_change_log10", {r.coupling_index_log10 - nominal_log10}, 1, 1e-12, 0},
+        {"error_mean_m", {t.mean_error_m}, 1, 0, 0},
+        {"error_p95_m", {t.p95_error_m}, 1, 0, 0},
+        {"error_max_m", {t.max_error_m}, 1, 0, 0},
+        {"dominant_source", {t.dominant}, 1, 0, 0},
+        {"p_exceed_spec", {t.p_exceed_spec}, 1, 0, 0},
+    };
+    int n = sizeof list / sizeof list[0];
+    for (int j = 0; j < WK + EXTRA_MODES; j++)
+        list[1].v[j] = list[2].v[j] = r.modes->freq_hz[j];
+    memcpy(list[3].v, r.static_error, sizeof r.static_error);
+    memcpy(e, list, sizeof list);
+    dm_coupling_free(nominal);
+    dm_move_free(ws);
+    dm_analysis_free(an);
+    return n;
+}
+
+/* Stored array a's values at every point, as doubles (E per point). */
+static double *read_as_double(const char *dir, const dm_store *st, int a, size_t npts, size_t E)
+{
+    size_t n = npts * E, bytes = dm_dtype_size(st->arr[a].dtype);
+    unsigned char *raw = malloc(n * bytes);
+    double *v = malloc(n * sizeof *v);
+    read_all(dir, st->arr[a].name, raw, bytes);
+    for (size_t i = 0; i < n; i++)
+        v[i] = st->arr[a].dtype == DM_DTYPE_UINT8   ? raw[i]
+               : st->arr[a].dtype == DM_DTYPE_INT32 ? ((int32_t *)raw)[i]
+                                                    : ((double *)raw)[i];
+    free(raw);
+    return v;
+}
+
+static void check_against(const dm_sweep_array *d, const double *got, size_t E, const expected_array *e)
+{
+    double scale = 0;
+    for (int j = 0; j < e->n; j++)
+        scale = fmax(scale, isfinite(e->v[j]) ? fabs(e->v[j]) : 0);
+    if (!e->any_of)
+        assert_int_equal(E, e->n);
+    for (size_t j = 0; j < E; j++) {
+        int found = 0;
+        for (int i = e->any_of ? 0 : (int)j; i < (e->any_of ? e->n : (int)j + 1) && !found; i++)
+            found = got[j] == e->v[i] || fabs(got[j] - e->v[i]) <= e->tol * scale;
+        if (!found)
+            fail_msg("%s[%zu] = %.17g: not %.17g (within %.3g of %.3g)", d->name, j, got[j],
+                     e->v[e->any_of ? 0 : j], e->tol, scale);
+    }
+}
+
+/* A sweep with every array (standard moves, effects, the tolerance Monte
+ * Carlo with a spec) at a reachable and an unreachable point: each array
+ * of the table is in the store at its row, with its dimensions, type and
+ * units, and reads back what the single-pose functions give at the
+ * reachable point and the array's fill at the other. An array added to
+ * the table without a check here fails. */
+static void every_array_written_and_read_back(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
+    assert_int_equal(dm_robot_set(&rb, "effects.error_rod_length=1e-4,0,-5e-5", NULL), 0);
+    assert_int_equal(dm_robot_set(&rb, "effects.actuator_stiffness=2e4", NULL), 0);
+    assert_int_equal(dm_robot_set(&rb, "damping.alpha=30", NULL), 0); /* moves that settle */
+    dm_sweep_opts o;
+    sweep_options(&o, 1, WK, 2, 1);
+    o.tolerance = 1;
+    o.tolerance_spec.samples = 30;
+    o.tolerance_spec.seed = 7;
+    o.tolerance_spec.spec_m = 8.5e-4; /* |error| spreads over 0.8-0.9 mm there */
+    o.tolerance_spec.tol[DM_TOL_ROD_LENGTH] = 5e-5;
+    o.tolerance_spec.tol[DM_TOL_THETA] = 3e-4;
+    const char *spec = "x=0:1.2:2,y=0,z=-0.5"; /* x = 1.2 m is out of reach */
+    char *dir = tmpdir();
+    run_sweep(&rb, spec, &o, dir);
+    const double P[3] = {0, 0, -0.5};
+    expected_array e[32];
+    int ne = expect_at(&rb, &o, P, e);
+    dm_store st;
+    assert_int_equal(dm_store_read_metadata(dir, &st, NULL), 0);
+    assert_int_equal(st.narr, dm_sweep_narrays + N_AXES_LABELS);
+    for (int a = 0; a < dm_sweep_narrays; a++) {
+        const dm_sweep_array *d = &dm_sweep_arrays[a];
+        const dm_array_spec *s = &st.arr[a];
+        assert_string_equal(s->name, d->name);
+        assert_int_equal(s->dtype, d->dtype);
+        assert_int_equal(s->ndim, 3 + (d->extra != X_NONE));
+        assert_string_equal(json_string_value(json_object_get(s->attributes, "units")), d->units);
+        size_t E = (size_t)dm_sweep_extra_len(d->extra, WK);
+        assert_int_equal(s->ndim > 3 ? s->shape[3] : 1, E);
+        int i = 0;
+        while (i < ne && strcmp(e[i].name, d->name))
+            i++;
+        if (i == ne)
+            fail_msg("array %s has no check in every_array_written_and_read_back", d->name);
+        double *v = read_as_double(dir, &st, a, 2, E);
+        check_against(d, v, E, &e[i]);
+        for (size_t j = 0; j < E; j++) { /* the unreachable point: the fill */
+            double want = a == 0 ? DM_POINT_UNREACHABLE : d->fill;
+            assert_true(isnan(want) ? isnan(v[E + j]) : v[E + j] == want);
+        }
+        free(v);
+    }
+    dm_store_release(&st);
+    rmtree(dir);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -352,6 +563,8 @@ int main(void)
         cmocka_unit_test(threads_resume_and_refusal),
         cmocka_unit_test(shards_make_the_same_store),
         cmocka_unit_test(resume_repairs_derived_files),
+        cmocka_unit_test(array_table_matches_point_result),
+        cmocka_unit_test(every_array_written_and_read_back),
     };
     return cmocka_run_group_tests_name("sweep", tests, NULL, NULL);
 }

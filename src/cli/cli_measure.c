@@ -219,8 +219,8 @@ int dm_cli_compare(int argc, char **argv)
         dm_dataset_free(&d);
         return dm_cli_report(rc ? &err : (dm_fail(&err, DM_ENOMEM, "out of memory"), &err));
     }
-    int sigma = 1, groups = d.kind == DM_DATA_MODAL ? 64 : 3, worst[5] = {-1, -1, -1, -1, -1};
-    stats all = {0}, by[64] = {{0}};
+    int sigma = 1, groups = d.kind == DM_DATA_MODAL ? DM_MAX_MODES : 3, worst[5] = {-1, -1, -1, -1, -1};
+    stats all = {0}, by[DM_MAX_MODES] = {{0}};
     for (int i = 0; i < d.n; i++) {
         const dm_sample *s = &d.s[i];
         double r = s->value - pred[i];
@@ -811,8 +811,8 @@ int dm_cli_synth(int argc, char **argv)
             break;
         case 'L': o.force_long = 1; break;
         case 'M':
-            if (dm_cli_parse_int(optarg, 1, 64, &o.modes))
-                return dm_cli_usage("synth", "--modes takes 1..64", optarg);
+            if (dm_cli_parse_int(optarg, 1, DM_MAX_MODES, &o.modes))
+                return dm_cli_usage("synth", "--modes takes 1.." DM_MAX_MODES_TEXT, optarg);
             break;
         case 'S':
             if (dm_cli_parse_int(optarg, 0, 2147483647, &seed))

@@ -89,8 +89,8 @@ static int parse(int argc, char **argv, plan_args *a)
                 return dm_cli_usage("plan", "--mesh takes NA,NB, whole numbers 1..64", optarg);
             break;
         case 'M':
-            if (dm_cli_parse_int(optarg, 1, 64, &a->o.modes))
-                return dm_cli_usage("plan", "--modes takes 1..64", optarg);
+            if (dm_cli_parse_int(optarg, 1, DM_MAX_MODES, &a->o.modes))
+                return dm_cli_usage("plan", "--modes takes 1.." DM_MAX_MODES_TEXT, optarg);
             break;
         case 'T':
             if (dm_cli_parse_int(optarg, 1, 1024, &a->o.threads))

@@ -29,7 +29,7 @@ static const char SWEEP_HELP[] =
     "\n"
     "  --grid SPEC     x=A:B:N,y=A:B:N,z=A:B:N (m) or r=A:B:N,phi=A:B:N,z=A:B:N\n"
     "                  (phi in degrees); one value (z=-0.5) fixes an axis\n"
-    "  --modes K       frequencies per point (default 10, at most 64)\n"
+    "  --modes K       frequencies per point (default 10, at most " DM_MAX_MODES_TEXT ")\n"
     "  --tile A,B,C    points per tile along the three axes (default 16,16,1)\n"
     "  --threads N     worker threads (default: OpenMP's, all cores)\n"
     "  --no-dynamic    skip the standard moves (X, Y, Z)\n"
@@ -136,8 +136,8 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
                 return EXIT_USAGE;
             break;
         case 'k':
-            if (dm_cli_parse_int(optarg, 1, 64, &a->o.k))
-                return dm_cli_usage("sweep", "--modes takes a whole number 1..64", optarg);
+            if (dm_cli_parse_int(optarg, 1, DM_MAX_MODES, &a->o.k))
+                return dm_cli_usage("sweep", "--modes takes a whole number 1.." DM_MAX_MODES_TEXT, optarg);
             break;
         case 'T':
             if (dm_cli_parse_int(optarg, 1, 1024, &a->o.threads))

@@ -2,6 +2,7 @@
  * scheduling (see dm_sweep.h, sweep_impl.h, docs/store.md). */
 #include "sweep_impl.h"
 
+#include <assert.h>
 #include <limits.h>
 #include <math.h>
 #include <omp.h>
@@ -47,8 +48,9 @@ static void worker_free(sweep_worker *w)
     free(w->mac);
     free(w->assign);
     free(w->shapes);
-    for (int a = 0; a < N_DATA; a++)
-        free(w->buf[a]); /* NULL beyond the store's */
+    for (int a = 0; a < w->nbuf; a++)
+        free(w->buf[a]);
+    free(w->buf);
 }
 
 static int worker_alloc(const sweep_ctx *c, sweep_worker *w, dm_error *err)
@@ -68,8 +70,10 @@ static int worker_alloc(const sweep_ctx *c, sweep_worker *w, dm_error *err)
     w->mac = malloc(sizeof(double) * c->k);
     w->assign = malloc(sizeof(int) * c->k);
     w->shapes = malloc(sizeof(double) * c->n * c->k);
-    int ok = w->move && w->mac_work && w->mac && w->assign && w->shapes;
-    for (int a = 0; a < c->ndata && ok; a++)
+    w->buf = calloc((size_t)c->ndata, sizeof *w->buf);
+    w->nbuf = w->buf ? c->ndata : 0;
+    int ok = w->move && w->mac_work && w->mac && w->assign && w->shapes && w->buf;
+    for (int a = 0; a < w->nbuf && ok; a++)
         ok = (w->buf[a] = malloc(dm_store_chunk_elems(&c->store, a) * dm_dtype_size(dm_sweep_arrays[a].dtype))) != NULL;
     if (!ok) {
         worker_free(w);
@@ -81,20 +85,20 @@ static int worker_alloc(const sweep_ctx *c, sweep_worker *w, dm_error *err)
 
 /* ---- one point --------------------------------------------------------------- */
 
+/* Every field at its array's fill (NaN, -1: not computed), the status given. */
 static void point_nan(dm_point_result *r, int status)
 {
-    double nan = NAN;
+    for (int a = 0; a < dm_sweep_narrays; a++) {
+        const dm_sweep_array *d = &dm_sweep_arrays[a];
+        char *field = (char *)r + d->offset;
+        if (d->dtype == DM_DTYPE_FLOAT64)
+            for (size_t j = 0; j < d->size / sizeof(double); j++)
+                ((double *)field)[j] = d->fill;
+        else
+            for (size_t j = 0; j < d->size / sizeof(int); j++)
+                ((int *)field)[j] = (int)d->fill;
+    }
     r->status = status;
-    for (int j = 0; j < 64; j++)
-        r->freq_hz[j] = r->tracked_hz[j] = nan;
-    for (int j = 0; j < 6; j++)
-        r->static_error[j] = nan;
-    r->compliance_max = r->stiffness_min = r->singularity = r->coupling_index_log10 = nan;
-    r->coupling_change_log10 = nan;
-    r->error_mean_m = r->error_p95_m = r->error_max_m = r->p_exceed_spec = nan;
-    r->dominant_source = -1;
-    for (int j = 0; j < 3; j++)
-        r->compliance_dir[j] = r->move_peak[j] = r->move_residual[j] = r->move_settling[j] = nan;
 }
 
 static void analyse_point(const sweep_ctx *c, sweep_worker *w, const int idx[3], const double P[3],
@@ -204,50 +208,44 @@ static int tile_complete(const sweep_ctx *c, void *scratch, long t)
     return 1;
 }
 
+/* Every point of the tile's chunks at its array's fill (the padding of an
+ * edge tile stays so). */
 static void fill_buffers(const sweep_ctx *c, sweep_worker *w)
 {
     for (int a = 0; a < c->ndata; a++) {
+        double fill = dm_sweep_arrays[a].fill;
         size_t n = dm_store_chunk_elems(&c->store, a);
-        if (dm_sweep_arrays[a].dtype == DM_DTYPE_UINT8)
-            memset(w->buf[a], DM_POINT_NOT_COMPUTED, n);
-        else if (dm_sweep_arrays[a].dtype == DM_DTYPE_INT32)
-            for (size_t i = 0; i < n; i++)
-                ((int32_t *)w->buf[a])[i] = -1;
-        else
-            for (size_t i = 0; i < n; i++)
-                ((double *)w->buf[a])[i] = NAN;
+        for (size_t i = 0; i < n; i++)
+            switch (dm_sweep_arrays[a].dtype) {
+            case DM_DTYPE_UINT8: ((unsigned char *)w->buf[a])[i] = (unsigned char)fill; break;
+            case DM_DTYPE_INT32: ((int32_t *)w->buf[a])[i] = (int32_t)fill; break;
+            case DM_DTYPE_FLOAT64: ((double *)w->buf[a])[i] = fill; break;
+            }
     }
 }
 
+/* The point's values into each chunk at point offset off. */
 static void store_point(const sweep_ctx *c, sweep_worker *w, size_t off, const dm_point_result *r)
 {
-    ((unsigned char *)w->buf[A_STATUS])[off] = (unsigned char)r->status;
-    double *b;
-#define PUT(a, src, len)                                                                   \
-    b = (double *)w->buf[a] + off * (len);                                                 \
-    memcpy(b, src, sizeof(double) * (len))
-    PUT(A_FREQ, r->freq_hz, c->k);
-    PUT(A_TRACKED, r->tracked_hz, c->k);
-    PUT(A_STATIC, r->static_error, 6);
-    PUT(A_CMAX, &r->compliance_max, 1);
-    PUT(A_CDIR, r->compliance_dir, 3);
-    PUT(A_KMIN, &r->stiffness_min, 1);
-    PUT(A_COND, &r->singularity, 1);
-    PUT(A_PEAK, r->move_peak, 3);
-    PUT(A_RESID, r->move_residual, 3);
-    PUT(A_SETTLE, r->move_settling, 3);
-    PUT(A_COUPLING, &r->coupling_index_log10, 1);
-    PUT(A_COUPLING_CHANGE, &r->coupling_change_log10, 1);
-    if (c->ndata > N_CORE) {
-        PUT(A_ERR_MEAN, &r->error_mean_m, 1);
-        PUT(A_ERR_P95, &r->error_p95_m, 1);
-        PUT(A_ERR_MAX, &r->error_max_m, 1);
-        ((int32_t *)w->buf[A_DOMINANT])[off] = r->dominant_source;
+    for (int a = 0; a < c->ndata; a++) {
+        const dm_sweep_array *d = &dm_sweep_arrays[a];
+        const char *field = (const char *)r + d->offset;
+        size_t len = (size_t)dm_sweep_extra_len(d->extra, c->k);
+        assert(len * (d->dtype == DM_DTYPE_FLOAT64 ? sizeof(double) : sizeof(int)) <= d->size);
+        switch (d->dtype) {
+        case DM_DTYPE_UINT8:
+            for (size_t j = 0; j < len; j++)
+                ((unsigned char *)w->buf[a])[off * len + j] = (unsigned char)((const int *)field)[j];
+            break;
+        case DM_DTYPE_INT32:
+            for (size_t j = 0; j < len; j++)
+                ((int32_t *)w->buf[a])[off * len + j] = ((const int *)field)[j];
+            break;
+        case DM_DTYPE_FLOAT64:
+            memcpy((double *)w->buf[a] + off * len, field, sizeof(double) * len);
+            break;
+        }
     }
-    if (c->ndata > A_P_EXCEED) {
-        PUT(A_P_EXCEED, &r->p_exceed_spec, 1);
-    }
-#undef PUT
 }
 
 static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts[4], dm_error *err)
@@ -275,6 +273,7 @@ static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts
                 counts[r.status == DM_POINT_NOT_COMPUTED ? 3 : r.status]++;
             }
     /* status last: a reader sees a tile's status only once its data is there */
+    assert(!strcmp(dm_sweep_arrays[0].name, "status"));
     for (int a = c->ndata - 1; a >= 0; a--) {
         dm_store_clean_chunk(&c->store, a, tc); /* what a killed run left of it */
         int rc = dm_store_write_chunk(&c->store, a, tc, w->buf[a], err);
@@ -337,14 +336,15 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
     c->na = o->na ? o->na : rb->na;
     c->nb = o->nb ? o->nb : rb->nb;
     c->n = dm_model_dofs(rb, c->na, c->nb);
-    if (o->k < 1 || o->k > 64 || o->k > c->n)
-        return dm_fail(err, DM_EINVAL, "sweep: the number of modes must be 1..64 (and at most %d DOF)", c->n);
+    if (o->k < 1 || o->k > DM_MAX_MODES || o->k > c->n)
+        return dm_fail(err, DM_EINVAL, "sweep: the number of modes must be 1..%d (and at most %d DOF)",
+                       DM_MAX_MODES, c->n);
     if (o->shards < 0 || o->shard < 0 || (o->shards > 1 ? o->shard >= o->shards : o->shard > 0))
         return dm_fail(err, DM_EINVAL, "sweep: there is no shard %d of %d (0 <= K < N)", o->shard,
                        o->shards);
     c->k = o->k;
     c->kc = c->k + EXTRA_MODES < c->n ? c->k + EXTRA_MODES : c->n;
-    c->ndata = N_CORE;
+    c->ndata = dm_sweep_ndata(o->tolerance, o->tolerance_spec.spec_m);
     if (o->tolerance) {
         c->tol = o->tolerance_spec;
         c->tol.na = c->na;
@@ -356,7 +356,6 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
         dm_error terr;
         if (dm_tolerance_check(rb, &c->tol, &terr))
             return dm_fail(err, terr.code, "sweep: tolerance %s", terr.msg);
-        c->ndata = c->tol.spec_m > 0 ? N_DATA : A_P_EXCEED;
     }
     auto_tile(g, o->tile, c->tile);
     for (int d = 0; d < 3; d++)

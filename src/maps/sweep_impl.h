@@ -14,33 +14,6 @@
 #define DM_SWEEP_VERSION "deltamap " DM_VERSION
 #define EXTRA_MODES 4   /* candidates beyond k for mode tracking */
 
-/* ---- sweep_schema.c: the arrays of a map store ----------------------------- */
-
-/* The data arrays (x, y, z[, extra]). A store holds the first N_CORE,
- * then the tolerance maps when the sweep runs the Monte Carlo (the last,
- * p_exceed_spec, only with a spec): its data arrays are the first
- * c->ndata of this list, so an array's index in the store is its enum
- * value. After them come the coordinates (c->ndata + 0..2) and the labels
- * of the extra dimensions (c->ndata + 3..6). */
-enum {
-    A_STATUS, A_FREQ, A_TRACKED, A_STATIC, A_CMAX, A_CDIR, A_KMIN, A_COND, A_PEAK, A_RESID,
-    A_SETTLE, A_COUPLING, A_COUPLING_CHANGE, N_CORE,
-    A_ERR_MEAN = N_CORE, A_ERR_P95, A_ERR_MAX, A_DOMINANT, A_P_EXCEED, N_DATA
-};
-#define N_AXES_LABELS 7 /* coordinate and label arrays */
-
-typedef struct {
-    const char *name;
-    dm_dtype dtype;
-    int extra;          /* 0: none, else index into the extra-dimension table */
-    const char *units, *long_name;
-} dm_sweep_array;
-
-enum { X_NONE, X_MODE, X_COMPONENT, X_AXIS, X_MOVE };
-
-/* The data arrays, in the order of the enum. */
-extern const dm_sweep_array dm_sweep_arrays[N_DATA];
-
 /* ---- sweep.c: what one point of the map holds ------------------------------ */
 
 /* The values a map stores at a point, flat and of fixed size, NaN where
@@ -48,11 +21,13 @@ extern const dm_sweep_array dm_sweep_arrays[N_DATA];
  * analysis and points into the workspace that made it (modes, statics),
  * valid until the next pose; nor dm_integ_sample (dm_integrate.h), one
  * time step of a trajectory. This one adds the tracked families and the
- * standard moves, and outlives the workspace until its tile is written. */
-
+ * standard moves, and outlives the workspace until its tile is written.
+ * Each field holds one stored array's values at the point (its row of
+ * dm_sweep_arrays names it by offset): an array is added as a field here,
+ * a row there and the line of analyse_point that computes it. */
 typedef struct dm_point_result {
     int status;
-    double freq_hz[64], tracked_hz[64];
+    double freq_hz[DM_MAX_MODES], tracked_hz[DM_MAX_MODES];
     double static_error[6];
     double compliance_max, compliance_dir[3], stiffness_min, singularity;
     double move_peak[3], move_residual[3], move_settling[3];
@@ -62,6 +37,44 @@ typedef struct dm_point_result {
     int dominant_source;
 } dm_point_result;
 
+/* ---- sweep_schema.c: the arrays of a map store ----------------------------- */
+
+/* Which sweeps store an array: every one, those with the tolerance Monte
+ * Carlo, those with it and a spec. The table holds the groups in this
+ * order, so a store's data arrays are the table's first dm_sweep_ndata()
+ * rows and an array's index in the store is its row. After them come the
+ * coordinates (c->ndata + 0..2) and the labels of the extra dimensions
+ * (c->ndata + 3..6). */
+enum { G_CORE, G_TOLERANCE, G_SPEC };
+#define N_AXES_LABELS 7 /* coordinate and label arrays */
+
+/* An array's fourth dimension, after x, y, z: none, or the one it names. */
+enum { X_NONE, X_MODE, X_COMPONENT, X_AXIS, X_MOVE };
+
+/* One stored (data) array. */
+typedef struct {
+    const char *name;
+    dm_dtype dtype;     /* FLOAT64: its field is double[], UINT8 and INT32: int[] */
+    int extra;          /* X_*: its fourth dimension */
+    int group;          /* G_*: the sweeps that store it */
+    const char *units, *long_name;
+    /* CF attributes beyond units and long_name (flag_values, ...); NULL: none */
+    void (*cf_attributes)(json_t *attributes);
+    size_t offset, size; /* its field in dm_point_result */
+    double fill;        /* its value where not computed: in a point, in a chunk's padding */
+} dm_sweep_array;
+
+/* The data arrays: status first (written last, so that a reader sees a
+ * tile's status only once its data is there), then the groups in order. */
+extern const dm_sweep_array dm_sweep_arrays[];
+extern const int dm_sweep_narrays;
+
+/* How many of the table's first rows a sweep stores, with or without the
+ * tolerance Monte Carlo and a spec (> 0). */
+int dm_sweep_ndata(int tolerance, double spec_m);
+/* The length of an array's fourth dimension (1 without one) at k modes. */
+int dm_sweep_extra_len(int extra, int k);
+
 /* ---- sweep.c: the run's context and its workers ----------------------------- */
 
 typedef struct sweep_ctx {
@@ -70,7 +83,7 @@ typedef struct sweep_ctx {
     dm_sweep_opts o;
     int na, nb, n, k, kc;
     int tile[3], ntiles[3];
-    int ndata;          /* data arrays in the store (see the enum) */
+    int ndata;          /* data arrays in the store: dm_sweep_arrays' first */
     dm_tolerance_spec tol; /* the Monte Carlo's, at the sweep's mesh (o.tolerance) */
     int nthreads;       /* over tiles */
     dm_store store;
@@ -96,7 +109,8 @@ typedef struct sweep_worker {
     int *assign;
     double *shapes;     /* families' shapes at the point (n x k) */
     struct dm_coupling *nominal; /* the robot without effects (NULL: it has none) */
-    void *buf[N_DATA];
+    int nbuf;
+    void **buf;         /* a chunk of each of the store's data arrays (nbuf) */
 } sweep_worker;
 
 /* ---- sweep_schema.c --------------------------------------------------------- */

@@ -2,41 +2,112 @@
  * attributes, the sweep's fingerprint, the coordinate arrays (see
  * sweep_impl.h, docs/store.md). */
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "sweep_impl.h"
 
-static const char *const EXTRA_DIM[] = {"", "mode", "component", "axis", "move"};
-
-const dm_sweep_array dm_sweep_arrays[N_DATA] = {
-    {"status", DM_DTYPE_UINT8, X_NONE, "1", "0 ok, 1 unreachable, 2 near-singular, 3 solver failure, 255 not computed"},
-    {"frequencies_hz", DM_DTYPE_FLOAT64, X_MODE, "Hz", "natural frequencies, ascending"},
-    {"frequencies_tracked_hz", DM_DTYPE_FLOAT64, X_MODE, "Hz", "frequencies of mode families followed by MAC"},
-    {"static_error", DM_DTYPE_FLOAT64, X_COMPONENT, "m, rad", "platform error under gravity: dx, dy, dz (m), ex, ey, ez (rad)"},
-    {"compliance_max", DM_DTYPE_FLOAT64, X_NONE, "m/N", "largest translational compliance at P"},
-    {"compliance_direction", DM_DTYPE_FLOAT64, X_AXIS, "1", "direction of the largest compliance"},
-    {"stiffness_min", DM_DTYPE_FLOAT64, X_NONE, "N/m", "smallest translational stiffness at P (1/compliance_max)"},
-    {"singularity", DM_DTYPE_FLOAT64, X_NONE, "1", "condition number of the kinematic Jacobian"},
-    {"move_peak_m", DM_DTYPE_FLOAT64, X_MOVE, "m", "standard move: peak |Delta - Delta_static| during the move"},
-    {"move_residual_m", DM_DTYPE_FLOAT64, X_MOVE, "m", "standard move: residual vibration amplitude after it"},
-    {"move_settling_s", DM_DTYPE_FLOAT64, X_MOVE, "s", "standard move: settling time after it (inf: never)"},
-    {"coupling_index_log10", DM_DTYPE_FLOAT64, X_NONE, "1", "Zheng's coupling index: log10 det K (depends on mesh and DOF units)"},
-    {"coupling_index_change_log10", DM_DTYPE_FLOAT64, X_NONE, "1", "coupling index minus the nominal robot's (no effects) at the same pose and mesh; 0 without effects"},
-    /* the tolerance Monte Carlo's (only with it) */
-    {"error_mean_m", DM_DTYPE_FLOAT64, X_NONE, "m", "tolerance Monte Carlo: mean platform |error|"},
-    {"error_p95_m", DM_DTYPE_FLOAT64, X_NONE, "m", "tolerance Monte Carlo: 95th percentile of the platform |error|"},
-    {"error_max_m", DM_DTYPE_FLOAT64, X_NONE, "m", "tolerance Monte Carlo: largest platform |error| sampled"},
-    {"dominant_source", DM_DTYPE_INT32, X_NONE, "1", "tolerance contributing most to the error's spread (linearised); -1 none"},
-    {"p_exceed_spec", DM_DTYPE_FLOAT64, X_NONE, "1", "tolerance Monte Carlo: share of samples with |error| > spec"},
+/* The fourth dimensions (X_*): name, its label array's long_name, length
+ * (the mode dimension's is the sweep's k). */
+static const struct {
+    const char *name, *labels;
+    int len;
+} EXTRA_DIM[] = {
+    [X_NONE] = {"", "", 1},
+    [X_MODE] = {"mode", "mode rank, 1 = lowest", 0},
+    [X_COMPONENT] = {"component", "dx dy dz ex ey ez", 6},
+    [X_AXIS] = {"axis", "x y z", 3},
+    [X_MOVE] = {"move", "X Y Z", 3},
 };
 
-static int extra_len(int x, int k)
+static void status_flags(json_t *at)
 {
-    return x == X_MODE ? k : x == X_COMPONENT ? 6 : x == X_AXIS ? 3 : x == X_MOVE ? 3 : 1;
+    json_object_set_new(at, "flag_meanings", json_string("ok unreachable near_singular solver_failure"));
 }
 
+/* code -> name: source_names[code] (a JSON list), and the CF convention's
+ * flag_values / flag_meanings, for xarray users */
+static void source_flags(json_t *at)
+{
+    json_t *names = json_array(), *values = json_array();
+    char meanings[512] = "none";
+    json_array_append_new(values, json_integer(-1));
+    for (int k = 0; k < DM_TOL_NCLASS; k++) {
+        json_array_append_new(names, json_string(dm_tolerance_class_name(k)));
+        json_array_append_new(values, json_integer(k));
+        size_t used = strlen(meanings);
+        snprintf(meanings + used, sizeof meanings - used, " %s", dm_tolerance_class_name(k));
+    }
+    json_object_set_new(at, "source_names", names);
+    json_object_set_new(at, "flag_values", values);
+    json_object_set_new(at, "flag_meanings", json_string(meanings));
+}
+
+/* the point result's field f: offset and size */
+#define FIELD(f) offsetof(dm_point_result, f), sizeof(((dm_point_result *)0)->f)
+
+const dm_sweep_array dm_sweep_arrays[] = {
+    {"status", DM_DTYPE_UINT8, X_NONE, G_CORE, "1",
+     "0 ok, 1 unreachable, 2 near-singular, 3 solver failure, 255 not computed", status_flags,
+     FIELD(status), DM_POINT_NOT_COMPUTED},
+    {"frequencies_hz", DM_DTYPE_FLOAT64, X_MODE, G_CORE, "Hz", "natural frequencies, ascending",
+     NULL, FIELD(freq_hz), NAN},
+    {"frequencies_tracked_hz", DM_DTYPE_FLOAT64, X_MODE, G_CORE, "Hz",
+     "frequencies of mode families followed by MAC", NULL, FIELD(tracked_hz), NAN},
+    {"static_error", DM_DTYPE_FLOAT64, X_COMPONENT, G_CORE, "m, rad",
+     "platform error under gravity: dx, dy, dz (m), ex, ey, ez (rad)", NULL, FIELD(static_error),
+     NAN},
+    {"compliance_max", DM_DTYPE_FLOAT64, X_NONE, G_CORE, "m/N",
+     "largest translational compliance at P", NULL, FIELD(compliance_max), NAN},
+    {"compliance_direction", DM_DTYPE_FLOAT64, X_AXIS, G_CORE, "1",
+     "direction of the largest compliance", NULL, FIELD(compliance_dir), NAN},
+    {"stiffness_min", DM_DTYPE_FLOAT64, X_NONE, G_CORE, "N/m",
+     "smallest translational stiffness at P (1/compliance_max)", NULL, FIELD(stiffness_min), NAN},
+    {"singularity", DM_DTYPE_FLOAT64, X_NONE, G_CORE, "1",
+     "condition number of the kinematic Jacobian", NULL, FIELD(singularity), NAN},
+    {"move_peak_m", DM_DTYPE_FLOAT64, X_MOVE, G_CORE, "m",
+     "standard move: peak |Delta - Delta_static| during the move", NULL, FIELD(move_peak), NAN},
+    {"move_residual_m", DM_DTYPE_FLOAT64, X_MOVE, G_CORE, "m",
+     "standard move: residual vibration amplitude after it", NULL, FIELD(move_residual), NAN},
+    {"move_settling_s", DM_DTYPE_FLOAT64, X_MOVE, G_CORE, "s",
+     "standard move: settling time after it (inf: never)", NULL, FIELD(move_settling), NAN},
+    {"coupling_index_log10", DM_DTYPE_FLOAT64, X_NONE, G_CORE, "1",
+     "Zheng's coupling index: log10 det K (depends on mesh and DOF units)", NULL,
+     FIELD(coupling_index_log10), NAN},
+    {"coupling_index_change_log10", DM_DTYPE_FLOAT64, X_NONE, G_CORE, "1",
+     "coupling index minus the nominal robot's (no effects) at the same pose and mesh; 0 "
+     "without effects",
+     NULL, FIELD(coupling_change_log10), NAN},
+    {"error_mean_m", DM_DTYPE_FLOAT64, X_NONE, G_TOLERANCE, "m",
+     "tolerance Monte Carlo: mean platform |error|", NULL, FIELD(error_mean_m), NAN},
+    {"error_p95_m", DM_DTYPE_FLOAT64, X_NONE, G_TOLERANCE, "m",
+     "tolerance Monte Carlo: 95th percentile of the platform |error|", NULL, FIELD(error_p95_m),
+     NAN},
+    {"error_max_m", DM_DTYPE_FLOAT64, X_NONE, G_TOLERANCE, "m",
+     "tolerance Monte Carlo: largest platform |error| sampled", NULL, FIELD(error_max_m), NAN},
+    {"dominant_source", DM_DTYPE_INT32, X_NONE, G_TOLERANCE, "1",
+     "tolerance contributing most to the error's spread (linearised); -1 none", source_flags,
+     FIELD(dominant_source), -1},
+    {"p_exceed_spec", DM_DTYPE_FLOAT64, X_NONE, G_SPEC, "1",
+     "tolerance Monte Carlo: share of samples with |error| > spec", NULL, FIELD(p_exceed_spec),
+     NAN},
+};
+const int dm_sweep_narrays = sizeof dm_sweep_arrays / sizeof dm_sweep_arrays[0];
+
+int dm_sweep_ndata(int tolerance, double spec_m)
+{
+    int last = !tolerance ? G_CORE : spec_m > 0 ? G_SPEC : G_TOLERANCE, n = 0;
+    while (n < dm_sweep_narrays && dm_sweep_arrays[n].group <= last)
+        n++;
+    return n;
+}
+
+int dm_sweep_extra_len(int extra, int k)
+{
+    return extra == X_MODE ? k : EXTRA_DIM[extra].len;
+}
 
 static json_t *attrs(const char *units, const char *long_name)
 {
@@ -93,30 +164,13 @@ void dm_sweep_schema_define(sweep_ctx *c, const char *path)
             shape[i] = g->axis[i].count;
             chunk[i] = c->tile[i];
         }
-        shape[3] = chunk[3] = extra_len(d->extra, c->k);
-        dims[3] = EXTRA_DIM[d->extra];
+        shape[3] = chunk[3] = dm_sweep_extra_len(d->extra, c->k);
+        dims[3] = EXTRA_DIM[d->extra].name;
         json_t *at = attrs(d->units, d->long_name);
-        if (a == A_STATUS)
-            json_object_set_new(at, "flag_meanings",
-                                json_string("ok unreachable near_singular solver_failure"));
-        if (a >= N_CORE)
+        if (d->group >= G_TOLERANCE)
             json_object_set_new(at, "tolerance", tolerance_settings(c));
-        if (a == A_DOMINANT) {
-            /* code -> name: source_names[code] (a JSON list), and the CF
-             * convention's flag_values / flag_meanings, for xarray users */
-            json_t *names = json_array(), *values = json_array();
-            char meanings[512] = "none";
-            json_array_append_new(values, json_integer(-1));
-            for (int k = 0; k < DM_TOL_NCLASS; k++) {
-                json_array_append_new(names, json_string(dm_tolerance_class_name(k)));
-                json_array_append_new(values, json_integer(k));
-                size_t used = strlen(meanings);
-                snprintf(meanings + used, sizeof meanings - used, " %s", dm_tolerance_class_name(k));
-            }
-            json_object_set_new(at, "source_names", names);
-            json_object_set_new(at, "flag_values", values);
-            json_object_set_new(at, "flag_meanings", json_string(meanings));
-        }
+        if (d->cf_attributes)
+            d->cf_attributes(at);
         dm_store_add_array(st, d->name, d->dtype, nd, shape, chunk, dims, at);
     }
     static const char *const unit_of[2][3] = {{"m", "m", "m"}, {"m", "degree", "m"}};
@@ -127,16 +181,13 @@ void dm_sweep_schema_define(sweep_ctx *c, const char *path)
         dm_store_add_array(st, g->axis[i].name, DM_DTYPE_FLOAT64, 1, shape, chunk, dn,
                   attrs(unit_of[g->kind][i], "grid coordinate"));
     }
-    static const char *const xnames[4] = {"mode", "component", "axis", "move"};
-    const int xlen[4] = {c->k, 6, 3, 3};
-    static const char *const labels[4] = {"mode rank, 1 = lowest", "dx dy dz ex ey ez",
-                                          "x y z", "X Y Z"};
-    for (int i = 0; i < 4; i++) {
-        int64_t shape[1] = {xlen[i]};
-        int chunk[1] = {xlen[i]};
-        const char *dn[1] = {xnames[i]};
-        json_t *at = attrs("1", labels[i]);
-        dm_store_add_array(st, xnames[i], DM_DTYPE_INT32, 1, shape, chunk, dn, at);
+    for (int x = X_MODE; x <= X_MOVE; x++) {
+        int len = dm_sweep_extra_len(x, c->k);
+        int64_t shape[1] = {len};
+        int chunk[1] = {len};
+        const char *dn[1] = {EXTRA_DIM[x].name};
+        dm_store_add_array(st, EXTRA_DIM[x].name, DM_DTYPE_INT32, 1, shape, chunk, dn,
+                           attrs("1", EXTRA_DIM[x].labels));
     }
     json_t *names = json_array();
     for (int a = 0; a < st->narr; a++)
@@ -163,9 +214,10 @@ void dm_sweep_schema_coordinate(const sweep_ctx *c, int a, void *out)
             ((double *)out)[j] = dm_grid_value(ax, j);
         return;
     }
+    int first = i - 3 + X_MODE == X_MODE; /* label arrays in X_* order */
     size_t n = dm_store_chunk_elems(&c->store, a);
     for (size_t j = 0; j < n; j++)
-        ((int32_t *)out)[j] = (int32_t)j + (i == 3);
+        ((int32_t *)out)[j] = (int32_t)j + first;
 }
 
 int dm_sweep_schema_write_coordinates_one(const sweep_ctx *c, int a, dm_error *err)

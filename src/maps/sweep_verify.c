@@ -158,7 +158,7 @@ static int sweep_from(json_t *fp, const char *path, sweep_ctx *c, dm_robot *rb, 
     memset(c, 0, sizeof *c);
     dm_sweep_opts_default(&c->o);
     if (!ini || !grid || dm_robot_parse_string(ini, "the store's fingerprint", rb, &e) ||
-        dm_grid_parse(grid, g, &e) || !whole_in(json_object_get(fp, "modes"), 1, 64, &c->k) ||
+        dm_grid_parse(grid, g, &e) || !whole_in(json_object_get(fp, "modes"), 1, DM_MAX_MODES, &c->k) ||
         !whole_in(json_array_get(mesh, 0), 1, 64, &c->na) ||
         !whole_in(json_array_get(mesh, 1), 1, 64, &c->nb) ||
         !json_is_boolean(json_object_get(fp, "dynamic")) || !json_is_object(move) ||
@@ -176,7 +176,7 @@ static int sweep_from(json_t *fp, const char *path, sweep_ctx *c, dm_robot *rb, 
     c->o.move.window_s = json_number_value(json_object_get(move, "window_s"));
     c->o.move.quasi_static = json_is_true(json_object_get(move, "quasi_static"));
     c->o.tolerance = tol != NULL;
-    c->ndata = !tol ? N_CORE : c->tol.spec_m > 0 ? N_DATA : A_P_EXCEED;
+    c->ndata = dm_sweep_ndata(tol != NULL, c->tol.spec_m);
     dm_sweep_schema_define(c, path);
     json_t *again = json_object_get(json_object_get(c->store.group_attributes, "deltamap"),
                                     "fingerprint");

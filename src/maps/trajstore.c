@@ -93,7 +93,7 @@ static int layout_from(json_t *attrs, const char *path, dm_store *st)
     json_t *n = json_object_get(dm, "samples"), *k = json_object_get(dm, "modes");
     if (!robot || !traj || !json_is_integer(n) || !json_is_integer(k) ||
         json_integer_value(n) < 1 || json_integer_value(n) > DM_STORE_MAX_EXTENT ||
-        json_integer_value(k) < 0 || json_integer_value(k) > 64)
+        json_integer_value(k) < 0 || json_integer_value(k) > DM_MAX_MODES)
         return 0;
     dm_trajstore_define(st, path, robot, traj, (long)json_integer_value(n),
                         (int)json_integer_value(k));

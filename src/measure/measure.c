@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "dm_csv.h"
+#include "dm_modal.h"
 
 /* ---- kinds ---------------------------------------------------------------- */
 
@@ -107,8 +108,8 @@ static int read_row(csv_ctx *c, dm_dataset *d, double *last_t, double last_P[3])
         rc = cell(c, "sigma_hz", 0, &s.sigma);
         if (rc == DM_EINVAL)
             return rc;
-        if (v[3] != floor(v[3]) || v[3] < 1 || v[3] > 64)
-            return bad(c, "mode", "not a mode rank 1..64 (1 = lowest)");
+        if (v[3] != floor(v[3]) || v[3] < 1 || v[3] > DM_MAX_MODES)
+            return bad(c, "mode", "not a mode rank 1.." DM_MAX_MODES_TEXT " (1 = lowest)");
         if (!(v[4] > 0) && !(c->template && v[4] == 0))
             return bad(c, "freq_hz", "must be > 0");
         if (rc == DM_OK && !(s.sigma > 0))
