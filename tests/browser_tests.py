@@ -15,6 +15,8 @@ real size, and the screenshot shows the map's colours and the grey of
 masked points. Exits 77 (SKIPPED, said so) without Chromium:
 tools/install-deps.sh installs Debian's `chromium` where it can.
 """
+import html
+import json
 import os
 import re
 import shutil
@@ -25,18 +27,8 @@ import tempfile
 import numpy as np
 from PIL import Image
 
-DELTAMAP = sys.argv[1] if len(sys.argv) > 1 else "build/deltamap"
-TOOLS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools")
-passed = failed = 0
-
-
-def check(ok, what):
-    global passed, failed
-    print(("ok   " if ok else "FAIL ") + what)
-    if ok:
-        passed += 1
-    else:
-        failed += 1
+import shapes_tests  # its check() and counts (and DELTAMAP, TOOLS)
+from shapes_tests import DELTAMAP, TOOLS, check
 
 
 def chromium(browser, page, *args):
@@ -49,6 +41,54 @@ def chromium(browser, page, *args):
                            capture_output=True, text=True, timeout=300)
     console = [ln for ln in r.stderr.splitlines() if ":CONSOLE" in ln]
     return r.stdout, console
+
+
+# Appended to a copy of the page: do what choosing the 5th menu entry and
+# then moving the slider to its 2nd position do (plotly's menus call
+# Plotly.update, its sliders Plotly.restyle, with the args stored in the
+# page), then write what the plot then holds into <pre id="probe">.
+PROBE = """<script>
+window.addEventListener('load', function () {
+  var gd = document.getElementById('deltamap-maps');
+  var menu = gd.layout.updatemenus[0].buttons, k = Math.min(4, menu.length - 1);
+  Plotly.update(gd, menu[k].args[0], menu[k].args[1]).then(function () {
+    var step = gd.layout.sliders[0].steps[1];
+    return Plotly.restyle(gd, step.args[0], step.args[1]);
+  }).then(function () {
+    var pre = document.createElement('pre');
+    pre.id = 'probe';
+    pre.textContent = JSON.stringify({label: menu[k].label, z: gd.data[1].z,
+      mask: gd.data[0].z, text: gd.data[0].text, unit: gd.data[1].colorbar.title.text,
+      hover: gd.data[1].hovertemplate, title: gd.layout.title.text});
+    document.body.appendChild(pre);
+  });
+});
+</script>"""
+
+
+def interaction(browser, page, store, kind):
+    import explore_maps
+
+    probe = page.replace(".html", "-probe.html")
+    with open(page) as f, open(probe, "w") as g:
+        g.write(f.read().replace("</body>", PROBE + "</body>"))
+    dom, console = chromium(browser, probe, "--dump-dom")
+    m = re.search(r'<pre id="probe">(.*?)</pre>', dom, re.S)
+    if not m:
+        check(False, f"{kind}: menu entry 5, slider step 2 applied ({' '.join(console)[:200]})")
+        return
+    got = json.loads(html.unescape(m.group(1)))
+    st, _ = explore_maps.open_store(store)
+    v, s = shapes_tests.view_slice(st, got["label"], 1)
+    z = np.array([[np.nan if q is None else q for q in row] for row in got["z"]], dtype=float)
+    good = (s == 0) & np.isfinite(v)
+    ok = np.allclose(z[good], v[good], rtol=1e-5, atol=0) and np.isnan(z[s != 0]).all()
+    ok &= all(got["text"][r][c] == explore_maps.STATUS[int(s[r, c])]
+              for r, c in zip(*np.nonzero(s != 0)))
+    unit = got["unit"]
+    ok &= bool(unit) and unit in got["hover"] and got["label"].split(" — ")[0] in got["title"]
+    check(ok and not console, f"{kind}: in the browser, menu entry '{got['label']}' then slider "
+          f"step 2: the plot holds the store's slice, masked points named, unit {unit!r}")
 
 
 def page_checks(browser, page, kind, tmp):
@@ -96,8 +136,9 @@ def main():
             check(r.returncode == 0 and r2.returncode == 0, f"{kind}: store and page written")
             if r2.returncode == 0:
                 page_checks(browser, page, kind, tmp)
-    print(f"browser: {passed} passed, {failed} failed")
-    return 1 if failed else 0
+                interaction(browser, page, store, kind)
+    print(f"browser: {shapes_tests.passed} passed, {shapes_tests.failed} failed")
+    return 1 if shapes_tests.failed else 0
 
 
 if __name__ == "__main__":

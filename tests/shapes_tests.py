@@ -187,6 +187,7 @@ def bad_input(tmp):
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 TOOLS = os.path.join(HERE, "..", "tools")
+sys.path.insert(0, TOOLS)  # explore_maps, for its figure and names
 
 
 def tool(name, *args):
@@ -245,8 +246,23 @@ def pictures(tmp, stores):
           "plot_trajectory --vtk: the deformed robot at the peak, drawn")
 
 
+def view_slice(st, label, i):
+    """The values and status of the explorer's view `label` ("MAP[ · WHICH] — slice AXIS")
+    at slice i, as the page lays them out (rows: the plot's y)."""
+    import explore_maps
+
+    names = tuple(st.dims["status"])
+    label, axis = label.rsplit(" — slice ", 1)
+    name, _, which = label.partition(" · ")
+    a = np.asarray(st[name], dtype=float)
+    if which:
+        a = a[..., [explore_maps.EXTRA[st.dims[name][3]](k)
+                    for k in range(a.shape[3])].index(which)]
+    ax = names.index(axis)
+    return np.take(a, i, axis=ax).T, np.take(np.asarray(st["status"]), i, axis=ax).T
+
+
 def explorer(tmp, stores):
-    sys.path.insert(0, TOOLS)
     import explore_maps
 
     for kind, store in stores.items():
@@ -264,19 +280,11 @@ def explorer(tmp, stores):
                     for n in st.arrays if n != "status" and len(st.dims[n]) >= 3)
         ok = len(menu) == 3 * nmaps and (status != 0).any() and (status == 0).any()
         for b in menu[::7]:  # every 7th view, each slice of it
-            label, axis = b.label.rsplit(" — slice ", 1)
-            name, _, which = label.partition(" · ")
-            a = np.asarray(st[name], dtype=float)
-            if which:
-                a = a[..., [explore_maps.EXTRA[st.dims[name][3]](i)
-                            for i in range(a.shape[3])].index(which)]
-            ax = names.index(axis)
             slider = b.args[1]["sliders"][0]
             for i, step in enumerate(slider["steps"]):
                 mask, z = step["args"][0]["z"]
                 text = step["args"][0]["text"][0]
-                s_ = np.take(status, i, axis=ax).T
-                v = np.take(a, i, axis=ax).T
+                v, s_ = view_slice(st, b.label, i)
                 zz = np.array([[np.nan if q is None else q for q in row] for row in z])
                 good = (s_ == 0) & np.isfinite(v)
                 ok &= np.allclose(zz[good], v[good], rtol=1e-5, atol=0)

@@ -85,12 +85,17 @@ static void write_grid(FILE *f, const dm_vtk_lines *g)
     fprintf(f, "    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
 }
 
+/* The output's temporary, once its directory is known to exist. */
+static int open_out(const char *path, dm_file_out *out, dm_error *err)
+{
+    int rc = dm_vtk_check_dir(path, err);
+    return rc ? rc : dm_file_out_open(out, path, err);
+}
+
 int dm_vtk_write_lines(const char *path, const dm_vtk_lines *g, dm_error *err)
 {
     dm_file_out out;
-    int rc = dm_vtk_check_dir(path, err);
-    if (!rc)
-        rc = dm_file_out_open(&out, path, err);
+    int rc = open_out(path, &out, err);
     if (rc)
         return rc;
     write_grid(out.f, g);
@@ -101,9 +106,7 @@ int dm_vtk_write_pvd(const char *path, int n, const double *t, const char *const
                      dm_error *err)
 {
     dm_file_out out;
-    int rc = dm_vtk_check_dir(path, err);
-    if (!rc)
-        rc = dm_file_out_open(&out, path, err);
+    int rc = open_out(path, &out, err);
     if (rc)
         return rc;
     fprintf(out.f, "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" "
