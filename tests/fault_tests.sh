@@ -1,7 +1,8 @@
 #!/bin/sh
 # Fault injection, as SQLite does it: the n-th allocation fails, or the disk
-# fills up, during a sweep, a resume, `trajectory --out` (CSV and Zarr) and
-# `diagnose --write-robot`. Every case must end with a clear message and
+# fills up, during a sweep, a resume, `trajectory --out` (CSV and Zarr),
+# `diagnose --write-robot`, `modes --vtk` and `trajectory --vtk` (its frames
+# and .pvd). Every case must end with a clear message and
 # exit 6 (out of memory) or 5 (i/o error), no crash and no sanitizer report,
 # no temporary file left and no half-written output (every file present is
 # byte-identical to the undisturbed run's), and a rerun without the fault
@@ -57,13 +58,17 @@ args() { # scenario -> deltamap arguments
     csv) echo "trajectory --robot chen2018 --path $PATHSPEC --mesh 1,1 --modes 2 --out $RUN/t.csv" ;;
     zarr) echo "trajectory --robot chen2018 --path $PATHSPEC --mesh 1,1 --modes 2 --out $RUN/t.zarr" ;;
     robot) echo "diagnose --measured $W/modal.csv --mesh 1,1 --threads 1 --no-pairs --write-robot $RUN/fixed.ini" ;;
+    vtu) echo "modes --robot chen2018 --mesh 1,1 --modes 2 --vtk $RUN/m.vtu" ;;
+    pvd) echo "trajectory --robot chen2018 --path $PATHSPEC --mesh 1,1 --modes 2 --no-reference --vtk $RUN/frames --vtk-every 2" ;;
     esac
 }
-output() { case $1 in sweep | resume) echo s ;; csv) echo t.csv ;; zarr) echo t.zarr ;; robot) echo fixed.ini ;; esac; }
+output() { case $1 in sweep | resume) echo s ;; csv) echo t.csv ;; zarr) echo t.zarr ;; robot) echo fixed.ini ;;
+    vtu) echo m.vtu ;; pvd) echo frames ;; esac; }
 setup() { # scenario: the state before the run, in $RUN
     mkdir -p "$RUN"
     find "$RUN" -mindepth 1 -delete
     [ "$1" = resume ] && cp -r "$W/partial" "$RUN/s"
+    [ "$1" = pvd ] && mkdir "$RUN/frames" # --vtk DIR must exist
     return 0
 }
 
@@ -136,7 +141,7 @@ RUN=$W/run
 mkdir -p "$W/ref"
 $DM synth --robot zheng2017 --kind modal --effect payload_mass=1.5 --noise 0.02 --poses 6 \
     --modes 2 --seed 4 --mesh 1,1 --out "$W/modal.csv" >/dev/null || bad "synth"
-SCENARIOS="sweep resume csv zarr robot"
+SCENARIOS="sweep resume csv zarr robot vtu pvd"
 for sc in $SCENARIOS; do
     if [ "$sc" = resume ]; then # the sweep's store, one tile missing
         rm -rf "$W/partial" && cp -r "$W/ref/sweep" "$W/partial"

@@ -265,12 +265,14 @@ static int cmd_modes(int argc, char **argv)
         rc = err.code;
     if (!rc)
         rc = dm_coupling_nominal_log10(cw, P, &nominal, &err);
-    if (!rc && o.vtk)
+    if (!rc && o.json && (rc = print_modes_json(&rb, an, &res, nominal, shapes)))
+        dm_fail(&err, rc, "modes --json: the JSON could not be made or written (out of "
+                "memory, or stdout failed)");
+    else if (!rc && !o.json)
+        print_modes_table(&rb, an, &res, nominal);
+    if (!rc && o.vtk) /* files last: a failure before leaves none behind */
         rc = dm_cli_modes_vtk(o.vtk, shapes, res.modes->platform_share, res.modes->freq_hz, &err);
-    if (!rc)
-        rc = o.json ? print_modes_json(&rb, an, &res, nominal, shapes)
-                    : (print_modes_table(&rb, an, &res, nominal), 0);
-    else
+    if (rc)
         dm_cli_report(&err);
     dm_coupling_free(cw);
     dm_shape_set_free(shapes);
