@@ -44,6 +44,43 @@ void dm_boundary_free(dm_boundary *bw);
 int dm_boundary_solve(dm_boundary *bw, const dm_pose *pose, dm_boundary_statics *res,
                       dm_error *err);
 
+/* Wittrick-Williams: the number of the model's eigenvalues below sigma
+ * (rad^2/s^2) at the last solve's pose, exactly: the members' own
+ * fixed-interface eigenvalues below sigma plus the negative eigenvalues
+ * of the boundary's dynamic stiffness
+ *   D(sigma) = S - sigma M_BB - sigma^2 sum_m C' Gam' (Lambda - sigma)^-1 Gam C
+ * (every fixed-interface mode, so D is the members' exact condensation).
+ * DM_ENUMERIC when sigma is an eigenvalue of a member or of D. */
+int dm_boundary_count(dm_boundary *bw, double sigma, int *count, dm_error *err);
+
+/* The k lowest eigenvalues of the reduced problem on the member bases
+ * (boundary DOFs, each member's kept fixed-interface modes and residual
+ * vectors) at the last solve's pose. Upper bounds of the model's
+ * (Rayleigh-Ritz on a subspace). */
+int dm_boundary_reduced_modes(dm_boundary *bw, int k, double *lambda, dm_error *err);
+
+/* Certified per-mode error bounds of reduced eigenvalues lambda:
+ * bound[j] = tau lambda[j] for the smallest tau in 1e-9 x 10^(i/2) with
+ * fewer than j + 1 of the model's eigenvalues below lambda[j] (1 - tau)
+ * and at least j + 1 below lambda[j] (1 + tau) (dm_boundary_count), so
+ * the model's lambda_j is within bound[j] of lambda[j]: no mode below is
+ * missed and none is off by more (the Ritz values are upper bounds too,
+ * but only up to the reduced solve's rounding). The counts resolve about
+ * 1e-11 of an eigenvalue at mesh 4,4, 1e-10 at 8,8 and less with soft
+ * springs (docs/model-choices.md), so no bound is below 1e-9: the bound
+ * certifies 1e-9, the eigenvalues are better (1e-10, measured). DM_ENUMERIC when some mode cannot be
+ * bracketed within half its value (a mode missed: use the full solver). */
+int dm_boundary_bounds(dm_boundary *bw, int k, const double *lambda, double *bound,
+                       dm_error *err);
+
+/* The basis rule: member bases for k modes keep the fixed-interface modes
+ * with eigenvalue <= DM_BOUNDARY_CUT x the k-th eigenvalue at `pose`
+ * (found once, on bases that keep every mode: exact), with their residual
+ * vectors. NULL (err says why) when the members cannot serve the robot. */
+#define DM_BOUNDARY_CUT 100.0
+dm_members *dm_boundary_members_for_modes(const dm_model *model, const dm_pose *pose, int k,
+                                          dm_error *err);
+
 /* The last solve's whole static displacement in the model's DOFs (n). */
 void dm_boundary_displacement(dm_boundary *bw, double *U);
 

@@ -74,6 +74,10 @@ typedef struct dm_member_basis {
     int nkeep;              /* modes the rule keeps (lambda <= lambda_cut) */
     int nres;               /* residual vectors (<= nb) */
     double *R;              /* ni x nres: M_ii-orthonormal, M_ii-orthogonal to the kept modes */
+    double *Mhat;           /* nb x nb: [I; Psi]' M [I; Psi], the inertia of the constraint modes */
+    double *Gam;            /* ni x nb: Phi' F, F = M_ib + M_ii Psi (every mode's coupling) */
+    double *GamR;           /* nres x nb: R' F */
+    double *KR;             /* nres x nres: R' K_ii R */
     int nrun;
     dm_members_run *run;     /* where the interior sits in the model's U */
 } dm_member_basis;

@@ -223,6 +223,13 @@ static int residual_vectors(dm_member_basis *mb, const double *F, double *c, dou
                 s += mb->Phi[(size_t)(k0 + d) * ni + r] * U[(size_t)j * nd + d];
             mb->R[(size_t)j * ni + r] = s;
         }
+    for (int a = 0; a < mb->nres; a++) /* KR = R' K_ii R = U' Lambda_d U */
+        for (int b = 0; b < mb->nres; b++) {
+            double s = 0;
+            for (int d = 0; d < nd; d++)
+                s += U[(size_t)a * nd + d] * mb->lambda[k0 + d] * U[(size_t)b * nd + d];
+            mb->KR[(size_t)b * mb->nres + a] = s;
+        }
     return DM_OK;
 }
 
@@ -232,11 +239,44 @@ static int residual_vectors(dm_member_basis *mb, const double *F, double *c, dou
  * accelerations on the clamped member, Phi_d the dropped modes: the static
  * part of the dropped modes' response, orthonormalised through the SVD of
  * c (columns with sigma <= 1e-12 sigma_max dropped). */
+/* The inertia the boundary sees through the clamped member: Mhat =
+ * [I; Psi]' M [I; Psi] = M_bb + M_bi Psi + Psi' F, the coupling to every
+ * fixed-interface mode Gam = Phi' F, and to the residual vectors
+ * GamR = R' F. */
+static void inertia_terms(dm_member_basis *mb, const double *F)
+{
+    int nb = mb->nb, ni = mb->ni, nm = mb->nm, nr = mb->nres;
+    for (int c = 0; c < nb; c++)
+        for (int r = 0; r < nb; r++) {
+            double s = mb->M[(size_t)c * nm + r];
+            for (int k = 0; k < ni; k++)
+                s += mb->M[(size_t)(nb + k) * nm + r] * mb->Psi[(size_t)c * ni + k] +
+                     mb->Psi[(size_t)r * ni + k] * F[(size_t)c * ni + k];
+            mb->Mhat[(size_t)c * nb + r] = s;
+        }
+    for (int c = 0; c < nb; c++) /* symmetric to the last bit */
+        for (int r = c + 1; r < nb; r++)
+            mb->Mhat[(size_t)c * nb + r] = mb->Mhat[(size_t)r * nb + c];
+    for (int c = 0; c < nb; c++)
+        for (int j = 0; j < ni + nr; j++) {
+            const double *v = j < ni ? mb->Phi + (size_t)j * ni : mb->R + (size_t)(j - ni) * ni;
+            double s = 0;
+            for (int r = 0; r < ni; r++)
+                s += v[r] * F[(size_t)c * ni + r];
+            if (j < ni)
+                mb->Gam[(size_t)c * ni + j] = s;
+            else
+                mb->GamR[(size_t)c * nr + j - ni] = s;
+        }
+}
+
 static int fixed_interface_basis(dm_member_basis *mb, double cut)
 {
     int nb = mb->nb, ni = mb->ni, nm = mb->nm, rc = DM_OK;
-    if (ni == 0)
+    if (ni == 0) {
+        inertia_terms(mb, NULL);
         return DM_OK;
+    }
     double *B = malloc(sizeof(double) * ni * ni), *F = malloc(sizeof(double) * ni * nb);
     double *c = malloc(sizeof(double) * ni * nb), *sv = malloc(sizeof(double) * 2 * (nb + ni));
     double *U = malloc(sizeof(double) * ni * nb);
@@ -261,6 +301,8 @@ static int fixed_interface_basis(dm_member_basis *mb, double cut)
             mb->nkeep++;
         rc = residual_vectors(mb, F, c, sv, U);
     }
+    if (!rc)
+        inertia_terms(mb, F);
     free(B);
     free(F);
     free(c);
@@ -284,13 +326,18 @@ static int member_alloc(dm_member_basis *mb)
     mb->lambda = new_array(ni, &fail);
     mb->Phi = new_array(ni * ni, &fail);
     mb->R = new_array(ni * nb, &fail);
+    mb->Mhat = new_array(nb * nb, &fail);
+    mb->Gam = new_array(ni * nb, &fail);
+    mb->GamR = new_array(nb * nb, &fail);
+    mb->KR = new_array(nb * nb, &fail);
     return fail ? DM_ENOMEM : DM_OK;
 }
 
 static void member_release(dm_member_basis *mb)
 {
-    double *arrays[] = {mb->K,   mb->M,  mb->G,      mb->Lii, mb->Psi, mb->Khat,
-                        mb->Ghat, mb->Ui, mb->lambda, mb->Phi, mb->R};
+    double *arrays[] = {mb->K,   mb->M,   mb->G,      mb->Lii, mb->Psi,  mb->Khat, mb->Ghat,
+                        mb->Ui,  mb->lambda, mb->Phi, mb->R,   mb->Mhat, mb->Gam,  mb->GamR,
+                        mb->KR};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; k++)
         free(arrays[k]);
     free(mb->run);

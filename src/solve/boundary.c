@@ -1,5 +1,6 @@
 /* The statics of a pose from the member bases (dm_boundary.h). */
 #include "dm_boundary.h"
+#include "boundary_impl.h"
 
 #include <assert.h>
 #include <lapacke.h>
@@ -7,32 +8,30 @@
 #include <stdlib.h>
 #include <string.h>
 
-struct dm_boundary {
-    const dm_members *ms;
-    dm_members_pose mp;
-    int nB;
-    double *S;      /* nB x nB: Schur complement of K, then its Cholesky factor */
-    double *F;      /* nB: condensed gravity load, then x_B */
-    double *X6;     /* nB x 6: S^-1 on the platform's unit loads */
-    double *C;      /* 9 x nB: one member's coupling */
-    double *z;      /* n: (boundary, interiors) */
-    double gl[DM_MEMBERS_N][3]; /* gravity in each member's frame */
-};
-
 dm_boundary *dm_boundary_alloc(const dm_members *ms, dm_error *err)
 {
     dm_boundary *bw = calloc(1, sizeof *bw);
+    int fail = !bw;
     if (bw) {
-        size_t nB = (size_t)ms->nbound;
+        size_t nB = (size_t)ms->nbound, nr;
         bw->ms = ms;
         bw->nB = ms->nbound;
-        bw->S = malloc(sizeof(double) * nB * nB);
-        bw->F = malloc(sizeof(double) * nB);
-        bw->X6 = malloc(sizeof(double) * nB * 6);
-        bw->C = malloc(sizeof(double) * nB * 9);
-        bw->z = malloc(sizeof(double) * ms->n);
+        bw->nred = ms->nbound;
+        for (int m = 0; m < DM_MEMBERS_N; m++)
+            bw->nred += ms->member[m].nkeep + ms->member[m].nres;
+        nr = (size_t)bw->nred;
+        bw->lwork = 1 + 6 * bw->nred + 2 * bw->nred * bw->nred;
+        bw->liwork = 3 + 5 * bw->nred;
+        double **arrays[] = {&bw->S, &bw->Sk, &bw->D,  &bw->F,  &bw->X6, &bw->C,
+                             &bw->z, &bw->Kr, &bw->Mr, &bw->wr, &bw->work, &bw->wsy};
+        size_t sizes[] = {nB * nB, nB * nB, nB * nB, nB, nB * 6, nB * 9,
+                          (size_t)ms->n, nr * nr, nr * nr, nr, (size_t)bw->lwork, nB * 64};
+        for (size_t k = 0; k < sizeof sizes / sizeof *sizes; k++)
+            fail |= !(*arrays[k] = malloc(sizeof(double) * sizes[k]));
+        bw->ipiv = malloc(sizeof(lapack_int) * (nB + (size_t)bw->liwork));
+        fail |= !bw->ipiv;
     }
-    if (!bw || !bw->S || !bw->F || !bw->X6 || !bw->C || !bw->z) {
+    if (fail) {
         dm_boundary_free(bw);
         dm_fail(err, DM_ENOMEM, "out of memory for the boundary workspace");
         return NULL;
@@ -44,11 +43,11 @@ void dm_boundary_free(dm_boundary *bw)
 {
     if (!bw)
         return;
-    free(bw->S);
-    free(bw->F);
-    free(bw->X6);
-    free(bw->C);
-    free(bw->z);
+    double *arrays[] = {bw->S, bw->Sk, bw->D,  bw->F,  bw->X6,   bw->C,
+                        bw->z, bw->Kr, bw->Mr, bw->wr, bw->work, bw->wsy};
+    for (size_t k = 0; k < sizeof arrays / sizeof *arrays; k++)
+        free(arrays[k]);
+    free(bw->ipiv);
     free(bw);
 }
 
@@ -107,6 +106,9 @@ int dm_boundary_solve(dm_boundary *bw, const dm_pose *pose, dm_boundary_statics 
         add_member(bw, m);
         res->logdet_K += ms->member[m].logdet_ii;
     }
+    for (int c = 0; c < nB; c++) /* S whole, for the modes */
+        for (int r = c; r < nB; r++)
+            bw->Sk[(size_t)c * nB + r] = bw->Sk[(size_t)r * nB + c] = bw->S[(size_t)c * nB + r];
     if (LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'L', nB, bw->S, nB))
         return dm_fail(err, DM_ENUMERIC,
                        "boundary problem (member bases) is not positive definite at this pose");

@@ -1,0 +1,29 @@
+/* dm_boundary's workspace, shared by its files (boundary.c: statics;
+ * boundary_modes.c: the Wittrick-Williams count and the reduced modes). */
+#ifndef DM_BOUNDARY_IMPL_H
+#define DM_BOUNDARY_IMPL_H
+
+#include <lapacke.h>
+
+#include "dm_boundary.h"
+
+struct dm_boundary {
+    const dm_members *ms;
+    dm_members_pose mp; /* the last solve's pose */
+    int nB;
+    double *S;      /* nB x nB: Schur complement of K (lower), then its Cholesky factor */
+    double *Sk;     /* nB x nB: S, both triangles */
+    double *D;      /* nB x nB: the boundary's dynamic stiffness at a shift */
+    double *F;      /* nB: condensed gravity load, then x_B */
+    double *X6;     /* nB x 6: S^-1 on the platform's unit loads */
+    double *C;      /* 9 x nB: one member's coupling */
+    double *z;      /* n: (boundary, interiors) */
+    double gl[DM_MEMBERS_N][3]; /* gravity in each member's frame */
+    int nred;       /* reduced DOFs: boundary + each member's kept modes and residual vectors */
+    double *Kr, *Mr, *wr; /* the reduced problem, then its eigenvectors (Kr) and values */
+    double *work, *wsy;   /* dsygvd's and dsytrf's workspaces */
+    int lwork, liwork;
+    lapack_int *ipiv;     /* nB, then dsygvd's liwork */
+};
+
+#endif
