@@ -119,8 +119,8 @@ typedef struct dm_diagnose_opts {
     int pairs;                   /* try a second effect (default 1) */
     int threads;                 /* fits run in parallel (0: OpenMP's default); the
                                     result does not depend on it */
-    int force_long;              /* run even when estimated beyond DM_MAX_WORK_S (else
-                                    refused before any fit, dm_check_size) */
+    int force_long;              /* run even when estimated beyond DM_WORK_LIMIT
+                                    (else refused before any fit, dm_work_check) */
     /* dm_diagnose's progress (dm_progress.h), NULL: none. Units: fits
      * (a fit is 7 to 100 predictions of the data; the count is reported
      * again after each prediction, so the clock moves), in the stages

@@ -14,7 +14,9 @@ enum dm_status {
     DM_ENUMERIC = 4,     /* singular matrix, LAPACK/SUNDIALS failure */
     DM_EIO = 5,          /* file system error */
     DM_ENOMEM = 6,
-    DM_EINTERRUPT = 7    /* stopped by a signal; finished work is kept */
+    DM_EINTERRUPT = 7,   /* stopped by a signal; finished work is kept */
+    DM_ETOOBIG = 8       /* refused before any work as too long or too large
+                            (dm_work_check); forcing it runs it */
 };
 
 #define DM_ERROR_MSG_LEN 1024

@@ -146,7 +146,7 @@ typedef struct dm_integ_opts {
     double force_n[3];   /* constant external force at P (part of the initial
                             static equilibrium as well) */
     int nfreq;           /* frequencies reported per sample (<= DM_INTEG_MAXFREQ) */
-    int force;           /* run even beyond DM_INTEG_MAX_SECONDS of estimated work */
+    int force_long;      /* run even beyond DM_WORK_MAX_SECONDS of estimated work */
     /* Zheng fig. 15: also report the mean |error component| along base axes
      * rotated about z by each of these angles (rad) */
     int naxes;           /* <= DM_INTEG_MAXAXES */
@@ -154,14 +154,12 @@ typedef struct dm_integ_opts {
 } dm_integ_opts;
 #define DM_INTEG_MAXAXES 8
 
-/* A run whose estimated work exceeds this is refused before it starts
- * unless opts.force: an estimate from the step count and the model size,
- * calibrated on this project's development machine (2 ms per step at 210
- * DOF and 10 modes, 5 ms more for the all-modes reference, which grows as
- * n^3). */
-#define DM_INTEG_MAX_SECONDS (4 * 3600.0)
-
-/* The estimated seconds of a run (steps, model size, reference). */
+/* The estimated seconds of a run (steps, model size, reference): from the
+ * step count and the model size, calibrated on this project's development
+ * machine (2 ms per step at 210 DOF and 10 modes, 5 ms more for the
+ * all-modes reference, which grows as n^3). A run estimated beyond
+ * DM_WORK_MAX_SECONDS (dm_work.h) is refused before it starts, with
+ * DM_ETOOBIG, unless opts.force_long. */
 double dm_integ_estimate_s(long steps, int n, int k, int reference);
 
 void dm_integ_opts_default(dm_integ_opts *opts);

@@ -47,8 +47,8 @@ typedef struct dm_plan_opts {
     double force_n;             /* static: magnitude of the added force (default 50 N) */
     int ncandidates;            /* poses drawn without a grid (default 256) */
     int threads;                /* 0: OpenMP's default; the result does not depend on it */
-    int force_long;             /* run even when estimated beyond DM_MAX_WORK_S or
-                                   DM_MAX_BYTES (else refused before the predictions) */
+    int force_long;             /* run even when estimated beyond DM_WORK_LIMIT
+                                   (else refused before the predictions) */
     /* progress (dm_progress.h), NULL: none. Stages: "sensitivities" (a
      * survey: its pose analyses, p + 1 per candidate pose; a tracker run:
      * its predictions, p + 1 per path of the family), a survey's "choosing

@@ -1,8 +1,7 @@
 /* dm_predict — what the model predicts for measured data (docs/
  * measured-data.md), a workspace that predicts one dataset for many robots
- * (the fits' every evaluation), and what predictions cost, judged before
- * any work (dm_check_size: the measurement commands' limit on work, beside
- * the costs it judges). */
+ * (the fits' every evaluation), and what predictions cost (the estimates
+ * the measurement commands give dm_work_check before any work). */
 #ifndef DM_PREDICT_H
 #define DM_PREDICT_H
 
@@ -50,15 +49,12 @@ void dm_predictor_free(dm_predictor *p);
  * caller's progress. NULL: none. Changes no prediction. */
 void dm_predictor_on_work(dm_predictor *p, void (*tick)(void *user), void *user);
 
-/* What a command implies, judged before any work: refused beyond
- * DM_MAX_WORK_S of estimated wall time or DM_MAX_BYTES of memory unless
- * forced (the CLI's --force-long). Estimates come from the costs measured
- * on this project's development machine (2 cores, x86-64): a modal pose or
- * a tracker step about 2.5 ms and a static pose (with and without the
- * force) 5 ms at 210 DOF, 15 % of it fixed and the rest growing as n^2
- * (0.4 ms per tracker step at 48 DOF). */
-#define DM_MAX_WORK_S (4 * 3600.0)
-#define DM_MAX_BYTES 2e9
+/* What a command implies, judged before any work by dm_work_check against
+ * DM_WORK_LIMIT (dm_work.h). Estimates come from the costs measured on
+ * this project's development machine (2 cores, x86-64): a modal pose or a
+ * tracker step about 2.5 ms and a static pose (with and without the force)
+ * 5 ms at 210 DOF, 15 % of it fixed and the rest growing as n^2 (0.4 ms
+ * per tracker step at 48 DOF). */
 
 /* Seconds on one thread of predicting `count` poses (tracker: integration
  * steps) of data of this kind with this mesh (0: the robot's). */
@@ -68,14 +64,5 @@ double dm_predict_cost_s(const dm_robot *robot, dm_data_kind kind, double count,
  * step dm_predict takes), and the bytes that prediction holds. */
 double dm_predict_estimate_s(const dm_robot *robot, const dm_dataset *data, int na, int nb,
                              double *bytes);
-
-/* DM_EINVAL "WHAT: about H hours of work [and G GB of memory] (the limit
- * is ...): HINT, or force it" when est_s or bytes exceed the limits and
- * !force; DM_OK otherwise. */
-int dm_check_size(const char *what, double est_s, double bytes, const char *hint, int force,
-                  dm_error *err);
-
-/* Is err such a refusal? (The CLI then names its option that forces.) */
-int dm_size_refused(const dm_error *err);
 
 #endif

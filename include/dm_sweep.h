@@ -51,7 +51,7 @@ typedef struct dm_sweep_opts {
     int threads;        /* 0: OpenMP default */
     int dynamic;        /* standard moves along X, Y, Z (default 1) */
     dm_move_opts move;
-    int force;          /* replace a store of another robot/grid/options */
+    int replace;        /* replace a store of another robot/grid/options */
     int force_long;     /* run even beyond DM_SWEEP_MAX_SECONDS or DM_SWEEP_MAX_FILES */
     int shard, shards;  /* compute only shard `shard` of `shards` (0: all) */
     /* The tolerance Monte Carlo at every computed point (dm_tolerance_pose
@@ -61,7 +61,7 @@ typedef struct dm_sweep_opts {
      * that of dm_tolerance_pose at its pose (its own streams,
      * dm_tolerance_pose_seed): the same for any threads, tiles and shards.
      * The spec's samples, seed, spec, bands and law are part of the
-     * store's fingerprint; its na, nb, flexibility and force are the
+     * store's fingerprint; its na, nb, flexibility and force_long are the
      * sweep's (its mesh, 1, force_long). */
     int tolerance;
     dm_tolerance_spec tolerance_spec;
@@ -79,9 +79,9 @@ typedef struct dm_sweep_opts {
 
 void dm_sweep_opts_default(dm_sweep_opts *opts);
 
-/* Refused before any work unless opts.force_long: a sweep whose share of
- * points is estimated at more than DM_SWEEP_MAX_SECONDS of wall time on
- * its threads (from the per-point cost measured on this project's
+/* Refused before any work (dm_work_check, DM_ETOOBIG) unless
+ * opts.force_long: a sweep whose share of points is estimated at more
+ * than DM_SWEEP_MAX_SECONDS of wall time on its threads (from the per-point cost measured on this project's
  * development machine, 2.5 ms at 210 DOF with the standard moves, growing
  * as n^2, plus the tolerance Monte Carlo's dm_tolerance_estimate_s), or
  * one point's Monte Carlo beyond DM_TOLERANCE_MAX_SECONDS, or whose store

@@ -24,11 +24,18 @@ typedef struct dm_synth_opts {
     double force_n;     /* static: magnitude of the added force (default 50 N) */
     const char *path;   /* tracker: trajectory spec (default: a circle about home) */
     int na, nb;
-    int force_long;     /* run even beyond DM_MAX_WORK_S or DM_MAX_BYTES (dm_check_size) */
+    int force_long;     /* run even beyond DM_WORK_LIMIT (dm_work_check) */
 } dm_synth_opts;
 
 int dm_synthesize(const dm_robot *robot, const dm_synth_opts *opts, dm_dataset *data,
                   dm_error *err);
+
+/* The same at a template's samples (docs/measured-data.md: e.g. a plan's
+ * poses, forces and sigmas; the data have its kind, opts.kind is not
+ * read): its predictions plus noise (dm_plan_observe), refused first
+ * beyond DM_WORK_LIMIT unless opts.force_long. */
+int dm_synth_at(const dm_robot *robot, const dm_dataset *tmpl, const dm_synth_opts *opts,
+                dm_dataset *data, dm_error *err);
 
 /* The parts synth and plan's designs share. */
 

@@ -63,7 +63,7 @@ typedef struct dm_tolerance_spec {
     double spec_m;            /* accuracy spec, > 0; 0: none */
     int flexibility;          /* add the static elastic error under gravity */
     int na, nb;               /* mesh of the flexible model (0: the robot's) */
-    int force;                /* run even when estimated beyond DM_TOLERANCE_MAX_SECONDS */
+    int force_long;           /* run even when estimated beyond DM_TOLERANCE_MAX_SECONDS */
     /* dm_tolerance_pose's progress (dm_progress.h), NULL: none. Stages:
      * "linearisation" (its 61 model evaluations), then "Monte Carlo" (its
      * samples). Not a setting of the result, nor of a sweep's store (a
@@ -75,8 +75,8 @@ typedef struct dm_tolerance_spec {
 void dm_tolerance_spec_default(dm_tolerance_spec *spec);
 
 /* Estimated single-thread seconds of a run (calibrated on this project's
- * development machine), and the limit above which it is refused unless
- * spec.force. */
+ * development machine), and the limit above which it is refused
+ * (dm_work_check, DM_ETOOBIG) unless spec.force_long. */
 #define DM_TOLERANCE_MAX_SECONDS 3600.0
 double dm_tolerance_estimate_s(const dm_robot *robot, const dm_tolerance_spec *spec);
 

@@ -106,8 +106,9 @@ if [ -e "$TMP/none.csv" ] || ls "$TMP"/none.csv.tmp.* >/dev/null 2>&1; then bad 
 expect 2 "bad path spec" "$DM" trajectory --robot zheng2017 --path "circle:centre=0,0;radius=1;rate=1;duration=1"
 contains err "centre needs 3 numbers"
 # a path that would take years is refused at once, before the reachability scan
-expect 2 "endless path refused" timeout 10 "$DM" trajectory --robot chen2018 --path "circle:centre=0,0,-0.5;radius=0.1;rate=1;duration=21474836480.02"
+expect 8 "endless path refused" timeout 10 "$DM" trajectory --robot chen2018 --path "circle:centre=0,0,-0.5;radius=0.1;rate=1;duration=21474836480.02"
 contains err "hours of work"
+contains err "--force-long runs it anyway"
 expect 2 "bad law" "$DM" trajectory --robot zheng2017 --path "p2p:from=0,0,-0.4;to=0.1,0,-0.4;duration=1;law=smooth"
 printf 't,x,y,z\n0,0,0,-0.4\n0.01,0,0,oops\n' >"$TMP/bad.csv"
 expect 2 "bad csv" "$DM" trajectory --robot zheng2017 --path "$TMP/bad.csv"
@@ -116,8 +117,11 @@ expect 0 "undamped all modes warns" "$DM" trajectory --robot chen2018 --path "p2
 contains err "alias"
 
 # external force at P: a frozen pose settles at static error + C F (all modes, exact)
-expect 0 "force at P" "$DM" trajectory --robot chen2018 --path "p2p:from=0,0,-0.5;to=0,0,-0.5;duration=0.01" --mesh 1,1 --force 0,0,-10 --modes all --no-reference --json
+expect 0 "force at P" "$DM" trajectory --robot chen2018 --path "p2p:from=0,0,-0.5;to=0,0,-0.5;duration=0.01" --mesh 1,1 --load 0,0,-10 --modes all --no-reference --json
 cp "$TMP/out" "$TMP/force.json"
+expect 0 "force at P, old spelling" "$DM" trajectory --robot chen2018 --path "p2p:from=0,0,-0.5;to=0,0,-0.5;duration=0.01" --mesh 1,1 --force 0,0,-10 --modes all --no-reference --json
+contains err "--force FX,FY,FZ is deprecated: it is spelled --load now"
+if cmp -s "$TMP/out" "$TMP/force.json"; then ok; else bad "--force FX,FY,FZ differs from --load"; fi
 expect 0 "modes for force" "$DM" modes --robot chen2018 --mesh 1,1 --json
 json_true "abs(json.load(open('$TMP/force.json'))['mean_error_m'] - abs(d['static_error'][2] - 10 * d['compliance'][2][2])) < 1e-12"
 
@@ -219,8 +223,12 @@ expect 2 "tolerance spec 0" "$DM" tolerance --robot zheng2017 --samples 10 --see
 contains err "--spec: must be > 0"
 expect 2 "tolerance zero samples" "$DM" tolerance --robot zheng2017 --samples 0 --seed 1
 contains err "samples: must be >= 1"
-expect 2 "tolerance hours refused at once" timeout 10 "$DM" tolerance --robot zheng2017 --samples 9000000 --mesh 8,8 --seed 1
+expect 8 "tolerance hours refused at once" timeout 10 "$DM" tolerance --robot zheng2017 --samples 9000000 --mesh 8,8 --seed 1
 contains err "hours of work"
+contains err "--force-long runs it anyway"
+expect 124 "tolerance --force-long runs (stopped by timeout)" timeout 2 "$DM" tolerance --robot zheng2017 --samples 9000000 --mesh 8,8 --seed 1 --force-long
+expect 124 "tolerance --force, the old spelling, runs" timeout 2 "$DM" tolerance --robot zheng2017 --samples 9000000 --mesh 8,8 --seed 1 --force
+contains err "--force is deprecated: it is spelled --force-long now"
 expect 2 "tolerance too many samples" "$DM" tolerance --robot zheng2017 --samples 20000000 --rigid --seed 1
 contains err "at most 1e7"
 expect 1 "tolerance needs a seed" "$DM" tolerance --robot zheng2017 --samples 10
@@ -358,24 +366,25 @@ expect 1 "plan without --poses" "$DM" plan --robot zheng2017 --kind modal --effe
 contains err "--poses"
 
 # ---- work of hours or gigabytes: refused at once, before any, unless --force-long ----
-expect 2 "synth 1e9 poses" timeout 10 "$DM" synth --robot zheng2017 --kind modal --poses 1e9 --out "$TMP/huge.csv"
+# (exit 8, its own status, on every command; the hint names the one option)
+expect 8 "synth 1e9 poses" timeout 10 "$DM" synth --robot zheng2017 --kind modal --poses 1e9 --out "$TMP/huge.csv"
 contains err "hours of work"
 contains err "--force-long runs it anyway"
 if [ -e "$TMP/huge.csv" ] || ls "$TMP"/huge.csv.tmp.* >/dev/null 2>&1; then bad "a refused synth wrote"; else ok; fi
 expect 1 "synth poses beyond an int" "$DM" synth --robot zheng2017 --kind modal --poses 1e12
 contains err "--poses takes a whole number 3..2147483647"
-expect 2 "synth a day-long record" timeout 10 "$DM" synth --robot zheng2017 --kind tracker --path "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=1e5"
+expect 8 "synth a day-long record" timeout 10 "$DM" synth --robot zheng2017 --kind tracker --path "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=1e5"
 contains err "GB of memory"
 # six samples spread over an hour: each prediction integrates 3.6e6 steps
 printf '# robot: zheng2017\nt,x_cmd,y_cmd,z_cmd,x_meas,y_meas,z_meas\n' >"$TMP/long.csv"
 for t in 0 720 1440 2160 2880 3600; do echo "$t,0,0,-0.4,0,0,-0.4" >>"$TMP/long.csv"; done
-expect 2 "diagnose of hours" timeout 10 "$DM" diagnose --measured "$TMP/long.csv" --sigma 1e-6
+expect 8 "diagnose of hours" timeout 10 "$DM" diagnose --measured "$TMP/long.csv" --sigma 1e-6
 contains err "hours of work"
 expect 124 "diagnose --force-long runs (stopped by timeout)" timeout 2 "$DM" diagnose --measured "$TMP/long.csv" --sigma 1e-6 --force-long
-expect 2 "plan of 1e6 tracker samples" timeout 10 "$DM" plan --robot zheng2017 --kind tracker --effects payload_mass --poses 1e6
+expect 8 "plan of 1e6 tracker samples" timeout 10 "$DM" plan --robot zheng2017 --kind tracker --effects payload_mass --poses 1e6
 contains err "hours of work"
 expect 124 "plan --force-long runs (stopped by timeout)" timeout 2 "$DM" plan --robot zheng2017 --kind tracker --effects payload_mass --poses 1e6 --force-long
-expect 2 "plan over many candidates" timeout 10 "$DM" plan --robot zheng2017 --kind static --effects actuator_stiffness,base_stiffness,joint_stiffness,base_stiffness_1 --poses 20000 --region "x=-0.05:0.05:40,y=-0.05:0.05:40,z=-0.43:-0.37:20"
+expect 8 "plan over many candidates" timeout 10 "$DM" plan --robot zheng2017 --kind static --effects actuator_stiffness,base_stiffness,joint_stiffness,base_stiffness_1 --poses 20000 --region "x=-0.05:0.05:40,y=-0.05:0.05:40,z=-0.43:-0.37:20"
 contains err "candidates for 4 parameters: about"
 expect 1 "compare has no --force-long" "$DM" compare --measured "$TMP/long.csv" --force-long
 

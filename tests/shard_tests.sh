@@ -80,16 +80,16 @@ if [ "$codes" = " 2 2 2 2" ]; then ok; else bad "other grids on a store: exit co
 if same "$TMP/ref" "$TMP/owner" && [ -z "$(find "$TMP/owner" -newer "$TMP/marker")" ]; then ok; else
     bad "a refused sweep touched the owner's store"; find "$TMP/owner" -newer "$TMP/marker" | head; fi
 
-# 5. --force given to four processes at once replaces another sweep's
+# 5. --replace given to four processes at once replaces another sweep's
 #    store once; given again, it resumes the store it made (never replaces it)
 cp -rp "$TMP/ref_$g1" "$TMP/forced"
 : >"$TMP/log"
-for k in 0 1 2 3; do start $SW --out "$TMP/forced" --shard $k/4 --force; done
+for k in 0 1 2 3; do start $SW --out "$TMP/forced" --shard $k/4 --replace; done
 finish
 if [ "$codes" = " 0 0 0 0" ] && same "$TMP/ref" "$TMP/forced"; then ok; else
-    bad "4 x --force: exit codes$codes"; cat "$TMP/log"; fi
-$SW --out "$TMP/forced" --force >"$TMP/out" 2>&1
-if grep -q "(36 already done, 0 computed)" "$TMP/out"; then ok; else bad "--force on its own sweep replaced it"; cat "$TMP/out"; fi
+    bad "4 x --replace: exit codes$codes"; cat "$TMP/log"; fi
+$SW --out "$TMP/forced" --replace >"$TMP/out" 2>&1
+if grep -q "(36 already done, 0 computed)" "$TMP/out"; then ok; else bad "--replace on its own sweep replaced it"; cat "$TMP/out"; fi
 
 # 6. SIGKILL one of two shards mid-way: info names it; rerunning it resumes
 for attempt in 1 2 3; do

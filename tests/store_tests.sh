@@ -169,12 +169,14 @@ rm -rf "$TMP/old" && cp -r "$FIX" "$TMP/old"
 $DM sweep --robot zheng2017 --mesh 1,1 --modes 4 --no-dynamic --tile 2,1,1 --grid "x=-0.05:0.05:2,y=0,z=-0.4" --progress none --out "$TMP/old" >/dev/null 2>"$TMP/err"
 if [ $? -eq 2 ] && grep -q "another version, made by deltamap 0.4.0" "$TMP/err" && diff -r "$FIX" "$TMP/old" >/dev/null; then ok; else bad "resume of the 0.4.0 store"; cat "$TMP/err"; fi
 
-# another robot or grid is refused; --force overwrites
+# another robot or grid is refused; --replace overwrites (--force, its old spelling, too)
 $DM sweep --robot zheng2017 --grid "$GRID" --out "$TMP/ref" --progress none >/dev/null 2>"$TMP/err"
 if [ $? -eq 2 ] && grep -q "another robot" "$TMP/err"; then ok; else bad "robot mismatch accepted"; fi
 $DM sweep --robot chen2018 --grid "x=0,y=0,z=-0.5" --mesh 2,2 --modes 6 --tile 4,4,1 --out "$TMP/ref" --progress none >/dev/null 2>"$TMP/err"
 if [ $? -eq 2 ] && grep -q "another grid" "$TMP/err"; then ok; else bad "grid mismatch accepted"; fi
-$DM sweep --robot chen2018 --grid "x=0,y=0,z=-0.5" --out "$TMP/ref" --force --progress none >/dev/null && ok || bad "--force"
+$DM sweep --robot chen2018 --grid "x=0,y=0,z=-0.4" --out "$TMP/ref" --force --progress none >/dev/null 2>"$TMP/err" && ok || bad "--force"
+if grep -q "^deltamap sweep: --force is deprecated: it is spelled --replace now$" "$TMP/err"; then ok; else bad "--force without its note"; cat "$TMP/err"; fi
+$DM sweep --robot chen2018 --grid "x=0,y=0,z=-0.5" --out "$TMP/ref" --replace --progress none >/dev/null && ok || bad "--replace"
 # the coupling index map (Zheng eq. 33) is the one-pose analysis's (JSON's
 # 17 digits: 1e-15 relative)
 C=$($DM modes --robot chen2018 --at 0,0,-0.5 --json | $PY -c "import json, sys; print(repr(json.load(sys.stdin)['coupling_index_log10']))")
@@ -197,9 +199,9 @@ sys.exit(0 if abs(v - $CC) <= 1e-12 * max(abs(v), 1) and v != 0 else 1)"; then o
 
 # a sweep that implies days of work, or millions of files, is refused at once
 $DM sweep --robot chen2018 --grid "x=-0.3:0.3:10000,y=-0.3:0.3:10000,z=-0.5" --tile 64,64,1 --threads 2 --out "$TMP/huge" 2>"$TMP/err"
-if [ $? -eq 2 ] && grep -q "hours of work" "$TMP/err" && [ ! -e "$TMP/huge" ]; then ok; else bad "days of work accepted"; cat "$TMP/err"; fi
+if [ $? -eq 8 ] && grep -q "hours of work" "$TMP/err" && grep -q -- "--force-long runs it anyway" "$TMP/err" && [ ! -e "$TMP/huge" ]; then ok; else bad "days of work accepted"; cat "$TMP/err"; fi
 $DM sweep --robot chen2018 --grid "x=-0.3:0.3:2000,y=-0.3:0.3:2000,z=-0.5" --tile 1,1,1 --no-dynamic --out "$TMP/huge" 2>"$TMP/err"
-if [ $? -eq 2 ] && grep -q "chunk files" "$TMP/err" && [ ! -e "$TMP/huge" ]; then ok; else bad "millions of files accepted"; cat "$TMP/err"; fi
+if [ $? -eq 8 ] && grep -q "chunk file per array and tile): about 8e+07 files (the limit is 2e+06): larger tiles" "$TMP/err" && [ ! -e "$TMP/huge" ]; then ok; else bad "millions of files accepted"; cat "$TMP/err"; fi
 
 # bad grids are clear errors, nothing written
 $DM sweep --robot chen2018 --grid "x=-0.3:0.3:0,y=0,z=-0.5" --out "$TMP/none" 2>"$TMP/err"
@@ -265,7 +267,7 @@ sys.exit(0 if (s == 1).any() and np.isnan(e[s == 1]).all() and (d[s == 1] == -1)
 for args in "--tolerance-samples 0:2:--tolerance-samples" "--tolerance-samples -5:2:--tolerance-samples" \
             "--tolerance-samples 5 --spec 0:2:--spec" "--tolerance-samples 5 --spec -1e-4:2:--spec" \
             "--tolerance-samples 5 --tol rod_length=-1e-5:2:--tol rod_length" \
-            "--spec 1e-4:1:need --tolerance-samples" "--tolerance-samples 5000000 --threads 1:2:hours of work"; do
+            "--spec 1e-4:1:need --tolerance-samples" "--tolerance-samples 5000000 --threads 1:8:hours of work"; do
     a=${args%%:*}; rest=${args#*:}; want=${rest%%:*}; msg=${rest#*:}
     # shellcheck disable=SC2086
     timeout 10 $DM sweep --robot zheng2017 --grid "x=-0.05:0.05:200,y=0,z=-0.4" --progress none $a --out "$TMP/tbad" >/dev/null 2>"$TMP/err"

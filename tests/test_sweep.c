@@ -221,7 +221,7 @@ static void threads_resume_and_refusal(void **state)
     assert_int_equal(dm_sweep_run(&rb, &g, &o, two, &no_stop, &st, &err), 0);
     assert_int_equal(st.tiles_computed, 2);
     assert_true(same_tree(one, two));
-    /* another grid or robot is refused; --force overwrites */
+    /* another grid or robot is refused; replace overwrites it */
     assert_int_equal(dm_grid_parse("x=-0.3:1.2:8,y=-0.2:0.2:5,z=-0.6:-0.45:2", &g, NULL), 0);
     assert_int_equal(dm_sweep_run(&rb, &g, &o, two, &no_stop, &st, &err), DM_EINVAL);
     assert_non_null(strstr(err.msg, "another grid"));
@@ -230,13 +230,13 @@ static void threads_resume_and_refusal(void **state)
     assert_int_equal(dm_grid_parse(SPEC, &g, NULL), 0);
     assert_int_equal(dm_sweep_run(&other, &g, &o, two, &no_stop, &st, &err), DM_EINVAL);
     assert_non_null(strstr(err.msg, "another robot"));
-    o.force = 1;
+    o.replace = 1;
     assert_int_equal(dm_sweep_run(&other, &g, &o, two, &no_stop, &st, &err), 0);
     assert_int_equal(st.tiles_present, 0);
     /* a stop request before any tile: nothing computed, DM_EINTERRUPT */
     volatile sig_atomic_t stop = 1;
     char *three = tmpdir();
-    o.force = 0;
+    o.replace = 0;
     assert_int_equal(dm_sweep_run(&rb, &g, &o, three, &stop, &st, &err), DM_EINTERRUPT);
     assert_non_null(strstr(err.msg, "resume"));
     rmtree(one);

@@ -33,6 +33,7 @@ const char *dm_status_name(int code)
     case DM_EIO: return "i/o error";
     case DM_ENOMEM: return "out of memory";
     case DM_EINTERRUPT: return "interrupted";
+    case DM_ETOOBIG: return "refused as too much work";
     default: return "unknown error";
     }
 }

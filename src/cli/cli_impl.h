@@ -7,8 +7,13 @@
 #include "dm_version.h"
 #define EXIT_USAGE 1
 
-/* Print "deltamap: MESSAGE" and return the error's code (the exit code). */
+/* Print "deltamap: MESSAGE" and return the error's code (the exit code);
+ * for work refused as too big (DM_ETOOBIG, dm_work.h) also the one option
+ * that forces it, --force-long. */
 int dm_cli_report(const dm_error *err);
+
+/* An option's old spelling, still accepted: say so on stderr. */
+void dm_cli_deprecated(const char *cmd, const char *old, const char *now);
 
 /* Print a usage error for `cmd` and return EXIT_USAGE. */
 int dm_cli_usage(const char *cmd, const char *msg, const char *arg);
@@ -17,9 +22,6 @@ int dm_cli_usage(const char *cmd, const char *msg, const char *arg);
 int dm_cli_parse_list(const char *s, double *out, int n);
 
 int dm_cli_parse_int(const char *s, int lo, int hi, int *out);
-/* dm_cli_report, and for a refusal of work of hours or gigabytes
- * (dm_size_refused) the option that forces it. */
-int dm_cli_report_size(const dm_error *err);
 /* A whole number lo..hi, written as such or in exponent form (1e6). */
 int dm_cli_parse_count(const char *s, int lo, int hi, int *out);
 

@@ -201,7 +201,7 @@ int dm_cli_info(int argc, char **argv)
     printf("tool    %s\n", json_string_value(json_object_get(dm, "tool")));
     if (chk.other_version)
         printf("        made by version %s; this is %s: read as its metadata says, not "
-               "compared with what this version writes; a sweep does not resume it (--force "
+               "compared with what this version writes; a sweep does not resume it (--replace "
                "replaces it)\n", chk.made_by, "deltamap " DM_VERSION);
     printf("\narrays\n");
     for (int a = 0; a < st.narr; a++) {

@@ -754,7 +754,7 @@ int dm_cli_diagnose(int argc, char **argv)
     dm_cli_progress_finish(&view);
     if (rc) {
         dm_dataset_free(&d);
-        return dm_cli_report_size(&err);
+        return dm_cli_report(&err);
     }
     if (a.json)
         print_diagnosis_json(&d, &rb, &dg);
@@ -842,20 +842,15 @@ int dm_cli_synth(int argc, char **argv)
                 rc = dm_fail(&err, DM_EINVAL, "%s holds %s data, not %s", at,
                              dm_data_kind_name(tpl.kind), dm_data_kind_name(o.kind));
             o.kind = tpl.kind;
-            double bytes, est = dm_predict_estimate_s(&rb, &tpl, o.na, o.nb, &bytes);
-            char what[300];
-            snprintf(what, sizeof what, "synth: %s: %d samples", at, tpl.n);
             if (!rc)
-                rc = dm_check_size(what, est, bytes, "a smaller template", o.force_long, &err);
-            if (!rc)
-                rc = dm_plan_observe(&rb, &tpl, o.noise, o.seed, o.na, o.nb, &d, &err);
+                rc = dm_synth_at(&rb, &tpl, &o, &d, &err);
             dm_dataset_free(&tpl);
         }
     } else if (!rc) {
         rc = dm_synthesize(&rb, &o, &d, &err);
     }
     if (rc)
-        return dm_cli_report_size(&err);
+        return dm_cli_report(&err);
     snprintf(d.robot, sizeof d.robot, "%s", robot);
     dm_file_out out;
     FILE *f = stdout;

@@ -282,7 +282,7 @@ int dm_cli_plan(int argc, char **argv)
         (rc = dm_cli_load_robot(a.robot, a.sets, a.nset, &rb, &err)) ||
         (rc = dm_plan(&rb, eff, neff, &a.o, &r, &err))) {
         dm_cli_progress_finish(&view);
-        return dm_cli_report_size(&err);
+        return dm_cli_report(&err);
     }
     dm_cli_progress_finish(&view);
     if (a.json)

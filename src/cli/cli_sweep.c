@@ -15,7 +15,7 @@
 static const char SWEEP_HELP[] =
     "usage: deltamap sweep --robot R --grid SPEC --out maps/NAME [--modes K]\n"
     "                      [--mesh NA,NB] [--tile A,B,C] [--threads N] [--no-dynamic]\n"
-    "                      [--amax A] [--tau T] [--force] [--force-long]\n"
+    "                      [--amax A] [--tau T] [--replace] [--force-long]\n"
     "                      [--progress bar|lines|none]\n"
     "                      [--shard K/N|slurm|slurm/N] [--set SECTION.KEY=V]...\n"
     "                      [--tolerance-samples N [--tolerance-seed S] [--spec M]\n"
@@ -35,8 +35,9 @@ static const char SWEEP_HELP[] =
     "  --no-dynamic    skip the standard moves (X, Y, Z)\n"
     "  --amax A        standard move acceleration, m/s^2 (default 50)\n"
     "  --tau T         standard move duration, s (default 0.05)\n"
-    "  --force         replace a store of another robot, grid or options (a store\n"
-    "                  of this very sweep is always resumed, never replaced)\n"
+    "  --replace       replace a store of another robot, grid or options (a store\n"
+    "                  of this very sweep is always resumed, never replaced;\n"
+    "                  --force, its old spelling, still works)\n"
     "  --force-long    run even when the sweep is estimated at more than 24 hours\n"
     "                  of work on its threads, or its store at more than 2e6 files\n"
     "                  (refused before any work otherwise)\n"
@@ -107,11 +108,11 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
     static const struct option lo[] = {
         {"robot", 1, 0, 'r'}, {"grid", 1, 0, 'g'}, {"out", 1, 0, 'o'}, {"modes", 1, 0, 'k'},
         {"mesh", 1, 0, 'm'}, {"tile", 1, 0, 't'}, {"threads", 1, 0, 'T'},
-        {"no-dynamic", 0, 0, 'D'}, {"amax", 1, 0, 'A'}, {"tau", 1, 0, 'U'}, {"force", 0, 0, 'f'},
+        {"no-dynamic", 0, 0, 'D'}, {"amax", 1, 0, 'A'}, {"tau", 1, 0, 'U'}, {"replace", 0, 0, 'R'},
         {"progress", 1, 0, 'p'}, {"set", 1, 0, 's'}, {"shard", 1, 0, 'S'}, {"help", 0, 0, 'h'},
         {"force-long", 0, 0, 'L'}, {"tolerance-samples", 1, 0, 'N'},
         {"tolerance-seed", 1, 0, 'E'}, {"spec", 1, 0, 'P'}, {"tol", 1, 0, 'O'},
-        {"tolerance-dist", 1, 0, 'I'},
+        {"tolerance-dist", 1, 0, 'I'}, {"force", 0, 0, 'f'},
         {0, 0, 0, 0}};
     int rc;
     dm_tolerance_spec *tol = &a->o.tolerance_spec;
@@ -128,7 +129,8 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
         case 'g': a->grid = optarg; break;
         case 'o': a->out = optarg; break;
         case 'S': a->shard = optarg; break;
-        case 'f': a->o.force = 1; break;
+        case 'f': dm_cli_deprecated("sweep", "--force", "--replace"); /* fall through */
+        case 'R': a->o.replace = 1; break;
         case 'L': a->o.force_long = 1; break;
         case 'D': a->o.dynamic = 0; break;
         case 's':
@@ -330,9 +332,7 @@ int dm_cli_sweep(int argc, char **argv)
     if (rc && rc != DM_EINTERRUPT) {
         dm_cli_report(&err);
         if (st.store_refused)
-            fprintf(stderr, "deltamap: --force replaces it; --out names another store\n");
-        else if (rc == DM_EINVAL && strstr(err.msg, " hours of work"))
-            fprintf(stderr, "deltamap: --force-long runs it anyway\n");
+            fprintf(stderr, "deltamap: --replace replaces it; --out names another store\n");
         return rc;
     }
     printf("sweep   %s on %s: %ld points in %ld tiles", rb.name, a.grid, st.points_total,

@@ -15,7 +15,7 @@ static const char HELP[] =
     "usage: deltamap tolerance --robot R [--at X,Y,Z] --samples N --seed S\n"
     "                          [--tol NAME=VALUE]... [--dist uniform|normal] [--spec M]\n"
     "                          [--rigid] [--mesh NA,NB] [--threads T] [--set SECTION.KEY=V]...\n"
-    "                          [--force] [--json] [--progress bar|lines|none]\n"
+    "                          [--force-long] [--json] [--progress bar|lines|none]\n"
     "\n"
     "Monte Carlo of the platform error at one commanded pose (Zheng & Zhang 2017):\n"
     "each sample draws every geometry error within +- its tolerance and each\n"
@@ -39,7 +39,8 @@ static const char HELP[] =
     "  --rigid          kinematic errors only (no elastic error)\n"
     "  --mesh NA,NB     mesh of the flexible model (default: the robot file's)\n"
     "  --threads T      OpenMP threads (default: all)\n"
-    "  --force          run even when the estimate exceeds 1 hour of work\n"
+    "  --force-long     run even when the estimate exceeds 1 hour of work (refused\n"
+    "                   before any otherwise; --force, its old spelling, still works)\n"
     "  --json           the result as JSON\n"
     "  --progress M     how far it is (the linearisation, then the samples), on\n"
     "                   stderr with an ETA: bar (the default when stderr is a\n"
@@ -131,8 +132,9 @@ static int parse(int argc, char **argv, tol_opts *t)
     static const struct option lo[] = {
         {"robot", 1, 0, 'r'}, {"at", 1, 0, 'a'}, {"samples", 1, 0, 'n'}, {"seed", 1, 0, 'S'},
         {"tol", 1, 0, 't'}, {"dist", 1, 0, 'd'}, {"spec", 1, 0, 'p'}, {"rigid", 0, 0, 'G'},
-        {"mesh", 1, 0, 'm'}, {"threads", 1, 0, 'T'}, {"set", 1, 0, 's'}, {"force", 0, 0, 'f'},
-        {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {"progress", 1, 0, 'P'}, {0, 0, 0, 0}};
+        {"mesh", 1, 0, 'm'}, {"threads", 1, 0, 'T'}, {"set", 1, 0, 's'}, {"force-long", 0, 0, 'L'},
+        {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {"progress", 1, 0, 'P'}, {"force", 0, 0, 'f'},
+        {0, 0, 0, 0}};
     int c, rc;
     memset(t, 0, sizeof *t);
     dm_tolerance_spec_default(&t->spec);
@@ -178,7 +180,8 @@ static int parse(int argc, char **argv, tol_opts *t)
                 return EXIT_USAGE;
             break;
         case 'G': t->spec.flexibility = 0; break;
-        case 'f': t->spec.force = 1; break;
+        case 'f': dm_cli_deprecated("tolerance", "--force", "--force-long"); /* fall through */
+        case 'L': t->spec.force_long = 1; break;
         case 'j': t->json = 1; break;
         case 'm':
             if (dm_cli_parse_mesh(optarg, &t->spec.na, &t->spec.nb))

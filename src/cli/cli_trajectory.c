@@ -20,7 +20,7 @@ static const char HELP[] =
     "usage: deltamap trajectory --robot R --path P [--modes K|all] [--dt S]\n"
     "                           [--integrator cvode|closed-form|full] [--rtol X] [--atol X]\n"
     "                           [--no-quasi-static] [--from-rest] [--no-reference]\n"
-    "                           [--mesh NA,NB] [--tool X,Y,Z] [--force FX,FY,FZ]\n"
+    "                           [--mesh NA,NB] [--tool X,Y,Z] [--load FX,FY,FZ]\n"
     "                           [--set SECTION.KEY=V]... [--force-long] [--rigid] [--no-budget]\n"
     "                           [--axes-rotation DEG[,DEG...]] [--threads N]\n"
     "                           [--out FILE.csv] [--json]\n"
@@ -58,8 +58,9 @@ static const char HELP[] =
     "                   depend on N\n"
     "  --mesh NA,NB     elements per arm and rod (default: the robot file's)\n"
     "  --set K=V        override a robot-file key (repeatable)\n"
-    "  --force FX,FY,FZ constant external force at the platform centre, N (also in\n"
-    "                   the initial static equilibrium)\n"
+    "  --load FX,FY,FZ  constant external force at the platform centre, N (also in\n"
+    "                   the initial static equilibrium; --force FX,FY,FZ, its old\n"
+    "                   spelling, still works)\n"
     "  --tool X,Y,Z     tool point offset from the platform centre in m (default 0)\n"
     "  --out FILE       per-step CSV: t, pose, six error components, |error|, tool\n"
     "                   error, first three frequencies, coupling index log10 det K\n"
@@ -107,10 +108,10 @@ static int parse(int argc, char **argv, traj_opts *t)
         {"quasi-static", 0, 0, 'q'}, {"no-quasi-static", 0, 0, 'Q'}, {"from-rest", 0, 0, 'z'},
         {"no-reference", 0, 0, 'n'},
         {"mesh", 1, 0, 'm'}, {"tool", 1, 0, 't'}, {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'},
-        {"set", 1, 0, 's'}, {"force", 1, 0, 'F'}, {"force-long", 0, 0, 'L'},
+        {"set", 1, 0, 's'}, {"load", 1, 0, 'F'}, {"force-long", 0, 0, 'L'},
         {"rigid", 0, 0, 'G'}, {"no-budget", 0, 0, 'B'}, {"axes-rotation", 1, 0, 'X'},
         {"threads", 1, 0, 'T'}, {"vtk", 1, 0, 'V'}, {"vtk-every", 1, 0, 'E'},
-        {"vtk-magnify", 1, 0, 'M'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"vtk-magnify", 1, 0, 'M'}, {"help", 0, 0, 'h'}, {"force", 1, 0, 'f'}, {0, 0, 0, 0}};
     int c;
     double v[2];
     memset(t, 0, sizeof *t);
@@ -127,7 +128,7 @@ static int parse(int argc, char **argv, traj_opts *t)
         case 'j': t->json = 1; break;
         case 'q': t->o.quasi_static = 1; break;
         case 'Q': t->o.quasi_static = 0; break;
-        case 'L': t->o.force = 1; break;
+        case 'L': t->o.force_long = 1; break;
         case 'G': t->rigid = 1; break;
         case 'B': t->no_budget = 1; break;
         case 'X': {
@@ -185,9 +186,10 @@ static int parse(int argc, char **argv, traj_opts *t)
             if (dm_cli_parse_mesh(optarg, &t->o.na, &t->o.nb))
                 return dm_cli_usage("trajectory", "--mesh takes NA,NB, whole numbers 1..64", optarg);
             break;
+        case 'f': dm_cli_deprecated("trajectory", "--force FX,FY,FZ", "--load"); /* fall through */
         case 'F':
             if (dm_cli_parse_list(optarg, t->o.force_n, 3))
-                return dm_cli_usage("trajectory", "--force takes FX,FY,FZ in N", optarg);
+                return dm_cli_usage("trajectory", "--load takes FX,FY,FZ in N", optarg);
             break;
         case 't':
             if (dm_cli_parse_list(optarg, t->o.tool_m, 3))

@@ -1,6 +1,5 @@
 /* Helpers shared by the deltamap commands. */
 #include "cli_impl.h"
-#include "dm_predict.h"
 
 #include <cblas.h>
 
@@ -14,15 +13,14 @@
 int dm_cli_report(const dm_error *err)
 {
     fprintf(stderr, "deltamap: %s\n", err->msg);
+    if (err->code == DM_ETOOBIG)
+        fprintf(stderr, "deltamap: --force-long runs it anyway\n");
     return err->code;
 }
 
-int dm_cli_report_size(const dm_error *err)
+void dm_cli_deprecated(const char *cmd, const char *old, const char *now)
 {
-    dm_cli_report(err);
-    if (dm_size_refused(err))
-        fprintf(stderr, "deltamap: --force-long runs it anyway\n");
-    return err->code;
+    fprintf(stderr, "deltamap %s: %s is deprecated: it is spelled %s now\n", cmd, old, now);
 }
 
 int dm_cli_usage(const char *cmd, const char *msg, const char *arg)

@@ -475,7 +475,7 @@ int dm_store_write_chunk(const dm_store *st, int a, const int64_t *c, const void
         return dm_fail(err, DM_ENOMEM, "out of memory");
     dm_store_chunk_path(st, a, c, path, sizeof path);
     /* directories below the array's own, never the array or the store: a
-     * writer whose store was removed (or replaced by --force) fails here
+     * writer whose store was removed (or replaced by --replace) fails here
      * instead of leaving a stray tree */
     char *slash = strrchr(path, '/');
     *slash = '\0';

@@ -14,6 +14,7 @@
 #include "dm_coupling.h"
 #include "dm_shard.h"
 #include "dm_threads.h"
+#include "dm_work.h"
 
 
 void dm_sweep_opts_default(dm_sweep_opts *o)
@@ -307,22 +308,18 @@ static int check_size(const sweep_ctx *c, dm_error *err)
     double per_point = 2.5e-3 * s * s * (c->o.dynamic ? 1.0 : 0.6);
     if (c->o.tolerance)
         per_point += dm_tolerance_estimate_s(c->rb, &c->tol);
-    double est = points * per_point / threads;
-    if (c->o.force_long)
-        return DM_OK;
-    if (files > DM_SWEEP_MAX_FILES)
-        return dm_fail(err, DM_EINVAL,
-                       "sweep: %ld tiles of %d x %d x %d points make %.3g chunk files, more "
-                       "than %ld: use larger tiles (or shards into several stores), or force it",
-                       tiles, c->tile[0], c->tile[1], c->tile[2], files, DM_SWEEP_MAX_FILES);
-    if (est > DM_SWEEP_MAX_SECONDS)
-        return dm_fail(err, DM_EINVAL,
-                       "sweep: %.3g points at %d DOF%s on %d thread%s is about %.3g hours of work "
-                       "(the limit is %g hours): use shards, a coarser grid or mesh%s, or force it",
-                       points, c->n, c->o.tolerance ? " with the tolerance Monte Carlo" : "",
-                       threads, threads > 1 ? "s" : "", est / 3600, DM_SWEEP_MAX_SECONDS / 3600,
-                       c->o.tolerance ? ", fewer tolerance samples" : "");
-    return DM_OK;
+    dm_work need = {points * per_point / threads, 0, files},
+            limit = {DM_SWEEP_MAX_SECONDS, 0, DM_SWEEP_MAX_FILES};
+    char what[256], hint[160];
+    snprintf(what, sizeof what, "sweep: %.3g points at %d DOF%s on %d thread%s, in %ld tiles of "
+             "%d x %d x %d points (a chunk file per array and tile)", points, c->n,
+             c->o.tolerance ? " with the tolerance Monte Carlo" : "", threads,
+             threads > 1 ? "s" : "", tiles, c->tile[0], c->tile[1], c->tile[2]);
+    int slow = !(need.seconds <= limit.seconds), many = !(need.files <= limit.files);
+    snprintf(hint, sizeof hint, "%s%s%s%s", slow ? "shards, a coarser grid or mesh" : "",
+             slow && c->o.tolerance ? ", fewer tolerance samples" : "", slow && many ? "; " : "",
+             many ? "larger tiles (or shards into several stores)" : "");
+    return dm_work_check(what, need, limit, hint, c->o.force_long, err);
 }
 
 static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o,
@@ -350,7 +347,7 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
         c->tol.na = c->na;
         c->tol.nb = c->nb;
         c->tol.flexibility = 1;
-        c->tol.force = o->force_long;
+        c->tol.force_long = o->force_long;
         c->tol.progress = NULL; /* its points run on many threads: the sweep reports tiles */
         c->tol.progress_user = NULL;
         dm_error terr;

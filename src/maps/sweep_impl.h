@@ -143,7 +143,7 @@ int dm_sweep_schema_check_group(const sweep_ctx *c, char *why, size_t len, dm_er
 /* ---- sweep_store.c ---------------------------------------------------------- */
 
 /* Join the sweep's store at c->store.path, or create it (atomically);
- * refuse a store of another sweep unless c->o.force. */
+ * refuse a store of another sweep unless c->o.replace. */
 int dm_sweep_store_prepare(sweep_ctx *c, const char *path, dm_error *err);
 
 /* ---- sweep_anchors.c -------------------------------------------------------- */

@@ -104,7 +104,7 @@ static int repair_skeleton(sweep_ctx *c, dm_error *err)
     return dm_sweep_schema_check(c, 1, c->o.on_repair, c->o.repair_user, &found, NULL, NULL, err);
 }
 
-/* --force on a store of another sweep: rename it aside, check that it was
+/* replace (--replace) on a store of another sweep: rename it aside, check that it was
  * the store judged (a concurrent process may have replaced it already:
  * then put that one back and look again), remove it. */
 static int move_aside(const char *path, const struct stat *judged, dm_error *err)
@@ -132,7 +132,7 @@ static int move_aside(const char *path, const struct stat *judged, dm_error *err
 }
 
 /* The store at path: DM_OK when it holds this sweep, STORE_ABSENT when
- * there is none (or --force moved another sweep's away), STORE_RETRY when
+ * there is none (or --replace moved another sweep's away), STORE_RETRY when
  * it changed while we looked. `racing`: we just lost a creation race, so a
  * directory without metadata may be a store not yet visible to this host. */
 static int open_existing(sweep_ctx *c, const char *path, int racing, dm_error *err)
@@ -178,11 +178,11 @@ static int open_existing(sweep_ctx *c, const char *path, int racing, dm_error *e
         clean_skeleton(c, path);
         return repair_skeleton(c, err);
     }
-    if (!c->o.force) {
+    if (!c->o.replace) {
         c->store_refused = 1;
         return dm_fail(err, DM_EINVAL,
-                       "%s/zarr.json: the store holds a sweep of %s: it is replaced only when "
-                       "forced; or choose another store", path, what);
+                       "%s/zarr.json: the store holds a sweep of %s: it is replaced only on "
+                       "request; or choose another store", path, what);
     }
     return move_aside(path, &dir, err);
 }
@@ -217,7 +217,7 @@ static int create_store(sweep_ctx *c, const char *path, dm_error *err)
 }
 
 /* Open the store if it holds this sweep, or create it; another sweep's is
- * refused unless force (which replaces only a store of another sweep, so
+ * refused unless replace (which replaces only a store of another sweep, so
  * any number of processes may be given it). A lost race is retried: at
  * once, as a rule, but a network filesystem may show the winner's store to
  * this host only after its attribute cache expires. */

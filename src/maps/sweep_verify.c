@@ -247,7 +247,7 @@ int dm_sweep_check_open(const char *path, int repair, dm_sweep_damage_fn report,
             snprintf(file, sizeof file, "%s/zarr.json", path);
             /* it names the sweep: never rewritten */
             snprintf(why + strlen(why), sizeof why - strlen(why), "; it names the sweep, so it "
-                     "is not rewritten, and the sweep command refuses the store (--force "
+                     "is not rewritten, and the sweep command refuses the store (--replace "
                      "replaces it)");
             if (report)
                 report(user, file, why, 0);

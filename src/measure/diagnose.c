@@ -3,6 +3,7 @@
 
 #include "dm_predict.h"
 #include "dm_threads.h"
+#include "dm_work.h"
 
 #include <assert.h>
 #include <cminpack.h>
@@ -1155,7 +1156,7 @@ static void check_verdict(const shared *s, dm_diagnosis *dg)
 #define PAIR_FACTOR 3.0
 
 /* Refused before any work when the whole diagnosis is estimated beyond
- * DM_MAX_WORK_S on its threads (dm_check_size). */
+ * DM_WORK_LIMIT on its threads (dm_work_check). */
 static int check_work(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts *o,
                       dm_error *err)
 {
@@ -1170,7 +1171,8 @@ static int check_work(const dm_robot *rb, const dm_dataset *d, const dm_diagnose
     snprintf(what, sizeof what, "diagnose: %s: %d samples, %d candidates, about %.3g "
              "predictions of %.3g s each on %d thread%s", d->source, d->n, nc, fits, one,
              threads, threads > 1 ? "s" : "");
-    return dm_check_size(what, fits * one / threads, bytes * threads,
+    return dm_work_check(what, (dm_work){fits * one / threads, bytes * threads, 0},
+                         DM_WORK_LIMIT,
                          d->kind == DM_DATA_TRACKER ? "a shorter stretch of the record or mesh 2,2"
                                                     : "fewer poses or a coarser mesh",
                          o->force_long, err);

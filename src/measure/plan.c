@@ -16,6 +16,7 @@
 #include "dm_synth.h"
 #include "dm_threads.h"
 #include "dm_trajectory.h"
+#include "dm_work.h"
 
 #define DETECT 5.0     /* "seen": the effect moves the data by 5 sigma (norm over samples) */
 #define RANDOM_DRAWS 64
@@ -406,8 +407,8 @@ static int check_survey(const model *m, const dm_dataset *cand, int nunit, dm_er
     char what[160];
     snprintf(what, sizeof what, "plan: %d of %d candidate%s for %d parameter%s", n, nunit,
              nunit == 1 ? "" : "s", p, p == 1 ? "" : "s");
-    return dm_check_size(what, est, bytes, "fewer poses or a smaller region", o->force_long,
-                         err);
+    return dm_work_check(what, (dm_work){est, bytes, 0}, DM_WORK_LIMIT,
+                         "fewer poses or a smaller region", o->force_long, err);
 }
 
 /* Tracker: p + 1 predictions of each of the NPATH paths of n samples (in
@@ -423,7 +424,8 @@ static int check_tracker(const model *m, dm_error *err)
     char what[160];
     snprintf(what, sizeof what, "plan: a tracker run of %d samples, %d paths, %d parameter%s",
              n, NPATH, p, p == 1 ? "" : "s");
-    int rc = dm_check_size(what, est, bytes, "fewer samples", o->force_long, err);
+    int rc = dm_work_check(what, (dm_work){est, bytes, 0}, DM_WORK_LIMIT, "fewer samples",
+                           o->force_long, err);
     if (!rc && n > INT_MAX / 3) /* the samples are counted in int */
         rc = dm_fail(err, DM_EINVAL, "%s: %.3g samples, at most %d", what, 3.0 * n, INT_MAX);
     return rc;

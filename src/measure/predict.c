@@ -289,7 +289,7 @@ static int predict_tracker(dm_predictor *p, double *pred, dm_error *err)
     o.na = p->na;
     o.nb = p->nb;
     o.dt_s = fmin(1e-3, t[m - 1] / (m - 1));
-    o.force = 1; /* the work of the whole command is judged before it (dm_check_size) */
+    o.force_long = 1; /* the work of the whole command is judged before it (dm_work_check) */
     rc = history_for(p, &o, err);
     if (!rc)
         rc = p->hist ? dm_integ_history_replay(p->hist, p->robot.rayleigh_alpha,
@@ -345,26 +345,4 @@ double dm_predict_estimate_s(const dm_robot *rb, const dm_dataset *d, int na, in
     if (bytes)
         *bytes = count * per_count + (double)d->n * 2 * sizeof(double);
     return dm_predict_cost_s(rb, d->kind, count, na, nb);
-}
-
-int dm_check_size(const char *what, double est_s, double bytes, const char *hint, int force,
-                  dm_error *err)
-{
-    int slow = !(est_s <= DM_MAX_WORK_S), big = !(bytes <= DM_MAX_BYTES);
-    if (force || (!slow && !big))
-        return DM_OK;
-    char t[96] = "", m[96] = "";
-    if (slow)
-        snprintf(t, sizeof t, "about %.3g hours of work (the limit is %g)", est_s / 3600,
-                 DM_MAX_WORK_S / 3600);
-    if (big)
-        snprintf(m, sizeof m, "%s%.3g GB of memory (the limit is %g)", slow ? " and " : "about ",
-                 bytes / 1e9, DM_MAX_BYTES / 1e9);
-    return dm_fail(err, DM_EINVAL, "%s: %s%s: %s, or force it", what, t, m, hint);
-}
-
-int dm_size_refused(const dm_error *err)
-{
-    return err->code == DM_EINVAL && (strstr(err->msg, " hours of work (the limit is ") ||
-                                      strstr(err->msg, " GB of memory (the limit is "));
 }

@@ -8,8 +8,10 @@
 #include <string.h>
 
 #include "dm_kinematics.h"
+#include "dm_plan.h"
 #include "dm_predict.h"
 #include "dm_trajectory.h"
+#include "dm_work.h"
 
 int dm_synth_draw_pose(const dm_robot *rb, dm_rng *rng, double P[3])
 {
@@ -94,9 +96,10 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
         char what[320];
         snprintf(what, sizeof what, "synth: %s: %.4g s sampled every 1 ms", tr.name,
                  tr.duration_s);
-        rc = dm_check_size(what, dm_predict_cost_s(rb, o->kind, steps, o->na, o->nb),
-                           steps * (3 * (sizeof(dm_sample) + sizeof(double)) + 4 * sizeof(double)),
-                           "a shorter path", o->force_long, err);
+        dm_work need = {dm_predict_cost_s(rb, o->kind, steps, o->na, o->nb),
+                        steps * (3 * (sizeof(dm_sample) + sizeof(double)) + 4 * sizeof(double)),
+                        0};
+        rc = dm_work_check(what, need, DM_WORK_LIMIT, "a shorter path", o->force_long, err);
         if (!rc && steps > INT_MAX / 3) /* the samples are counted in int */
             rc = dm_fail(err, DM_EINVAL, "%s: %.3g samples, at most %d", what, 3 * steps,
                          INT_MAX);
@@ -111,9 +114,9 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
         double per = o->kind == DM_DATA_MODAL ? (o->modes > 0 ? o->modes : 6) : 3;
         char what[96];
         snprintf(what, sizeof what, "synth: %.0f poses", np);
-        if ((rc = dm_check_size(what, dm_predict_cost_s(rb, o->kind, np, o->na, o->nb),
-                                np * per * (sizeof(dm_sample) + sizeof(double)),
-                                "fewer poses", o->force_long, err)))
+        dm_work need = {dm_predict_cost_s(rb, o->kind, np, o->na, o->nb),
+                        np * per * (sizeof(dm_sample) + sizeof(double)), 0};
+        if ((rc = dm_work_check(what, need, DM_WORK_LIMIT, "fewer poses", o->force_long, err)))
             return rc;
         if (np * per > INT_MAX) /* the samples are counted in int */
             return dm_fail(err, DM_EINVAL, "%s: %.3g samples, at most %d", what, np * per,
@@ -142,4 +145,15 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
     if (rc)
         dm_dataset_free(d);
     return rc;
+}
+
+int dm_synth_at(const dm_robot *rb, const dm_dataset *tmpl, const dm_synth_opts *o,
+                dm_dataset *d, dm_error *err)
+{
+    dm_work need = {0};
+    need.seconds = dm_predict_estimate_s(rb, tmpl, o->na, o->nb, &need.bytes);
+    char what[sizeof tmpl->source + 64];
+    snprintf(what, sizeof what, "synth: %s: %d samples", tmpl->source, tmpl->n);
+    int rc = dm_work_check(what, need, DM_WORK_LIMIT, "a smaller template", o->force_long, err);
+    return rc ? rc : dm_plan_observe(rb, tmpl, o->noise, o->seed, o->na, o->nb, d, err);
 }

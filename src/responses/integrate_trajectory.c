@@ -4,6 +4,7 @@
 #include <cblas.h>
 #include <math.h>
 #include <omp.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -14,6 +15,7 @@
 #include "dm_static.h"
 #include "dm_threads.h"
 #include "dm_vec3.h"
+#include "dm_work.h"
 
 void dm_integ_opts_default(dm_integ_opts *o)
 {
@@ -957,13 +959,14 @@ static int check_run(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
     int n = dm_model_dofs(rb, o->na ? o->na : rb->na, o->nb ? o->nb : rb->nb);
     int k = o->k <= 0 || o->k > n ? n : o->k;
     double est = steps_d > 1e15 ? INFINITY : dm_integ_estimate_s((long)steps_d, n, k, o->reference);
-    if (est > DM_INTEG_MAX_SECONDS && !o->force)
-        return dm_fail(err, DM_EINVAL,
-                       "%s: %.6g s at a step of %g s is %.3g steps, about %.3g hours of work "
-                       "for a %d-DOF model (the limit is %g hours; a larger step, a shorter "
-                       "path or no all-modes reference would do, or force it)",
-                       tr->name, tr->duration_s, o->dt_s, steps_d, est / 3600, n,
-                       DM_INTEG_MAX_SECONDS / 3600);
+    char what[sizeof tr->name + 128];
+    snprintf(what, sizeof what, "%s: %.6g s at a step of %g s is %.3g steps for a %d-DOF model",
+             tr->name, tr->duration_s, o->dt_s, steps_d, n);
+    int rc = dm_work_check(what, (dm_work){est, 0, 0}, (dm_work){DM_WORK_MAX_SECONDS, 0, 0},
+                           "a larger step, a shorter path or no all-modes reference",
+                           o->force_long, err);
+    if (rc)
+        return rc;
     *nsteps = (long)ceil(tr->duration_s / o->dt_s - 1e-9);
     return dm_traj_check_reachable(tr, rb, o->dt_s, err);
 }

@@ -3,6 +3,7 @@
 #include "dm_tolerance.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -11,6 +12,7 @@
 #include "dm_static.h"
 #include "dm_threads.h"
 #include "dm_vec3.h"
+#include "dm_work.h"
 
 const char *dm_tolerance_class_name(int c)
 {
@@ -274,13 +276,10 @@ int dm_tolerance_check(const dm_robot *rb, const dm_tolerance_spec *sp, dm_error
     if (!(sp->spec_m >= 0) || !isfinite(sp->spec_m))
         return dm_fail(err, DM_EINVAL, "spec: must be > 0 m, got %g", sp->spec_m);
     double est = dm_tolerance_estimate_s(rb, sp);
-    if (est > DM_TOLERANCE_MAX_SECONDS && !sp->force)
-        return dm_fail(err, DM_EINVAL,
-                       "samples: %ld samples are about %.3g hours of work on one thread (the "
-                       "limit is %g hours; fewer samples, a coarser mesh, no flexible model, or "
-                       "force it)",
-                       sp->samples, est / 3600, DM_TOLERANCE_MAX_SECONDS / 3600);
-    return DM_OK;
+    char what[64];
+    snprintf(what, sizeof what, "samples: %ld samples on one thread", sp->samples);
+    return dm_work_check(what, (dm_work){est, 0, 0}, (dm_work){DM_TOLERANCE_MAX_SECONDS, 0, 0},
+                         "fewer samples, a coarser mesh, no flexible model", sp->force_long, err);
 }
 
 /* ---- the run ----------------------------------------------------------- */
