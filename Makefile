@@ -4,6 +4,8 @@
 #   make / make all      build build/deltamap
 #   make test            deps + build + unit tests (cmocka, under every kernel path
 #                        the CPU has) + CLI, path, store, shard tests
+#                        + shapes (VTK read-back, pictures) and the map explorer
+#                        in headless Chromium
 #                        + a sweep as a job array on a real Slurm started here
 #   make test SANITIZE=1 the same built with -fsanitize=address,undefined (unit
 #                        suites on the best kernel path, test_arrow on each)
@@ -68,7 +70,7 @@ BIN     := $(BUILD)/deltamap
 all: $(BIN)
 
 help:
-	@sed -n '1,15p' Makefile | sed 's/^# \{0,1\}//'
+	@sed -n '1,17p' Makefile | sed 's/^# \{0,1\}//'
 
 deps:
 	@tools/install-deps.sh

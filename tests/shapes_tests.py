@@ -7,7 +7,7 @@ usage: shapes_tests.py DELTAMAP
   tools/constraints.txt) reads the .vtu back; its points, cells and arrays
   are counted and their values equal those of modes --json with the same
   arguments (both print 17 significant digits: equal as doubles).
-- trajectory --vtk: the .pvd (an XML list, read with Python's XML parser:
+- trajectory --vtk (the same bytes on one thread as on all): the .pvd (an XML list, read with Python's XML parser:
   VTK's Python package has no PVD reader, ParaView does) names one frame
   per N-th sample at the CSV's times; each frame read back by VTK has the
   platform displacement of the CSV (9 digits there) and, with the
@@ -150,6 +150,14 @@ def trajectory_pvd(tmp):
         kind = arrays(g.GetCellData())["kind"]
         rods_ok &= np.allclose(rod_lengths(x0, lines, kind), lb, rtol=1e-9)
     check(times_ok, "  frame times are the CSV's t_s at every 4th sample")
+    d1 = os.path.join(tmp, "traj1")
+    os.mkdir(d1)
+    run("trajectory", "--robot", "chen2018", "--path", path, "--mesh", "2,2", "--no-reference",
+        "--vtk", d1, "--vtk-every", "4", "--vtk-magnify", "500", "--threads", "1")
+    same = sorted(os.listdir(d1)) == sorted(os.listdir(d))
+    for f in os.listdir(d) if same else []:
+        same &= open(os.path.join(d, f), "rb").read() == open(os.path.join(d1, f), "rb").read()
+    check(same, "  --threads 1 writes the same files, byte for byte (the default: all cores)")
     check(disp_ok, "  each frame's platform displacement is the CSV's error (9 digits)")
     check(rods_ok, "  points less 500 x displacement: rod elements of the robot's length")
 
