@@ -3,7 +3,8 @@
  * solver's vectors and are M-normalised; the static deflection solves
  * K u = F_gravity and is static_error at the platform node; the drawn
  * robot has the robot's lengths. The JSON is read from the deltamap
- * built beside this test (build/deltamap for build/tests/test_shape). */
+ * built beside this test (build/deltamap for build/tests/test_shape), or
+ * $DELTAMAP. */
 #include "dm_test.h"
 
 #include <jansson.h>
@@ -270,9 +271,15 @@ int main(int argc, char **argv)
      * so the same basis of a degenerate pair (chen2018's home pose has
      * two) as the solver's vector the JSON is compared with */
     dm_threads_serial_blas();
+    /* $DELTAMAP when set (an emulator's wrapper: tools/test-arm64.sh),
+     * else the deltamap built beside this test */
     char self[1024];
+    const char *env = getenv("DELTAMAP");
     snprintf(self, sizeof self, "%s", argv[0]);
-    snprintf(deltamap, sizeof deltamap, "%s/../deltamap", dirname(self));
+    if (env && *env)
+        snprintf(deltamap, sizeof deltamap, "%s", env);
+    else
+        snprintf(deltamap, sizeof deltamap, "%s/../deltamap", dirname(self));
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(modes_json_shapes_solve_the_eigenproblem),
         cmocka_unit_test(static_deflection_is_the_static_error),

@@ -200,6 +200,12 @@ case $res in ok*) ;; *) finish ;; esac
 
 # ---- 3. unit tests -------------------------------------------------------
 t0=$(now)
+# the deltamap a unit test runs (test_shape reads `modes --json`): the arm64
+# binary under qemu, as the CLI stage runs it
+WRAP=$BUILD/deltamap-qemu
+printf '#!/bin/sh\nexec %s "%s" "$@"\n' "$QEMU" "$ROOT/$BUILD/deltamap" >"$WRAP"
+chmod 755 "$WRAP"
+export DELTAMAP="$ROOT/$WRAP"
 $QEMU $BUILD/deltamap --version | sed 's/^/unit: /'
 # every kernel path the binary has here, as `make unit-tests` (aarch64: default)
 PATHS=$($QEMU $BUILD/deltamap --version 2>/dev/null | sed -n 's/^paths on this CPU: //p' | tr -d ,)
@@ -238,9 +244,6 @@ stage_done unit "$t0" "$res"
 # ---- 4. CLI tests --------------------------------------------------------
 if [ "$CLI" = 1 ]; then
     t0=$(now)
-    WRAP=$BUILD/deltamap-qemu
-    printf '#!/bin/sh\nexec %s "%s" "$@"\n' "$QEMU" "$ROOT/$BUILD/deltamap" >"$WRAP"
-    chmod 755 "$WRAP"
     DELTAMAP=$WRAP tests/cli_tests.sh >"$LOGS/cli.log" 2>&1
     grep -A3 "^FAIL" "$LOGS/cli.log" | sed 's/^/    /'
     res=$(tail -1 "$LOGS/cli.log")
