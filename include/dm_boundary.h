@@ -59,6 +59,9 @@ int dm_boundary_count(dm_boundary *bw, double sigma, int *count, dm_error *err);
  * (Rayleigh-Ritz on a subspace). */
 int dm_boundary_reduced_modes(dm_boundary *bw, int k, double *lambda, dm_error *err);
 
+/* The reduced problem's size: boundary DOFs + kept modes + residual vectors. */
+int dm_boundary_reduced_size(const dm_boundary *bw);
+
 /* Certified per-mode error bounds of reduced eigenvalues lambda:
  * bound[j] = tau lambda[j] for the smallest tau in 1e-9 x 10^(i/2) with
  * fewer than j + 1 of the model's eigenvalues below lambda[j] (1 - tau)

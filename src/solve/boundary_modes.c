@@ -194,3 +194,5 @@ dm_members *dm_boundary_members_for_modes(const dm_model *md, const dm_pose *pos
     }
     return dm_members_build(md, cut, err);
 }
+
+int dm_boundary_reduced_size(const dm_boundary *bw) { return bw->nred; }
