@@ -1,46 +1,18 @@
 /* The statics from member bases (dm_boundary, issue 39 step 2) against
- * an extended-precision solve (and beside the full model's factor): static
- * error, compliance, ln det K and the whole static displacement, for the three presets at meshes 1,1, 4,4 and
- * 8,8, without and with every pose-free effect; the fallback to the full
- * model under geometric stiffness. */
+ * an extended-precision solve (and beside the full model's factor):
+ * static error, compliance, ln det K and the whole static displacement,
+ * for the three presets at meshes 1,1, 4,4 and 8,8, without and with
+ * every pose-free effect; the fallback to the full model under geometric
+ * stiffness; the Wittrick-Williams count against the dense inertia, and
+ * the reduced modes with their certified bounds (step 3). */
 #include "dm_test.h"
 
 #include <lapacke.h>
 #include <stdlib.h>
 
 #include "dm_boundary.h"
+#include "dm_members_fixtures.h"
 #include "dm_reference.h"
-#include "dm_rng.h"
-
-static const char *const ALL_EFFECTS[] = {
-    "effects.actuator_stiffness=2000",     "effects.joint_stiffness=1e6",
-    "effects.base_stiffness=2e5,3e5,5e5",  "effects.elbow_mass=0.3",
-    "effects.payload_mass=1.5",            "effects.payload_offset=0.03,-0.02,-0.05",
-    "effects.error_arm_length=0.001,-0.002,0", NULL};
-
-static void load(dm_robot *rb, const char *preset, const char *const *sets)
-{
-    dm_error err;
-    assert_int_equal(dm_robot_load(preset, rb, NULL), 0);
-    for (int k = 0; sets && sets[k]; k++) {
-        int rc = dm_robot_set(rb, sets[k], &err);
-        if (rc)
-            print_error("%s: %s\n", sets[k], err.msg);
-        assert_int_equal(rc, 0);
-    }
-}
-
-static void random_pose(const dm_robot *rb, dm_rng *rng, dm_pose *pose)
-{
-    for (int tries = 0; tries < 100; tries++) {
-        double P[3];
-        for (int k = 0; k < 3; k++)
-            P[k] = rb->home_m[k] + (k < 2 ? 0.08 : 0.04) * (2 * dm_rng_uniform(rng) - 1);
-        if (!dm_kin_pose(rb, P, pose, NULL))
-            return;
-    }
-    fail_msg("no reachable pose near home");
-}
 
 /* The full model's statics at a pose (deltamap's arrow Cholesky). */
 static void full_solve(dm_model *md, dm_static *st, const dm_pose *pose, dm_boundary_statics *f)
