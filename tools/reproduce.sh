@@ -1,7 +1,8 @@
 #!/bin/sh
 # Reproduce the papers' trajectories, Chen's cross-section study and
 # Zheng's error budget, with plots, into docs/runs/ and docs/img/
-# (docs/reproductions.md shows them).
+# (docs/reproductions.md shows them). Zheng's own Tables 1-2 and what a
+# tracker run of that robot lets diagnose recover: tools/zheng_tables.sh.
 #   tools/reproduce.sh [DELTAMAP]        (about 5 minutes on 2 cores)
 set -e
 cd "$(dirname "$0")/.."
