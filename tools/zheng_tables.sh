@@ -64,7 +64,7 @@ awk -F, '/^#/ || /^t,/ { print; next } { if (n++ % 5 == 0) print }' "$TMP/tracke
 echo "== what plan adds: a tracker run designed for his error families"
 "$DM" plan --robot zheng2017 --kind tracker --poses 200 --mesh 2,2 --noise 1e-5 --progress none \
     --effects "error_arm_length=-3e-5,2e-5,-3e-5,error_rod_length=3e-5,-2e-5,3e-5,error_base_radius=3e-5,3e-5,3e-5,error_alpha0_deg=-0.017188734,0.011459156,0.008594367,clearance=4.5e-5" \
-    --out "$TMP/planned-template.csv" > docs/diagnosis/zheng2017-tables-plan.txt
+    --out "$TMP/planned-template.csv" | sed "s|$TMP/||" > docs/diagnosis/zheng2017-tables-plan.txt
 echo "== the planned run, simulated on the same robot and diagnosed"
 "$DM" synth --robot "$ROBOT" --at "$TMP/planned-template.csv" --noise 1e-5 --seed 2 --mesh 2,2 \
     --out docs/diagnosis/zheng2017-tables-planned.csv
