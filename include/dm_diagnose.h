@@ -30,6 +30,7 @@
 #include "dm_effects.h"
 #include "dm_measure.h"
 #include "dm_modal.h"
+#include "dm_nuisance.h"
 #include "dm_progress.h"
 #include "dm_robot.h"
 
@@ -112,6 +113,12 @@ typedef struct dm_diagnosis {
     dm_fit passed_over;
     dm_noise_test noise;         /* of best, when found */
     dm_ident ident;              /* of best, when found */
+    /* a tracker run's nuisances (dm_nuisance.h), fitted with every model
+     * (the baseline's figures above are after them); never a cause */
+    int nnuisance;               /* 0: none fitted */
+    dm_nuisance_fit nuisance;    /* of best when found, else of the baseline */
+    double raw_held_chi2, raw_held_rms; /* the baseline without nuisances, held out */
+    double nuisance_gain_percent; /* the nuisances' gain against that baseline */
 } dm_diagnosis;
 
 typedef struct dm_diagnose_opts {

@@ -31,12 +31,29 @@ typedef struct dm_sample {
     int line;         /* line in the file */
 } dm_sample;
 
+/* A tracker run's nuisances (docs/measured-data.md, dm_nuisance.h): what
+ * its header lines say. Without '# frame:' none is fitted (the file's
+ * positions are the platform centre's, in the base frame, on the robot's
+ * clock). */
+typedef struct dm_nuisance_spec {
+    int on;              /* '# frame:' given: fit the nuisances with every model */
+    int tracker_frame;   /* '# frame: tracker': measured positions were in the tracker's
+                            frame, placed in the base frame on reading (R, d) */
+    int clock_rate;      /* '# clock: rate': fit a clock-rate error too */
+    int line;            /* the '# frame:' line */
+    double reflector[3]; /* '# reflector: X, Y, Z': nominal reflector offset from the
+                            platform centre (m, platform axes = base axes), subtracted */
+    double R[9], d[3];   /* tracker frame: base = R m + d (row-major R), from reading */
+    double align_rms;    /* that alignment's RMS misfit (m) */
+} dm_nuisance_spec;
+
 typedef struct dm_dataset {
     dm_data_kind kind;
     char source[512];
     char robot[256];   /* "# robot: NAME" header, or "" */
     int n, cap, npose;
     dm_sample *s;
+    dm_nuisance_spec nuisance; /* tracker runs only */
 } dm_dataset;
 
 const char *dm_data_kind_name(dm_data_kind kind);

@@ -586,6 +586,51 @@ static void print_verdict(const dm_dataset *d, const dm_robot *rb, const dm_diag
     }
 }
 
+/* A tracker run's nuisances: fitted with every model, never a cause. */
+static void print_nuisances(const dm_dataset *d, const dm_diagnosis *dg)
+{
+    const dm_nuisance_fit *nf = &dg->nuisance;
+    printf("nuisances fitted with every model (of the %s; never a cause):\n",
+           dg->found ? "verdict's model" : "baseline");
+    for (int k = 0; k < nf->n; k++) {
+        printf("          %-20s %12.4g +- ", dm_nuisance_name(k), nf->value[k]);
+        if (isfinite(nf->sigma[k]))
+            printf("%-9.2g %s\n", nf->sigma[k], dm_nuisance_unit(k));
+        else
+            printf("%-9s %s (not determined by this path)\n", "inf", dm_nuisance_unit(k));
+    }
+    printf("          (the translation is the frame's plus the reflector offset's error: only "
+           "their sum is determined; rotations about the run's centroid)\n");
+    if (d->nuisance.tracker_frame)
+        printf("          tracker frame placed on reading, RMS %.3g m\n", d->nuisance.align_rms);
+    printf("          baseline held-out RMS without them %.4g m -> %.4g m with them (gain %.1f "
+           "%%, apart from any effect's)", dg->raw_held_rms, dg->base_held_rms,
+           dg->nuisance_gain_percent);
+}
+
+static json_t *nuisance_json(const dm_dataset *d, const dm_diagnosis *dg)
+{
+    const dm_nuisance_fit *nf = &dg->nuisance;
+    json_t *par = json_object();
+    for (int k = 0; k < nf->n; k++)
+        json_object_set_new(par, dm_nuisance_name(k),
+                            json_pack("{s:f, s:o, s:s}", "value", nf->value[k], "sigma",
+                                      isfinite(nf->sigma[k]) ? json_real(nf->sigma[k])
+                                                             : json_null(),
+                                      "unit", dm_nuisance_unit(k)));
+    json_t *o = json_pack("{s:s, s:o, s:b, s:f, s:f, s:f}", "of",
+                          dg->found ? "verdict" : "baseline", "parameters", par,
+                          "translation_includes_reflector_offset", 1,
+                          "baseline_without_nuisances_held_out_rms", dg->raw_held_rms,
+                          "baseline_without_nuisances_held_out_chi2", dg->raw_held_chi2,
+                          "gain_percent", dg->nuisance_gain_percent);
+    if (d->nuisance.tracker_frame)
+        json_object_set_new(o, "tracker_frame",
+                            json_pack("{s:o, s:o, s:f}", "R", list_json(d->nuisance.R, 9), "d",
+                                      list_json(d->nuisance.d, 3), "rms", d->nuisance.align_rms));
+    return o;
+}
+
 static void print_diagnosis(const dm_dataset *d, const dm_robot *rb, const dm_diagnosis *dg)
 {
     const char *unit = d->kind == DM_DATA_MODAL ? "Hz" : "m";
@@ -594,6 +639,10 @@ static void print_diagnosis(const dm_dataset *d, const dm_robot *rb, const dm_di
     printf("baseline  held-out RMS %.4g %s", dg->base_held_rms, unit);
     if (dg->sigma_known)
         printf(", chi2/N %.3g (noise alone ~1)", dg->base_held_chi2 / dg->n_held);
+    if (dg->nnuisance) {
+        printf("\n");
+        print_nuisances(d, dg);
+    }
     printf("\n\n rank  effect                    held-out RMS   gain    fitted value\n");
     for (int r = 0; r < dg->nrank; r++) {
         const dm_fit *f = &dg->rank[r];
@@ -701,6 +750,8 @@ static void print_diagnosis_json(const dm_dataset *d, const dm_robot *rb, const 
                         dg->found && dg->has_simpler_choice ? fit_json(&dg->passed_over)
                                                             : json_null());
     json_object_set_new(o, "ranking", rank);
+    if (dg->nnuisance) /* absent without: files without nuisances give what they gave */
+        json_object_set_new(o, "nuisances", nuisance_json(d, dg));
     json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
     putchar('\n');
     json_decref(o);

@@ -1,6 +1,7 @@
 /* Diagnosis of model-vs-measurement discrepancies (see dm_diagnose.h). */
 #include "dm_diagnose.h"
 
+#include "dm_nuisance.h"
 #include "dm_predict.h"
 #include "dm_threads.h"
 #include "dm_work.h"
@@ -191,6 +192,9 @@ static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_error *err
             memo_put(p->s->memo, &rb, p->view.n, p->pred);
         dm_progress_add(p->s->pm, 0); /* the same count, later: the clock moves */
     }
+    /* a tracker run's nuisances, fitted with every model (dm_nuisance.h) */
+    if (!rc)
+        rc = dm_nuisance_apply(p->s->d, p->view.n, p->s->held, p->s->w, p->pred, 1.0, NULL);
     return rc;
 }
 
@@ -477,13 +481,18 @@ static double held_score(const dm_diagnosis *dg, double held_chi2)
 
 /* Gain in amplitude: the share of the held-out misfit beyond the noise
  * (without sigma: of the held-out RMS) that a fit removes. */
-static double gain_percent(const dm_diagnosis *dg, double held_chi2)
+static double gain_against(const dm_diagnosis *dg, double before_chi2, double held_chi2)
 {
     double n = dg->n_held;
     if (!dg->sigma_known)
-        return dg->base_held_chi2 > 0 ? 100.0 * (1.0 - sqrt(held_chi2 / dg->base_held_chi2)) : 0;
-    double before = fmax(dg->base_held_chi2 / n - 1.0, 0), after = fmax(held_chi2 / n - 1.0, 0);
+        return before_chi2 > 0 ? 100.0 * (1.0 - sqrt(held_chi2 / before_chi2)) : 0;
+    double before = fmax(before_chi2 / n - 1.0, 0), after = fmax(held_chi2 / n - 1.0, 0);
     return before > 0 ? 100.0 * (1.0 - sqrt(after / before)) : 0.0;
+}
+
+static double gain_percent(const dm_diagnosis *dg, double held_chi2)
+{
+    return gain_against(dg, dg->base_held_chi2, held_chi2);
 }
 
 static void score_fit(const problem *p, const dm_diagnosis *dg, dm_fit *f)
@@ -967,6 +976,15 @@ typedef struct {
                                 training samples */
     double *r, *J;
     double s[DM_DIAG_MAXP], VT[DM_DIAG_MAXP * DM_DIAG_MAXP];
+    /* a tracker run's nuisances, fitted with the model: their weighted
+     * design N (d->n x nq) and the training rows' N'N = U diag(lam) U',
+     * lam descending, qn of them seen. The effect columns of J are
+     * orthogonal to N on the training rows (the nuisances are projected
+     * out of every prediction), so the two parts of the prediction
+     * covariance add. */
+    int nq, qn;
+    double *N;
+    double lam[DM_NUISANCE_MAX], UN[DM_NUISANCE_MAX * DM_NUISANCE_MAX];
 } linearisation;
 
 /* Predictions of the fit's values perturbed in scaled parameter j (-1:
@@ -981,6 +999,35 @@ static int predict_scaled(problem *p, const double *x, int n, const double *sc, 
     to_values(p, xx, value);
     p->pred = pred;
     return predict_with(p, value, NULL);
+}
+
+/* The nuisances' part of the linearisation about the prediction pred. */
+static int linearise_nuisances(const shared *s, const double *pred, linearisation *L)
+{
+    const dm_dataset *d = s->d;
+    int q = L->nq = dm_nuisance_count(d);
+    if (!q)
+        return DM_OK;
+    L->N = malloc(sizeof(double) * d->n * q);
+    if (!L->N)
+        return DM_ENOMEM;
+    dm_nuisance_design(d, d->n, pred, L->N);
+    double A[DM_NUISANCE_MAX * DM_NUISANCE_MAX] = {0}, lam[DM_NUISANCE_MAX];
+    for (int i = 0; i < d->n; i++)
+        for (int k = 0; k < q; k++) {
+            L->N[(size_t)k * d->n + i] *= s->w[i];
+            for (int l = 0; !s->held[i] && l <= k; l++)
+                A[l + k * q] += L->N[(size_t)k * d->n + i] * L->N[(size_t)l * d->n + i];
+        }
+    if (LAPACKE_dsyev(LAPACK_COL_MAJOR, 'V', 'U', q, A, q, lam))
+        return DM_ENOMEM;
+    for (int e = 0; e < q; e++) { /* descending, as the SVD's */
+        L->lam[e] = lam[q - 1 - e];
+        memcpy(&L->UN[e * q], &A[(q - 1 - e) * q], sizeof(double) * q);
+    }
+    while (L->qn < q && L->lam[L->qn] > 1e-12 * L->lam[0])
+        L->qn++;
+    return DM_OK;
 }
 
 static int linearise(const shared *s, const dm_fit *f, linearisation *L)
@@ -1024,6 +1071,8 @@ static int linearise(const shared *s, const dm_fit *f, linearisation *L)
     if (!rc && n > 0 && m >= 1 && !svd(Jt, m, n, L->s, U, L->VT))
         while (L->q < (m < n ? m : n) && L->s[L->q] > 1e-9 * L->s[0])
             L->q++;
+    if (!rc)
+        rc = linearise_nuisances(s, pred, L);
     free(pred), free(p1), free(Jt), free(U);
     dm_predictor_free(p.predictor);
     if (!rc)
@@ -1035,6 +1084,7 @@ static void linearisation_free(linearisation *L)
 {
     free(L->r);
     free(L->J);
+    free(L->N);
 }
 
 /* The prediction chi-square of the held-out samples i with keep(i): held
@@ -1046,21 +1096,25 @@ static void linearisation_free(linearisation *L)
  * r'r - b'(diag s^2 + Z_h'Z_h)^-1 b with Z_h = J_h V, b = Z_h'r. */
 static double predictive_chi2(const shared *s, const linearisation *L, int group, int *count)
 {
-    assert(L->q >= 0 && L->q <= L->n && L->n <= DM_DIAG_MAXP && group <= DM_DIAG_MAXGROUP);
+    assert(L->q >= 0 && L->q <= L->n && L->n <= DM_DIAG_MAXP && group <= DM_DIAG_MAXGROUP &&
+           L->qn <= L->nq && L->nq <= DM_NUISANCE_MAX);
     const dm_dataset *d = s->d;
-    int q = L->q;
-    double M[DM_DIAG_MAXP * DM_DIAG_MAXP] = {0}, b[DM_DIAG_MAXP] = {0}, rr = 0;
+    enum { MAXZ = DM_DIAG_MAXP + DM_NUISANCE_MAX };
+    int qe = L->q, q = qe + L->qn; /* the effects' coordinates, then the nuisances' */
+    double M[MAXZ * MAXZ] = {0}, b[MAXZ] = {0}, rr = 0;
     for (int k = 0; k < q; k++)
-        M[k * q + k] = L->s[k] * L->s[k];
+        M[k * q + k] = k < qe ? L->s[k] * L->s[k] : L->lam[k - qe];
     *count = 0;
     for (int i = 0; i < d->n; i++) {
         if (!s->held[i] || (group >= 0 && group_of(d, &d->s[i]) != group))
             continue;
-        double z[DM_DIAG_MAXP];
+        double z[MAXZ];
         for (int k = 0; k < q; k++) {
             z[k] = 0;
-            for (int j = 0; j < L->n; j++)
+            for (int j = 0; j < L->n && k < qe; j++)
                 z[k] += L->J[(size_t)j * d->n + i] * L->VT[k + j * L->n];
+            for (int j = 0; j < L->nq && k >= qe; j++)
+                z[k] += L->N[(size_t)j * d->n + i] * L->UN[(k - qe) * L->nq + j];
             b[k] += z[k] * L->r[i];
         }
         for (int k = 0; k < q; k++)
@@ -1069,7 +1123,7 @@ static double predictive_chi2(const shared *s, const linearisation *L, int group
         rr += L->r[i] * L->r[i];
         (*count)++;
     }
-    double x[DM_DIAG_MAXP];
+    double x[MAXZ];
     memcpy(x, b, sizeof b);
     if (q == 0 || LAPACKE_dposv(LAPACK_COL_MAJOR, 'U', q, 1, M, q, x, q))
         return rr;
@@ -1232,6 +1286,45 @@ int dm_fit_effects(const dm_robot *rb, const dm_dataset *d, const char *const *n
     return rc;
 }
 
+/* The baseline's held-out misfit before the nuisances: what they alone
+ * gain is reported apart from any effect's gain. */
+static void baseline_without_nuisances(const shared *s, dm_diagnosis *dg, const double *pred)
+{
+    const dm_dataset *d = s->d;
+    dg->nnuisance = dm_nuisance_count(d);
+    double hs = 0;
+    for (int i = 0; i < d->n; i++)
+        hs += s->held[i] ? (d->s[i].value - pred[i]) * (d->s[i].value - pred[i]) : 0;
+    dg->raw_held_chi2 = chi2(s, pred, 1);
+    dg->raw_held_rms = sqrt(hs / dg->n_held);
+}
+
+/* The nuisances of the verdict's model (the baseline's when no effect is
+ * found), with their 1-sigma (scaled by the reduced chi-square when the
+ * model misfits), and what they gain against the baseline without them. */
+static int report_nuisances(const shared *s, dm_diagnosis *dg, dm_error *err)
+{
+    const dm_dataset *d = s->d;
+    dm_robot rb = *s->rb;
+    double *pred = malloc(sizeof(double) * d->n);
+    int rc = pred ? DM_OK : dm_fail(err, DM_ENOMEM, "out of memory");
+    if (!rc && dg->found)
+        rc = dm_fit_apply(s->rb, &dg->best, &rb, err);
+    if (!rc)
+        rc = dm_predict(&rb, d, s->o->na, s->o->nb, pred, err);
+    if (!rc)
+        rc = dm_nuisance_apply(d, d->n, s->held, s->w, pred, 1.0, &dg->nuisance);
+    if (!rc) {
+        int m = dg->n_train, p = dg->nnuisance + (dg->found ? dg->best.nfree : 0);
+        double scale = sqrt(misfit_scale(s, chi2(s, pred, 0), m, p));
+        for (int k = 0; k < dg->nuisance.n; k++)
+            dg->nuisance.sigma[k] *= scale;
+        dg->nuisance_gain_percent = gain_against(dg, dg->raw_held_chi2, dg->base_held_chi2);
+    }
+    free(pred);
+    return rc;
+}
+
 static int diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts *o,
                     dm_diagnosis *dg, dm_error *err)
 {
@@ -1262,6 +1355,10 @@ static int diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_o
         rc = dm_predict(rb, d, o->na, o->nb, pred, err);
     if (!rc) {
         dg->sigma_known = s.sigma_known = weights(d, pred, w);
+        baseline_without_nuisances(&s, dg, pred);
+        rc = dm_nuisance_apply(d, d->n, held, w, pred, 1.0, NULL);
+    }
+    if (!rc) {
         double hs = 0;
         for (int i = 0; i < d->n; i++)
             hs += held[i] ? (d->s[i].value - pred[i]) * (d->s[i].value - pred[i]) : 0;
@@ -1284,6 +1381,8 @@ static int diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_o
         } else {
             dg->has_simpler_choice = 0;
         }
+        if (dg->nnuisance && !nomem)
+            rc = report_nuisances(&s, dg, err);
         if (nomem)
             rc = dm_fail(err, DM_ENOMEM, "%s: out of memory while fitting the effects",
                          d->source);

@@ -9,6 +9,7 @@
 
 #include "dm_csv.h"
 #include "dm_modal.h"
+#include "dm_nuisance.h"
 
 /* ---- kinds ---------------------------------------------------------------- */
 
@@ -181,6 +182,61 @@ static int detect_kind(csv_ctx *c, dm_dataset *d)
                    c->in.path, c->in.line);
 }
 
+/* A tracker run's header lines (docs/measured-data.md): '# frame: base|tracker',
+ * '# reflector: X, Y, Z' (m), '# clock: offset|rate'. 1: the comment was one
+ * of them (*rc set on a bad value); 0: another comment. */
+static int nuisance_line(const csv_ctx *c, const char *text, dm_nuisance_spec *ns, int *rc)
+{
+    static const char *const keys[] = {" frame:", " reflector:", " clock:"};
+    int k = 0;
+    while (k < 3 && strncmp(text, keys[k], strlen(keys[k])))
+        k++;
+    if (k == 3)
+        return 0;
+    char v[128];
+    const char *p = text + strlen(keys[k]);
+    p += strspn(p, " \t");
+    snprintf(v, sizeof v, "%.*s", (int)strcspn(p, "\r\n"), p);
+    while (*v && strchr(" \t", v[strlen(v) - 1]))
+        v[strlen(v) - 1] = '\0';
+    int line = c->in.line;
+    if (k == 0 && (!strcmp(v, "base") || !strcmp(v, "tracker"))) {
+        ns->on = 1, ns->line = line, ns->tracker_frame = !strcmp(v, "tracker");
+    } else if (k == 1) {
+        char *end = v;
+        for (int i = 0; i < 3 && *rc == DM_OK; i++) {
+            char *start = end + (i ? 1 : 0);
+            ns->reflector[i] = strtod(start, &end);
+            if (end == start || !isfinite(ns->reflector[i]) || *end != (i < 2 ? ',' : '\0'))
+                *rc = dm_fail(c->err, DM_EINVAL, "%s:%d: '# reflector: %s' is not three numbers "
+                              "X, Y, Z (m)", c->in.path, line, v);
+        }
+    } else if (k == 2 && (!strcmp(v, "offset") || !strcmp(v, "rate"))) {
+        ns->clock_rate = !strcmp(v, "rate");
+    } else {
+        *rc = dm_fail(c->err, DM_EINVAL, "%s:%d: '#%s %s': %s", c->in.path, line, keys[k], v,
+                      k == 0 ? "the frame is base or tracker" : "the clock is offset or rate");
+    }
+    return 1;
+}
+
+/* The nuisance header lines make sense only with a tracker run's measured
+ * positions, and '# reflector:' and '# clock:' only with '# frame:'. */
+static int check_nuisance(const dm_dataset *d, const dm_nuisance_spec *ns, int any, dm_error *err)
+{
+    if (!any)
+        return DM_OK;
+    if (d->kind != DM_DATA_TRACKER)
+        return dm_fail(err, DM_EINVAL, "%s:%d: '# frame:', '# reflector:' and '# clock:' are for "
+                       "tracker runs (t, x_cmd..z_cmd, x_meas..z_meas): %s data have no measured "
+                       "positions", d->source, any, dm_data_kind_name(d->kind));
+    if (!ns->on)
+        return dm_fail(err, DM_EINVAL, "%s:%d: '# reflector:' and '# clock:' need '# frame: "
+                       "base' or '# frame: tracker' (the nuisances are fitted only then)",
+                       d->source, any);
+    return DM_OK;
+}
+
 static int read_file(const char *path, int template, dm_dataset *d, dm_error *err)
 {
     memset(d, 0, sizeof *d);
@@ -191,9 +247,13 @@ static int read_file(const char *path, int template, dm_dataset *d, dm_error *er
         return rc;
     double last_t = 0, last_P[3] = {0};
     dm_csv_line kind;
+    dm_nuisance_spec ns = {0};
+    int nuisance_at = 0; /* line of the first nuisance header */
     while (!rc && !(rc = dm_csv_next(&c.in, &kind, err)) && kind != DM_CSV_END) {
         const char *robot = c.in.comment;
-        if (kind == DM_CSV_COMMENT && !strncmp(robot, " robot:", 7) && !d->robot[0]) {
+        if (kind == DM_CSV_COMMENT && nuisance_line(&c, robot, &ns, &rc)) {
+            nuisance_at = nuisance_at ? nuisance_at : c.in.line;
+        } else if (kind == DM_CSV_COMMENT && !strncmp(robot, " robot:", 7) && !d->robot[0]) {
             robot += 7 + strspn(robot + 7, " \t");
             snprintf(d->robot, sizeof d->robot, "%.*s", (int)strcspn(robot, "\r\n"), robot);
         } else if (kind == DM_CSV_HEADER)
@@ -207,6 +267,10 @@ static int read_file(const char *path, int template, dm_dataset *d, dm_error *er
     if (!rc && d->kind == DM_DATA_TRACKER && fabs(d->s[0].t) > 1e-12)
         rc = dm_fail(err, DM_EINVAL, "%s:%d: column 1 (t): the first sample must be at t = 0",
                      path, d->s[0].line);
+    if (!rc && !(rc = check_nuisance(d, &ns, nuisance_at, err))) {
+        d->nuisance = ns;
+        rc = dm_nuisance_prepare(d, err);
+    }
     if (rc)
         dm_dataset_free(d);
     return rc;
@@ -254,12 +318,21 @@ int dm_dataset_write(const dm_dataset *d, FILE *out)
             fputc('\n', out);
         }
     } else {
+        /* a run with nuisances as read: in the base frame (a tracker frame's
+         * alignment applied), the reflector where it was measured */
+        const dm_nuisance_spec *ns = &d->nuisance;
+        double o[3] = {-0.0, -0.0, -0.0}; /* x + -0.0 is x, -0.0 included */
+        if (ns->on)
+            memcpy(o, ns->reflector, sizeof o);
+        if (ns->on)
+            fprintf(out, "# frame: base\n# reflector: %.12g, %.12g, %.12g\n# clock: %s\n", o[0],
+                    o[1], o[2], ns->clock_rate ? "rate" : "offset");
         fprintf(out, "t,x_cmd,y_cmd,z_cmd,x_meas,y_meas,z_meas\n");
         for (int i = 0; i + 2 < d->n; i += 3) {
             const dm_sample *s = &d->s[i];
             fprintf(out, "%.9g,%.12g,%.12g,%.12g,%.12g,%.12g,%.12g\n", s->t, s->P[0], s->P[1],
-                    s->P[2], s->P[0] + s->value, s->P[1] + d->s[i + 1].value,
-                    s->P[2] + d->s[i + 2].value);
+                    s->P[2], s->P[0] + s->value + o[0], s->P[1] + d->s[i + 1].value + o[1],
+                    s->P[2] + d->s[i + 2].value + o[2]);
         }
     }
     return ferror(out) ? DM_EIO : DM_OK;
