@@ -59,6 +59,12 @@ int dm_boundary_count(dm_boundary *bw, double sigma, int *count, dm_error *err);
  * (Rayleigh-Ritz on a subspace). */
 int dm_boundary_reduced_modes(dm_boundary *bw, int k, double *lambda, dm_error *err);
 
+/* The last dm_boundary_reduced_modes' first k mode shapes in the model's
+ * DOFs (phi: n x k, column-major), M-normalised (the reduced problem is
+ * the model's projection on the member bases, so its normalisation
+ * carries over). */
+void dm_boundary_mode_shapes(dm_boundary *bw, int k, double *phi);
+
 /* The reduced problem's size: boundary DOFs + kept modes + residual vectors. */
 int dm_boundary_reduced_size(const dm_boundary *bw);
 

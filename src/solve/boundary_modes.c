@@ -196,3 +196,36 @@ dm_members *dm_boundary_members_for_modes(const dm_model *md, const dm_pose *pos
 }
 
 int dm_boundary_reduced_size(const dm_boundary *bw) { return bw->nred; }
+
+void dm_boundary_mode_shapes(dm_boundary *bw, int k, double *phi)
+{
+    const dm_members *ms = bw->ms;
+    int nB = bw->nB, nr = bw->nred;
+    for (int j = 0; j < k; j++) {
+        const double *y = bw->Kr + (size_t)j * nr, *q = y + nB;
+        memcpy(bw->z, y, sizeof(double) * nB);
+        for (int m = 0; m < DM_MEMBERS_N; m++) {
+            const dm_member_basis *mb = &ms->member[m];
+            double xb[9];
+            dm_members_coupling(ms, &bw->mp, m, bw->C);
+            for (int r = 0; r < mb->nb; r++) {
+                xb[r] = 0;
+                for (int c = 0; c < nB; c++)
+                    xb[r] += bw->C[(size_t)c * mb->nb + r] * y[c];
+            }
+            double *zi = bw->z + ms->interior0[m];
+            for (int r = 0; r < mb->ni; r++) { /* Psi C x_B + Phi_keep q + R r */
+                double s = 0;
+                for (int a = 0; a < mb->nb; a++)
+                    s += mb->Psi[(size_t)a * mb->ni + r] * xb[a];
+                for (int a = 0; a < mb->nkeep; a++)
+                    s += mb->Phi[(size_t)a * mb->ni + r] * q[a];
+                for (int a = 0; a < mb->nres; a++)
+                    s += mb->R[(size_t)a * mb->ni + r] * q[mb->nkeep + a];
+                zi[r] = s;
+            }
+            q += mb->nkeep + mb->nres;
+        }
+        dm_members_scatter(ms, &bw->mp, bw->z, phi + (size_t)j * ms->n);
+    }
+}
