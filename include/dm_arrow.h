@@ -66,7 +66,6 @@ typedef struct dm_arrow {
 int dm_arrow_init(dm_arrow *a, const dm_arrow_layout *lay, dm_error *err);
 void dm_arrow_release(dm_arrow *a);
 void dm_arrow_zero(dm_arrow *a);
-void dm_arrow_copy(dm_arrow *dst, const dm_arrow *src);
 
 /* Record which entries dm_arrow_add touches (until dm_arrow_pattern_make). */
 int dm_arrow_record(dm_arrow *a, dm_error *err);

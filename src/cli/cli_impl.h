@@ -56,11 +56,16 @@ int dm_cli_tolerance_dist(const char *cmd, const char *flag, const char *arg,
 /* Output files appear whole or not at all: dm_file_out (dm_file.h). */
 #include "dm_file.h"
 
-/* Serial commands: one BLAS thread. Our matrices are small (48-900 DOF),
- * where threaded BLAS only adds overhead. (In OpenBLAS's OpenMP build this
- * also sets OpenMP's thread count, so parallel commands do not call it:
- * BLAS inside their parallel regions runs serially by itself.) */
+/* Every command runs BLAS on one thread (unless OPENBLAS_NUM_THREADS
+ * says otherwise): our matrices are small (48-900 DOF), where threaded
+ * BLAS only adds overhead, and the parallel commands parallelise over
+ * poses, steps or fits instead. A serial command calls dm_cli_serial_blas;
+ * a parallel one calls dm_cli_threads instead, which returns its thread
+ * count (--threads when > 0, else OpenMP's default: OMP_NUM_THREADS or all
+ * cores), read before BLAS is made serial: in OpenBLAS's OpenMP build that
+ * also sets OpenMP's count to 1. */
 void dm_cli_serial_blas(void);
+int dm_cli_threads(int requested);
 
 /* ---- progress on stderr (--progress), one drawing for every long command ----
  *

@@ -785,19 +785,18 @@ static int write_robot(const measure_args *a, const dm_robot *rb, const dm_diagn
 
 int dm_cli_diagnose(int argc, char **argv)
 {
-    int all_cores = omp_get_max_threads(); /* before BLAS is made serial (it sets OpenMP's too) */
-    dm_cli_serial_blas();
     measure_args a;
     int rc = parse("diagnose", DIAGNOSE_HELP, argc, argv, &a);
     if (rc)
         return rc;
+    a.threads = dm_cli_threads(a.threads);
     dm_dataset d;
     dm_robot rb;
     dm_error err;
     dm_diagnosis dg;
     dm_cli_progress view;
     dm_cli_progress_init(&view, "diagnose", a.progress);
-    dm_diagnose_opts o = {a.na, a.nb, a.pairs, a.threads ? a.threads : all_cores, a.force_long,
+    dm_diagnose_opts o = {a.na, a.nb, a.pairs, a.threads, a.force_long,
                           a.progress ? dm_cli_progress_report : NULL, &view};
     if ((rc = load(&a, &d, &rb, &err)))
         return dm_cli_report(&err);

@@ -259,14 +259,11 @@ static void print_plan_json(const dm_robot *rb, const dm_plan_result *r)
 
 int dm_cli_plan(int argc, char **argv)
 {
-    int all_cores = omp_get_max_threads(); /* before BLAS is made serial (it sets OpenMP's too) */
-    dm_cli_serial_blas();
     plan_args a;
     int rc = parse(argc, argv, &a);
     if (rc)
         return rc;
-    if (!a.o.threads)
-        a.o.threads = all_cores;
+    a.o.threads = dm_cli_threads(a.o.threads);
     dm_robot rb;
     dm_error err;
     dm_plan_effect eff[DM_PLAN_MAXEFF];

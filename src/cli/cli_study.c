@@ -9,7 +9,6 @@
 
 #include "cli_impl.h"
 #include "dm_integrate.h"
-#include "dm_threads.h"
 
 static const char HELP[] =
     "usage: deltamap study --robot R --path P --vary SECTION.KEY=FROM:TO:N [--vary ...]\n"
@@ -262,6 +261,7 @@ int dm_cli_study(int argc, char **argv)
     int rc = parse(argc, argv, &t);
     if (rc)
         return rc;
+    t.threads = dm_cli_threads(t.threads);
     dm_robot rb;
     dm_error err;
     if (dm_cli_load_robot(t.robot, t.sets, t.nset, &rb, &err))
@@ -289,7 +289,7 @@ int dm_cli_study(int argc, char **argv)
         dm_traj_free(&tr);
     }
     dm_progress_begin(&pm, "trajectory runs", share > 1 ? "steps" : "combinations", share * n1 * n2);
-#pragma omp parallel for schedule(dynamic) num_threads(dm_threads_count(t.threads))
+#pragma omp parallel for schedule(dynamic) num_threads(t.threads)
     for (int c = 0; c < n1 * n2; c++) {
         cell_progress cp = {&pm, 0, share};
         run_cell(&t, &rb, c / n2, c % n2, &cells[c], &cp);

@@ -307,6 +307,7 @@ int dm_cli_sweep(int argc, char **argv)
         rc = resolve_shard(a.shard, &a.o);
     if (rc)
         return rc;
+    a.o.threads = dm_cli_threads(a.o.threads);
     dm_robot rb;
     dm_grid grid;
     dm_error err;

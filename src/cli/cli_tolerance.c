@@ -281,11 +281,11 @@ static void print_result(const tol_opts *t, const dm_robot *rb, const double P[3
 
 int dm_cli_tolerance(int argc, char **argv)
 {
-    dm_cli_serial_blas();
     tol_opts t;
     int rc = parse(argc, argv, &t);
     if (rc)
         return rc;
+    t.threads = dm_cli_threads(t.threads);
     dm_robot rb;
     dm_error err;
     if (dm_cli_load_robot(t.robot, t.sets, t.nset, &rb, &err))
@@ -300,7 +300,7 @@ int dm_cli_tolerance(int argc, char **argv)
         t.spec.progress = dm_cli_progress_report;
         t.spec.progress_user = &view;
     }
-    rc = dm_tolerance_pose(&rb, &t.spec, P, t.threads ? t.threads : omp_get_max_threads(), &res, &err);
+    rc = dm_tolerance_pose(&rb, &t.spec, P, t.threads, &res, &err);
     dm_cli_progress_finish(&view);
     if (rc)
         return dm_cli_report(&err);

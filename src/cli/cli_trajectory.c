@@ -557,14 +557,11 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
 
 int dm_cli_trajectory(int argc, char **argv)
 {
-    int all_cores = omp_get_max_threads(); /* before BLAS is made serial (it sets OpenMP's too) */
-    dm_cli_serial_blas();
     traj_opts t;
     int rc = parse(argc, argv, &t);
     if (rc)
         return rc;
-    if (!t.o.threads)
-        t.o.threads = all_cores;
+    t.o.threads = dm_cli_threads(t.o.threads);
     dm_robot rb;
     dm_trajectory tr;
     dm_error err;

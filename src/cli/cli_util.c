@@ -4,6 +4,7 @@
 #include <cblas.h>
 
 #include <math.h>
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <errno.h>
@@ -74,6 +75,13 @@ void dm_cli_serial_blas(void)
 {
     if (!getenv("OPENBLAS_NUM_THREADS"))
         openblas_set_num_threads(1);
+}
+
+int dm_cli_threads(int requested)
+{
+    int all_cores = omp_get_max_threads(); /* read first: serial BLAS may set it to 1 */
+    dm_cli_serial_blas();
+    return requested > 0 ? requested : all_cores;
 }
 
 int dm_cli_parse_mesh(const char *s, int *na, int *nb)

@@ -175,16 +175,6 @@ void dm_arrow_zero(dm_arrow *a)
     memset(a->pp, 0, sizeof a->pp);
 }
 
-void dm_arrow_copy(dm_arrow *dst, const dm_arrow *src)
-{
-    assert(dst->lay.n == src->lay.n);
-    for (int c = 0; c < NB; c++) {
-        memcpy(dst->band[c], src->band[c], band_len(&src->lay, c) * sizeof(double));
-        memcpy(dst->cpl[c], src->cpl[c], (size_t)src->lay.nb[c] * NP * sizeof(double));
-    }
-    memcpy(dst->pp, src->pp, sizeof dst->pp);
-}
-
 /* Block of unknown i (0..2), or NB for the border. */
 static int block_of(const dm_arrow_layout *lay, int i)
 {
