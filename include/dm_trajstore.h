@@ -9,6 +9,7 @@
 #ifndef DM_TRAJSTORE_H
 #define DM_TRAJSTORE_H
 
+#include "dm_integrate.h"
 #include "dm_store.h"
 #include "dm_sweep.h"
 
@@ -37,5 +38,23 @@ int dm_trajstore_is(json_t *group_attributes);
  * does. */
 int dm_trajstore_check(const char *path, json_t *attrs, int repair, dm_sweep_damage_fn report,
                        void *user, dm_sweep_check *check, dm_error *err);
+
+/* A run's samples, kept as they come for its store (zero-initialise). */
+typedef struct dm_trajstore_samples {
+    long n, cap;
+    dm_integ_sample *s;
+    double *change; /* per sample: the coupling index's change against the nominal robot */
+} dm_trajstore_samples;
+
+/* Keep one sample and its coupling change: non-zero when out of memory. */
+int dm_trajstore_keep(dm_trajstore_samples *samples, const dm_integ_sample *s, double change);
+void dm_trajstore_samples_free(dm_trajstore_samples *samples);
+
+/* Write the run of robot `robot` along path `traj` as the store at path,
+ * whole or not at all: built as PATH.tmp.PID and renamed over PATH,
+ * replacing an earlier run's store (a directory whose zarr.json is a
+ * deltamap trajectory run) but nothing else (DM_EINVAL naming it). */
+int dm_trajstore_write(const char *path, const char *robot, const char *traj,
+                       const dm_trajstore_samples *samples, dm_error *err);
 
 #endif

@@ -82,7 +82,7 @@ static const char ROBOT_HELP[] =
 
 typedef struct {
     const char *robot, *vtk;
-    const char *sets[16];
+    const char *sets[DM_CLI_MAXSET];
     int nset;
     double at[3];
     int have_at, k, na, nb, json;

@@ -8,7 +8,7 @@
 #include <string.h>
 
 #include "cli_impl.h"
-#include "dm_integrate.h"
+#include "dm_study.h"
 
 static const char HELP[] =
     "usage: deltamap study --robot R --path P --vary SECTION.KEY=FROM:TO:N [--vary ...]\n"
@@ -30,46 +30,11 @@ static const char HELP[] =
     "                  none (the default otherwise)\n";
 
 typedef struct {
-    char key[64];
-    double from, to;
-    int count;
-} axis;
-
-typedef struct {
-    const char *robot, *path, *out;
-    const char *sets[16];
-    int nset, naxis, json, threads, progress;
-    axis ax[2];
-    dm_integ_opts o;
+    const char *robot, *out;
+    const char *sets[DM_CLI_MAXSET];
+    int nset, json, progress;
+    dm_study st;
 } study_opts;
-
-/* Progress: the runs' time steps, counted by each run's sink and reported
- * through one meter for the cells' threads. A cell's share is the steps of
- * the path with the file's robot (1 when that path cannot be made); a run
- * that ends early, or fails, has its share completed when it ends. */
-typedef struct {
-    dm_progress_meter *pm;
-    long counted, share;
-} cell_progress;
-
-typedef struct {
-    double mean, peak;
-    int status;
-    char msg[256];
-} cell;
-
-static int parse_axis(const char *s, axis *a)
-{
-    const char *eq = strchr(s, '=');
-    if (!eq || eq - s >= (long)sizeof a->key)
-        return -1;
-    snprintf(a->key, sizeof a->key, "%.*s", (int)(eq - s), s);
-    char tail;
-    if (sscanf(eq + 1, "%lf:%lf:%d%c", &a->from, &a->to, &a->count, &tail) != 3 ||
-        a->count < 1 || a->count > 1000 || !isfinite(a->from) || !isfinite(a->to))
-        return -1;
-    return 0;
-}
 
 static int parse(int argc, char **argv, study_opts *t)
 {
@@ -81,14 +46,14 @@ static int parse(int argc, char **argv, study_opts *t)
     int c;
     memset(t, 0, sizeof *t);
     t->progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
-    dm_integ_opts_default(&t->o);
-    t->o.reference = 0;
+    dm_integ_opts_default(&t->st.opts);
+    t->st.opts.reference = 0;
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
         switch (c) {
         case 'r': t->robot = optarg; break;
-        case 'p': t->path = optarg; break;
+        case 'p': t->st.path = optarg; break;
         case 'o': t->out = optarg; break;
         case 'j': t->json = 1; break;
         case 'P':
@@ -96,28 +61,29 @@ static int parse(int argc, char **argv, study_opts *t)
                 return EXIT_USAGE;
             break;
         case 'v':
-            if (t->naxis == 2 || parse_axis(optarg, &t->ax[t->naxis]))
+            if (t->st.naxis == DM_STUDY_MAXAXIS ||
+                dm_study_axis_parse(optarg, &t->st.axis[t->st.naxis]))
                 return dm_cli_usage("study", "--vary takes SECTION.KEY=FROM:TO:N, at most twice", optarg);
-            t->naxis++;
+            t->st.naxis++;
             break;
         case 's':
             if (dm_cli_add_set("study", t->sets, &t->nset, optarg))
                 return EXIT_USAGE;
             break;
         case 'k':
-            if (dm_cli_parse_int(optarg, 1, 100000, &t->o.k))
+            if (dm_cli_parse_int(optarg, 1, 100000, &t->st.opts.k))
                 return dm_cli_usage("study", "--modes takes a whole number >= 1", optarg);
             break;
         case 'T':
-            if (dm_cli_parse_int(optarg, 1, 1024, &t->threads))
+            if (dm_cli_parse_int(optarg, 1, 1024, &t->st.threads))
                 return dm_cli_usage("study", "--threads takes a whole number >= 1", optarg);
             break;
         case 'd':
-            if (dm_cli_parse_list(optarg, &t->o.dt_s, 1) || !(t->o.dt_s > 0))
+            if (dm_cli_parse_list(optarg, &t->st.opts.dt_s, 1) || !(t->st.opts.dt_s > 0))
                 return dm_cli_usage("study", "--dt takes a time step > 0 in s", optarg);
             break;
         case 'm':
-            if (dm_cli_parse_mesh(optarg, &t->o.na, &t->o.nb))
+            if (dm_cli_parse_mesh(optarg, &t->st.opts.na, &t->st.opts.nb))
                 return dm_cli_usage("study", "--mesh takes NA,NB, whole numbers 1..64", optarg);
             break;
         case 'h': fputs(HELP, stdout); exit(0);
@@ -126,73 +92,30 @@ static int parse(int argc, char **argv, study_opts *t)
     }
     if (optind < argc)
         return dm_cli_usage("study", "unexpected argument", argv[optind]);
-    if (!t->robot || !t->path || !t->naxis)
+    if (!t->robot || !t->st.path || !t->st.naxis)
         return dm_cli_usage("study", "--robot, --path and --vary are required", NULL);
     return 0;
 }
 
-static double axis_value(const axis *a, int i)
+static void print_table(const study_opts *t, const dm_study_cell *cells, int n1, int n2)
 {
-    return a->count == 1 ? a->from : a->from + (a->to - a->from) * i / (a->count - 1);
-}
-
-/* The run's sink: every sample after the start ends a step. */
-static int count_step(void *user, const dm_integ_sample *s)
-{
-    cell_progress *c = user;
-    if (s->t_s > 0 && c->counted < c->share) {
-        c->counted++;
-        dm_progress_add(c->pm, 1);
-    }
-    return 0;
-}
-
-static void run_cell(const study_opts *t, const dm_robot *base, int i, int j, cell *out,
-                     cell_progress *cp)
-{
-    dm_robot rb = *base;
-    dm_trajectory tr;
-    dm_integ_summary sum;
-    dm_error err = {0};
-    char assign[128];
-    int rc = DM_OK;
-    for (int a = 0; a < t->naxis && !rc; a++) {
-        snprintf(assign, sizeof assign, "%s=%.17g", t->ax[a].key, axis_value(&t->ax[a], a ? j : i));
-        rc = dm_robot_set(&rb, assign, &err);
-    }
-    if (!rc)
-        rc = dm_traj_make(t->path, &rb, &tr, &err);
-    if (!rc) {
-        int steps = cp->pm->fn && cp->share > 1; /* counted by steps */
-        rc = dm_integrate_trajectory(&rb, &tr, &t->o, steps ? count_step : NULL, cp, &sum, &err);
-        dm_traj_free(&tr);
-    }
-    dm_progress_add(cp->pm, cp->share - cp->counted);
-    out->status = rc;
-    snprintf(out->msg, sizeof out->msg, "%.255s", rc ? err.msg : "ok");
-    out->mean = rc ? NAN : sum.mean_error_m;
-    out->peak = rc ? NAN : sum.peak_error_m;
-}
-
-static void print_table(const study_opts *t, const cell *cells, int n1, int n2)
-{
-    const axis *a = &t->ax[0], *b = &t->ax[1];
-    printf("mean error (mm, Chen eq. 27) on path %s\n\n", t->path);
-    if (t->naxis == 1) {
+    const dm_study_axis *a = &t->st.axis[0], *b = &t->st.axis[1];
+    printf("mean error (mm, Chen eq. 27) on path %s\n\n", t->st.path);
+    if (t->st.naxis == 1) {
         printf("%14s  %12s  %12s\n", a->key, "mean (mm)", "peak (mm)");
         for (int i = 0; i < n1; i++)
-            printf("%14.6g  %12.6f  %12.6f\n", axis_value(a, i), 1e3 * cells[i].mean,
-                   1e3 * cells[i].peak);
+            printf("%14.6g  %12.6f  %12.6f\n", dm_study_value(a, i), 1e3 * cells[i].mean_error_m,
+                   1e3 * cells[i].peak_error_m);
     } else {
         printf("%14s |", "rows: cols:");
         printf(" %s\n%14s |", b->key, a->key);
         for (int j = 0; j < n2; j++)
-            printf(" %10.6g", axis_value(b, j));
+            printf(" %10.6g", dm_study_value(b, j));
         printf("\n");
         for (int i = 0; i < n1; i++) {
-            printf("%14.6g |", axis_value(a, i));
+            printf("%14.6g |", dm_study_value(a, i));
             for (int j = 0; j < n2; j++)
-                printf(" %10.6f", 1e3 * cells[i * n2 + j].mean);
+                printf(" %10.6f", 1e3 * cells[i * n2 + j].mean_error_m);
             printf("\n");
         }
     }
@@ -203,28 +126,28 @@ static void print_table(const study_opts *t, const cell *cells, int n1, int n2)
 
 static json_t *json_num(double v) { return isnan(v) ? json_null() : json_real(v); }
 
-static int write_outputs(const study_opts *t, const cell *cells, int n1, int n2)
+static int write_outputs(const study_opts *t, const dm_study_cell *cells, int n1, int n2)
 {
     if (t->json) {
         json_t *o = json_object(), *params = json_array(), *vals = json_array(),
                *mean = json_array(), *peak = json_array();
-        for (int a = 0; a < t->naxis; a++) {
+        for (int a = 0; a < t->st.naxis; a++) {
             json_t *v = json_array();
-            json_array_append_new(params, json_string(t->ax[a].key));
-            for (int i = 0; i < t->ax[a].count; i++)
-                json_array_append_new(v, json_real(axis_value(&t->ax[a], i)));
+            json_array_append_new(params, json_string(t->st.axis[a].key));
+            for (int i = 0; i < t->st.axis[a].count; i++)
+                json_array_append_new(v, json_real(dm_study_value(&t->st.axis[a], i)));
             json_array_append_new(vals, v);
         }
         for (int i = 0; i < n1; i++) {
             json_t *rm = json_array(), *rp = json_array();
             for (int j = 0; j < n2; j++) {
-                json_array_append_new(rm, json_num(cells[i * n2 + j].mean));
-                json_array_append_new(rp, json_num(cells[i * n2 + j].peak));
+                json_array_append_new(rm, json_num(cells[i * n2 + j].mean_error_m));
+                json_array_append_new(rp, json_num(cells[i * n2 + j].peak_error_m));
             }
             json_array_append_new(mean, rm);
             json_array_append_new(peak, rp);
         }
-        json_object_set_new(o, "path", json_string(t->path));
+        json_object_set_new(o, "path", json_string(t->st.path));
         json_object_set_new(o, "parameters", params);
         json_object_set_new(o, "values", vals);
         json_object_set_new(o, "mean_error_m", mean);
@@ -241,13 +164,14 @@ static int write_outputs(const study_opts *t, const cell *cells, int n1, int n2)
     dm_error err;
     if (dm_file_out_open(&out, t->out, &err))
         return dm_cli_report(&err);
-    fprintf(out.f, "%s,%s,mean_error_m,peak_error_m,status\n", t->ax[0].key,
-            t->naxis > 1 ? t->ax[1].key : "-");
+    fprintf(out.f, "%s,%s,mean_error_m,peak_error_m,status\n", t->st.axis[0].key,
+            t->st.naxis > 1 ? t->st.axis[1].key : "-");
     for (int i = 0; i < n1; i++)
         for (int j = 0; j < n2; j++) {
-            const cell *c = &cells[i * n2 + j];
-            fprintf(out.f, "%.9g,%.9g,%.9e,%.9e,%s\n", axis_value(&t->ax[0], i),
-                    t->naxis > 1 ? axis_value(&t->ax[1], j) : 0.0, c->mean, c->peak,
+            const dm_study_cell *c = &cells[i * n2 + j];
+            fprintf(out.f, "%.9g,%.9g,%.9e,%.9e,%s\n", dm_study_value(&t->st.axis[0], i),
+                    t->st.naxis > 1 ? dm_study_value(&t->st.axis[1], j) : 0.0, c->mean_error_m,
+                    c->peak_error_m,
                     dm_status_name(c->status));
         }
     if (dm_file_out_commit(&out, &err))
@@ -261,42 +185,24 @@ int dm_cli_study(int argc, char **argv)
     int rc = parse(argc, argv, &t);
     if (rc)
         return rc;
-    t.threads = dm_cli_threads(t.threads);
+    t.st.threads = dm_cli_threads(t.st.threads);
     dm_robot rb;
     dm_error err;
     if (dm_cli_load_robot(t.robot, t.sets, t.nset, &rb, &err))
         return dm_cli_report(&err);
-    for (int a = 0; a < t.naxis; a++) { /* validate each key once, up front */
-        dm_robot probe = rb;
-        char assign[128];
-        snprintf(assign, sizeof assign, "%s=%.17g", t.ax[a].key, t.ax[a].from);
-        if (dm_robot_set(&probe, assign, &err))
-            return dm_cli_report(&err);
-    }
-    int n1 = t.ax[0].count, n2 = t.naxis > 1 ? t.ax[1].count : 1;
-    cell *cells = calloc((size_t)n1 * n2, sizeof *cells);
+    int n1 = t.st.axis[0].count, n2 = t.st.naxis > 1 ? t.st.axis[1].count : 1;
+    dm_study_cell *cells = calloc((size_t)n1 * n2, sizeof *cells);
     if (!cells)
-        return DM_ENOMEM;
+        return dm_cli_report((dm_fail(&err, DM_ENOMEM, "out of memory"), &err));
     dm_cli_progress view;
-    dm_progress_meter pm;
     dm_cli_progress_init(&view, "study", t.progress);
-    dm_progress_meter_init(&pm, t.progress ? dm_cli_progress_report : NULL, &view);
-    long share = 1;
-    dm_trajectory tr;
-    if (pm.fn && !dm_traj_make(t.path, &rb, &tr, NULL)) { /* its steps, as the runs take them */
-        /* (a run of more than 1e9 steps is refused as hours of work: its share is done then) */
-        share = (long)fmin(1e9, fmax(1.0, ceil(tr.duration_s / t.o.dt_s - 1e-9)));
-        dm_traj_free(&tr);
+    if (t.progress) {
+        t.st.progress = dm_cli_progress_report;
+        t.st.progress_user = &view;
     }
-    dm_progress_begin(&pm, "trajectory runs", share > 1 ? "steps" : "combinations", share * n1 * n2);
-#pragma omp parallel for schedule(dynamic) num_threads(t.threads)
-    for (int c = 0; c < n1 * n2; c++) {
-        cell_progress cp = {&pm, 0, share};
-        run_cell(&t, &rb, c / n2, c % n2, &cells[c], &cp);
-    }
-    dm_progress_end(&pm);
+    rc = dm_study_run(&rb, &t.st, cells, &err);
     dm_cli_progress_finish(&view);
-    rc = write_outputs(&t, cells, n1, n2);
+    rc = rc ? dm_cli_report(&err) : write_outputs(&t, cells, n1, n2);
     free(cells);
     return rc;
 }

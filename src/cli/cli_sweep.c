@@ -81,7 +81,7 @@ static void on_signal(int sig)
 
 typedef struct {
     const char *robot, *grid, *out, *shard;
-    const char *sets[16];
+    const char *sets[DM_CLI_MAXSET];
     int nset;
     dm_sweep_opts o;
     int progress;       /* DM_CLI_PROGRESS_*: bar on a terminal, else lines */

@@ -1,19 +1,15 @@
 /* deltamap trajectory: 6-D elastic error of the platform along a path. */
-#include <errno.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
-#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "cli_impl.h"
 #include "cli_shapes.h"
 #include "dm_budget.h"
 #include "dm_integrate.h"
-#include "dm_store.h"
 #include "dm_trajstore.h"
 
 static const char HELP[] =
@@ -93,7 +89,7 @@ static const char HELP[] =
 
 typedef struct {
     const char *robot, *path, *out;
-    const char *sets[16];
+    const char *sets[DM_CLI_MAXSET];
     int nset;
     int json, na, nb, rigid, no_budget;
     dm_integ_opts o;
@@ -223,10 +219,9 @@ static int parse(int argc, char **argv, traj_opts *t)
 
 /* What the sinks write to: CSV rows or kept samples, and the coupling
  * index's change against the nominal robot, tracked over the samples. */
-typedef struct sample_list sample_list;
 typedef struct {
     FILE *csv;
-    sample_list *kept;
+    dm_trajstore_samples *kept;
     dm_cli_traj_vtk *vtk; /* --vtk: its frames (failures: failed, err) */
     dm_coupling_change cc;
     int failed;   /* the coupling change's error (in err) stopped the run */
@@ -266,7 +261,6 @@ static void csv_base(FILE *f, const dm_integ_sample *s, double change)
         fprintf(f, ",%.12g", change);
 }
 
-static int keep_sample(sample_list *l, const dm_integ_sample *s, double change);
 
 static int run_sample(void *user, const dm_integ_sample *s)
 {
@@ -277,7 +271,7 @@ static int run_sample(void *user, const dm_integ_sample *s)
     if (ro->vtk && (ro->failed = dm_cli_traj_vtk_frame(ro->vtk, s, &ro->err)))
         return 1;
     if (ro->kept)
-        return keep_sample(ro->kept, s, change);
+        return dm_trajstore_keep(ro->kept, s, change);
     if (!ro->csv)
         return 0;
     csv_base(ro->csv, s, change);
@@ -312,104 +306,6 @@ static int csv_budget_row(FILE *f, const dm_budget_sample *b, double change)
 
 /* ---- the map store's format (--out NAME.zarr) ---------------------------- */
 
-struct sample_list {
-    long n, cap;
-    dm_integ_sample *s;
-    double *change;     /* per sample: the coupling index's change */
-};
-
-static int keep_sample(sample_list *l, const dm_integ_sample *s, double change)
-{
-    if (l->n == l->cap) {
-        long cap = l->cap ? 2 * l->cap : 1024;
-        dm_integ_sample *grown = realloc(l->s, sizeof *grown * cap);
-        if (grown)
-            l->s = grown;
-        double *more = grown ? realloc(l->change, sizeof *more * cap) : NULL;
-        if (!more)
-            return 1;
-        l->change = more;
-        l->cap = cap;
-    }
-    l->change[l->n] = change;
-    l->s[l->n++] = *s;
-    return 0;
-}
-
-static double sample_value(const sample_list *l, long i, int array, int j)
-{
-    const dm_integ_sample *s = &l->s[i];
-    switch (array) {
-    case 0: return s->t_s;
-    case 1: return s->P_m[j];
-    case 2: return s->error[j];
-    case 3: return sqrt(s->error[0] * s->error[0] + s->error[1] * s->error[1] + s->error[2] * s->error[2]);
-    case 4: return s->tool_error_m[j];
-    case 5: return j < s->nfreq ? s->freq_hz[j] : NAN;
-    case 6: return s->coupling_index_log10;
-    default: return l->change[i];
-    }
-}
-
-/* A run's store appears whole or not at all: it is written as PATH.tmp.PID
- * and renamed over PATH, replacing an earlier run's store (a directory
- * whose zarr.json is a deltamap trajectory run) but nothing else. */
-static int replace_store(const char *tmp, const char *path, dm_error *err)
-{
-    if (!rename(tmp, path))
-        return DM_OK;
-    if (errno == ENOTEMPTY || errno == EEXIST) {
-        char file[1100];
-        snprintf(file, sizeof file, "%s/zarr.json", path);
-        json_error_t je;
-        json_t *g = json_load_file(file, 0, &je);
-        if (!g && json_error_code(&je) == json_error_out_of_memory)
-            return dm_fail(err, DM_ENOMEM, "%s: out of memory", file);
-        const char *title = json_string_value(json_object_get(json_object_get(g, "attributes"), "title"));
-        int ours = title && !strcmp(title, "deltamap trajectory run");
-        json_decref(g);
-        if (!ours)
-            return dm_fail(err, DM_EINVAL, "%s exists and is not a trajectory store written by "
-                           "deltamap; choose another --out", path);
-        if (!dm_file_remove_tree(path) && !rename(tmp, path))
-            return DM_OK;
-    }
-    return dm_fail(err, DM_EIO, "%s: cannot replace: %s", path, strerror(errno));
-}
-
-static int write_zarr(const char *path, const dm_robot *rb, const dm_trajectory *tr,
-                      const sample_list *l, int nfreq, dm_error *err)
-{
-    dm_store st;
-    char tmp[sizeof st.path];
-    snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
-    dm_trajstore_define(&st, tmp, rb->name, tr->name, l->n, nfreq);
-    int rc = dm_store_write_metadata(&st, err);
-    size_t most = 0; /* elements of the largest chunk */
-    for (int a = 0; a < st.narr; a++)
-        most = dm_store_chunk_elems(&st, a) > most ? dm_store_chunk_elems(&st, a) : most;
-    double *buf = rc ? NULL : malloc(sizeof(double) * most);
-    if (!rc && !buf)
-        rc = dm_fail(err, DM_ENOMEM, "out of memory");
-    for (int a = 0; a < st.narr && !rc; a++) {
-        int m = st.arr[a].ndim > 1 ? (int)st.arr[a].shape[1] : 1, ch = st.arr[a].chunk[0];
-        for (long c0 = 0; c0 * ch < l->n && !rc; c0++) {
-            for (long i = 0; i < ch; i++)
-                for (int j = 0; j < m; j++)
-                    buf[i * m + j] = c0 * ch + i < l->n ? sample_value(l, c0 * ch + i, a, j) : NAN;
-            const int64_t c[2] = {c0, 0};
-            rc = dm_store_write_chunk(&st, a, c, buf, err);
-        }
-    }
-    free(buf);
-    dm_store_release(&st);
-    if (!rc)
-        rc = replace_store(st.path, path, err);
-    if (rc)
-        dm_file_remove_tree(st.path);
-    return rc;
-}
-
 /* A budget run's sink: CSV rows, or the combined run's samples for Zarr. */
 static int budget_sample(void *user, const dm_budget_sample *b)
 {
@@ -421,7 +317,7 @@ static int budget_sample(void *user, const dm_budget_sample *b)
         return 1;
     if (ro->csv)
         return csv_budget_row(ro->csv, b, change);
-    return ro->kept ? keep_sample(ro->kept, &b->run, change) : 0;
+    return ro->kept ? dm_trajstore_keep(ro->kept, &b->run, change) : 0;
 }
 
 static int ends_with(const char *s, const char *tail)
@@ -575,7 +471,7 @@ int dm_cli_trajectory(int argc, char **argv)
     }
     dm_file_out out = {0};
     int zarr = t.out && ends_with(t.out, ".zarr");
-    sample_list kept = {0};
+    dm_trajstore_samples kept = {0};
     if (t.out && !zarr && (rc = dm_file_out_open(&out, t.out, &err))) {
         dm_traj_free(&tr);
         return dm_cli_report(&err);
@@ -598,13 +494,12 @@ int dm_cli_trajectory(int argc, char **argv)
     if (!rc && out.f)
         rc = dm_file_out_commit(&out, &err);
     if (!rc && zarr)
-        rc = write_zarr(t.out, &rb, &tr, &kept, kept.n ? kept.s[0].nfreq : 0, &err);
+        rc = dm_trajstore_write(t.out, rb.name, tr.name, &kept, &err);
     if (ro.vtk) {
         int vrc = dm_cli_traj_vtk_finish(ro.vtk, !rc, &err);
         rc = rc ? rc : vrc;
     }
-    free(kept.s);
-    free(kept.change);
+    dm_trajstore_samples_free(&kept);
     if (rc) {
         if (out.f)
             dm_file_out_abort(&out);

@@ -2,10 +2,14 @@
  * (see dm_trajstore.h). */
 #include "dm_trajstore.h"
 
+#include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
+#include "dm_file.h"
 #include "dm_version.h"
 
 #define TRAJ_VERSION "deltamap " DM_VERSION
@@ -148,4 +152,107 @@ int dm_trajstore_check(const char *path, json_t *attrs, int repair, dm_sweep_dam
     if (rc)
         dm_store_release(&chk->store);
     return rc;
+}
+
+/* ---- writing a run ------------------------------------------------------ */
+
+int dm_trajstore_keep(dm_trajstore_samples *l, const dm_integ_sample *s, double change)
+{
+    if (l->n == l->cap) {
+        long cap = l->cap ? 2 * l->cap : 1024;
+        dm_integ_sample *grown = realloc(l->s, sizeof *grown * cap);
+        if (grown)
+            l->s = grown;
+        double *more = grown ? realloc(l->change, sizeof *more * cap) : NULL;
+        if (!more)
+            return 1;
+        l->change = more;
+        l->cap = cap;
+    }
+    l->change[l->n] = change;
+    l->s[l->n++] = *s;
+    return 0;
+}
+
+/* Sample i's value j of array `array` (dm_trajstore_define's order). */
+static double sample_value(const dm_trajstore_samples *l, long i, int array, int j)
+{
+    const dm_integ_sample *s = &l->s[i];
+    switch (array) {
+    case 0: return s->t_s;
+    case 1: return s->P_m[j];
+    case 2: return s->error[j];
+    case 3: return sqrt(s->error[0] * s->error[0] + s->error[1] * s->error[1] + s->error[2] * s->error[2]);
+    case 4: return s->tool_error_m[j];
+    case 5: return j < s->nfreq ? s->freq_hz[j] : NAN;
+    case 6: return s->coupling_index_log10;
+    default: return l->change[i];
+    }
+}
+
+/* A run's store appears whole or not at all: it is written as PATH.tmp.PID
+ * and renamed over PATH, replacing an earlier run's store (a directory
+ * whose zarr.json is a deltamap trajectory run) but nothing else. */
+static int replace_store(const char *tmp, const char *path, dm_error *err)
+{
+    if (!rename(tmp, path))
+        return DM_OK;
+    if (errno == ENOTEMPTY || errno == EEXIST) {
+        char file[1100];
+        snprintf(file, sizeof file, "%s/zarr.json", path);
+        json_error_t je;
+        json_t *g = json_load_file(file, 0, &je);
+        if (!g && json_error_code(&je) == json_error_out_of_memory)
+            return dm_fail(err, DM_ENOMEM, "%s: out of memory", file);
+        const char *title = json_string_value(json_object_get(json_object_get(g, "attributes"), "title"));
+        int ours = title && !strcmp(title, "deltamap trajectory run");
+        json_decref(g);
+        if (!ours)
+            return dm_fail(err, DM_EINVAL, "%s exists and is not a trajectory store written by "
+                           "deltamap; choose another --out", path);
+        if (!dm_file_remove_tree(path) && !rename(tmp, path))
+            return DM_OK;
+    }
+    return dm_fail(err, DM_EIO, "%s: cannot replace: %s", path, strerror(errno));
+}
+
+int dm_trajstore_write(const char *path, const char *robot, const char *traj,
+                       const dm_trajstore_samples *l, dm_error *err)
+{
+    int nfreq = l->n ? l->s[0].nfreq : 0;
+    dm_store st;
+    char tmp[sizeof st.path];
+    snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
+    dm_trajstore_define(&st, tmp, robot, traj, l->n, nfreq);
+    int rc = dm_store_write_metadata(&st, err);
+    size_t most = 0; /* elements of the largest chunk */
+    for (int a = 0; a < st.narr; a++)
+        most = dm_store_chunk_elems(&st, a) > most ? dm_store_chunk_elems(&st, a) : most;
+    double *buf = rc ? NULL : malloc(sizeof(double) * most);
+    if (!rc && !buf)
+        rc = dm_fail(err, DM_ENOMEM, "out of memory");
+    for (int a = 0; a < st.narr && !rc; a++) {
+        int m = st.arr[a].ndim > 1 ? (int)st.arr[a].shape[1] : 1, ch = st.arr[a].chunk[0];
+        for (long c0 = 0; c0 * ch < l->n && !rc; c0++) {
+            for (long i = 0; i < ch; i++)
+                for (int j = 0; j < m; j++)
+                    buf[i * m + j] = c0 * ch + i < l->n ? sample_value(l, c0 * ch + i, a, j) : NAN;
+            const int64_t c[2] = {c0, 0};
+            rc = dm_store_write_chunk(&st, a, c, buf, err);
+        }
+    }
+    free(buf);
+    dm_store_release(&st);
+    if (!rc)
+        rc = replace_store(st.path, path, err);
+    if (rc)
+        dm_file_remove_tree(st.path);
+    return rc;
+}
+
+void dm_trajstore_samples_free(dm_trajstore_samples *l)
+{
+    free(l->s);
+    free(l->change);
+    memset(l, 0, sizeof *l);
 }
