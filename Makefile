@@ -149,6 +149,7 @@ $(BUILD)/tests/runs/%.ok: | $(BUILD)/tests
 	    exit 1; }; fi
 
 cli-tests: $(BIN)
+	@DELTAMAP=$(BIN) tests/cli_doc.sh
 	@DELTAMAP=$(BIN) tests/cli_tests.sh
 
 isa-tests: $(BIN)
