@@ -1,6 +1,7 @@
 /* The deltamap command line (see dm_cli.h). */
 #include "dm_cli.h"
 
+#include <assert.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
@@ -81,30 +82,26 @@ static const char ROBOT_HELP[] =
 /* ---- modes ------------------------------------------------------------- */
 
 typedef struct {
-    const char *robot, *vtk;
-    const char *sets[DM_CLI_MAXSET];
-    int nset;
+    dm_cli_shared sh; /* --robot, --set, --mesh, --json */
+    const char *vtk;
     double at[3];
-    int have_at, k, na, nb, json;
+    int have_at, k;
     dm_eigen_method method;
 } modes_opts;
 
 static int parse_modes_opts(int argc, char **argv, modes_opts *o)
 {
-    static const struct option longopts[] = {
-        {"robot", required_argument, 0, 'r'}, {"at", required_argument, 0, 'a'},
-        {"modes", required_argument, 0, 'k'}, {"mesh", required_argument, 0, 'm'},
-        {"method", required_argument, 0, 'M'}, {"json", no_argument, 0, 'j'},
-        {"set", required_argument, 0, 's'}, {"vtk", required_argument, 0, 'V'},
-        {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
-    int c;
+    static const struct option own[] = {
+        {"at", required_argument, 0, 'a'}, {"modes", required_argument, 0, 'k'},
+        {"method", required_argument, 0, 'M'}, {"vtk", required_argument, 0, 'V'}, {0, 0, 0, 0}};
+    struct option longopts[DM_CLI_MAXOPT];
+    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_JSON, longopts);
+    int c, rc;
     memset(o, 0, sizeof *o);
+    o->sh = (dm_cli_shared){.cmd = "modes", .help = MODES_HELP};
     o->k = 10;
-    optind = 1;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, "", longopts, NULL)) != -1) {
+    while ((c = dm_cli_getopt(argc, argv, longopts, &o->sh, &rc))) {
         switch (c) {
-        case 'r': o->robot = optarg; break;
         case 'a':
             if (dm_cli_parse_list(optarg, o->at, 3))
                 return dm_cli_usage("modes", "--at takes X,Y,Z in m", optarg);
@@ -113,10 +110,6 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
         case 'k':
             if (dm_cli_parse_int(optarg, 1, 100000, &o->k))
                 return dm_cli_usage("modes", "--modes takes a whole number >= 1", optarg);
-            break;
-        case 'm':
-            if (dm_cli_parse_mesh(optarg, &o->na, &o->nb))
-                return dm_cli_usage("modes", "--mesh takes NA,NB, whole numbers 1..64", optarg);
             break;
         case 'M':
             if (!strcmp(optarg, "partial"))
@@ -128,19 +121,13 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
             else
                 return dm_cli_usage("modes", "--method is partial, dense or all", optarg);
             break;
-        case 'j': o->json = 1; break;
         case 'V': o->vtk = optarg; break;
-        case 's':
-            if (dm_cli_add_set("modes", o->sets, &o->nset, optarg))
-                return EXIT_USAGE;
-            break;
-        case 'h': fputs(MODES_HELP, stdout); exit(0);
-        default: return dm_cli_usage("modes", "unknown or incomplete option", argv[optind - 1]);
+        default: assert(0);
         }
     }
-    if (optind < argc)
-        return dm_cli_usage("modes", "unexpected argument", argv[optind]);
-    if (!o->robot)
+    if (rc)
+        return rc;
+    if (!o->sh.robot)
         return dm_cli_usage("modes", "--robot is required", NULL);
     return 0;
 }
@@ -241,10 +228,10 @@ static int cmd_modes(int argc, char **argv)
         return rc;
     dm_robot rb;
     dm_error err;
-    if (dm_cli_load_robot(o.robot, o.sets, o.nset, &rb, &err) ||
+    if (dm_cli_load_robot(o.sh.robot, o.sh.sets, o.sh.nset, &rb, &err) ||
         (o.vtk && dm_vtk_check_dir(o.vtk, &err)))
         return dm_cli_report(&err);
-    int na = o.na ? o.na : rb.na, nb = o.nb ? o.nb : rb.nb;
+    int na = o.sh.na ? o.sh.na : rb.na, nb = o.sh.nb ? o.sh.nb : rb.nb;
     dm_analysis *an = dm_analysis_alloc(&rb, na, nb, o.k, o.method, &err);
     if (!an)
         return dm_cli_report(&err);
@@ -260,17 +247,17 @@ static int cmd_modes(int argc, char **argv)
     dm_coupling *cw = NULL;
     dm_shape_set *shapes = NULL;
     rc = dm_analysis_run(an, P, o.k, &res, &err);
-    if (!rc && (o.json || o.vtk) &&
+    if (!rc && (o.sh.json || o.vtk) &&
         !(shapes = dm_shape_set_make(an, &res, dm_shape_default_max(&rb), &err)))
         rc = err.code;
     if (!rc && !(cw = dm_coupling_alloc(&rb, na, nb, &err)))
         rc = err.code;
     if (!rc)
         rc = dm_coupling_nominal_log10(cw, P, &nominal, &err);
-    if (!rc && o.json && (rc = print_modes_json(&rb, an, &res, nominal, shapes)))
+    if (!rc && o.sh.json && (rc = print_modes_json(&rb, an, &res, nominal, shapes)))
         dm_fail(&err, rc, "modes --json: the JSON could not be made or written (out of "
                 "memory, or stdout failed)");
-    else if (!rc && !o.json)
+    else if (!rc && !o.sh.json)
         print_modes_table(&rb, an, &res, nominal);
     if (!rc && o.vtk) /* files last: a failure before leaves none behind */
         rc = dm_cli_modes_vtk(o.vtk, shapes, res.modes->platform_share, res.modes->freq_hz, &err);

@@ -92,7 +92,9 @@ typedef struct dm_cli_progress {
     int open;              /* a bar is drawn whose line has not ended */
 } dm_cli_progress;
 
-void dm_cli_progress_init(dm_cli_progress *v, const char *cmd, int mode);
+/* Returns the dm_progress_fn drawing a library's reports on v
+ * (dm_cli_progress_report), NULL when mode is none. */
+dm_progress_fn dm_cli_progress_init(dm_cli_progress *v, const char *cmd, int mode);
 
 /* Draw one report of stage number `index` (a new number: a new stage,
  * drawn at once): "[STAGE ]DONE/TOTAL[ UNIT][  RATE]  ETA E s". stage,
@@ -107,6 +109,50 @@ void dm_cli_progress_report(void *user, const dm_progress *p);
 /* End a bar's line left open (the work stopped mid-stage, on an error):
  * call before printing anything else. */
 void dm_cli_progress_finish(dm_cli_progress *v);
+
+/* ---- the options every command spells alike ----
+ *
+ * One table (cli_util.c) of --robot, --set, --mesh, --threads, --progress,
+ * --json, --out, --force-long and --help: a command names those it takes,
+ * dm_cli_options merges them into its own getopt table, and
+ * dm_cli_shared_option handles them (its own switch never sees them). */
+#include <getopt.h>
+
+enum {
+    DM_CLI_ROBOT = 1 << 0,      /* --robot R */
+    DM_CLI_SET = 1 << 1,        /* --set SECTION.KEY=V, repeatable */
+    DM_CLI_MESH = 1 << 2,       /* --mesh NA,NB */
+    DM_CLI_THREADS = 1 << 3,    /* --threads N, 1..1024 */
+    DM_CLI_PROGRESS = 1 << 4,   /* --progress bar|lines|none */
+    DM_CLI_JSON = 1 << 5,       /* --json */
+    DM_CLI_OUT = 1 << 6,        /* --out FILE */
+    DM_CLI_FORCE_LONG = 1 << 7, /* --force-long (dm_work.h) */
+};
+
+typedef struct dm_cli_shared {
+    const char *cmd, *help; /* the command's name (messages) and --help text */
+    const char *robot;
+    const char *sets[DM_CLI_MAXSET];
+    int nset;
+    int na, nb;             /* 0: the robot's */
+    int threads;            /* 0: not given */
+    int progress;           /* DM_CLI_PROGRESS_*: set the command's default first */
+    int json, force_long;
+    const char *out;
+} dm_cli_shared;
+
+/* The command's table `own` (ended by a zero entry) followed by the shared
+ * options in `which` and --help, into opts (DM_CLI_MAXOPT entries); and
+ * getopt set to read a command line from its start, silently. */
+#define DM_CLI_MAXOPT 48
+void dm_cli_options(const struct option *own, unsigned which, struct option *opts);
+
+/* The next of the command's own options (getopt_long over opts, its
+ * argument in optarg), the shared ones handled on the way into sh (--help
+ * prints sh->help and exits). 0 at the end, *rc then 0 or the usage error
+ * to return: a shared option's bad value, an unknown option, an argument
+ * that is no option. */
+int dm_cli_getopt(int argc, char **argv, const struct option *opts, dm_cli_shared *sh, int *rc);
 
 /* Commands. */
 int dm_cli_trajectory(int argc, char **argv);

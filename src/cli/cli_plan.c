@@ -1,4 +1,5 @@
 /* deltamap plan: the experiment that can tell, before it is run. */
+#include <assert.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <limits.h>
@@ -36,32 +37,28 @@ static const char PLAN_HELP[] =
     "default when stderr is a terminal), lines, or none (the default otherwise).\n";
 
 typedef struct {
-    const char *robot, *effects, *out, *sets[DM_CLI_MAXSET];
-    int nset, json, have_kind, progress;
+    dm_cli_shared sh; /* --robot, --set, --mesh, --threads, --progress, --json, --out, --force-long */
+    const char *effects;
+    int have_kind;
     dm_plan_opts o;
 } plan_args;
 
 static int parse(int argc, char **argv, plan_args *a)
 {
-    static const struct option lo[] = {
-        {"robot", 1, 0, 'r'}, {"kind", 1, 0, 'k'},    {"effects", 1, 0, 'e'},
-        {"poses", 1, 0, 'p'}, {"noise", 1, 0, 'n'},   {"region", 1, 0, 'g'},
-        {"seed", 1, 0, 'S'},  {"mesh", 1, 0, 'm'},    {"modes", 1, 0, 'M'},
-        {"threads", 1, 0, 'T'}, {"set", 1, 0, 's'},   {"out", 1, 0, 'o'},
-        {"json", 0, 0, 'j'},  {"help", 0, 0, 'h'},    {"force-long", 0, 0, 'L'},
-        {"progress", 1, 0, 'P'}, {0, 0, 0, 0}};
-    int c, seed = 1;
+    static const struct option own[] = {
+        {"kind", 1, 0, 'k'},  {"effects", 1, 0, 'e'}, {"poses", 1, 0, 'p'}, {"noise", 1, 0, 'n'},
+        {"region", 1, 0, 'g'}, {"seed", 1, 0, 'S'},   {"modes", 1, 0, 'M'}, {0, 0, 0, 0}};
+    struct option lo[DM_CLI_MAXOPT];
+    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
+                            DM_CLI_JSON | DM_CLI_OUT | DM_CLI_FORCE_LONG, lo);
+    int c, rc, seed = 1;
     memset(a, 0, sizeof *a);
-    a->progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
-    optind = 1;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+    a->sh = (dm_cli_shared){.cmd = "plan", .help = PLAN_HELP};
+    a->sh.progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
+    while ((c = dm_cli_getopt(argc, argv, lo, &a->sh, &rc))) {
         switch (c) {
-        case 'r': a->robot = optarg; break;
         case 'e': a->effects = optarg; break;
         case 'g': a->o.region = optarg; break;
-        case 'o': a->out = optarg; break;
-        case 'j': a->json = 1; break;
         case 'k':
             if (dm_data_kind_parse(optarg, &a->o.kind))
                 return dm_cli_usage("plan", "--kind is modal, static or tracker", optarg);
@@ -71,11 +68,6 @@ static int parse(int argc, char **argv, plan_args *a)
             if (dm_cli_parse_count(optarg, 1, INT_MAX, &a->o.npose))
                 return dm_cli_usage("plan", "--poses takes a whole number 1..2147483647", optarg);
             break;
-        case 'L': a->o.force_long = 1; break;
-        case 'P':
-            if (dm_cli_parse_progress("plan", optarg, &a->progress))
-                return EXIT_USAGE;
-            break;
         case 'n':
             if (dm_cli_parse_list(optarg, &a->o.noise, 1) || !(a->o.noise > 0))
                 return dm_cli_usage("plan", "--noise takes a value > 0 (Hz or m)", optarg);
@@ -84,31 +76,22 @@ static int parse(int argc, char **argv, plan_args *a)
             if (dm_cli_parse_int(optarg, 0, 2147483647, &seed))
                 return dm_cli_usage("plan", "--seed takes a whole number >= 0", optarg);
             break;
-        case 'm':
-            if (dm_cli_parse_mesh(optarg, &a->o.na, &a->o.nb))
-                return dm_cli_usage("plan", "--mesh takes NA,NB, whole numbers 1..64", optarg);
-            break;
         case 'M':
             if (dm_cli_parse_int(optarg, 1, DM_MAX_MODES, &a->o.modes))
                 return dm_cli_usage("plan", "--modes takes 1.." DM_MAX_MODES_TEXT, optarg);
             break;
-        case 'T':
-            if (dm_cli_parse_int(optarg, 1, 1024, &a->o.threads))
-                return dm_cli_usage("plan", "--threads takes a whole number >= 1", optarg);
-            break;
-        case 's':
-            if (dm_cli_add_set("plan", a->sets, &a->nset, optarg))
-                return EXIT_USAGE;
-            break;
-        case 'h': fputs(PLAN_HELP, stdout); exit(0);
-        default: return dm_cli_usage("plan", "unknown or incomplete option", argv[optind - 1]);
+        default: assert(0);
         }
     }
-    if (optind < argc)
-        return dm_cli_usage("plan", "unexpected argument", argv[optind]);
-    if (!a->robot || !a->have_kind || !a->effects || !a->o.npose)
+    if (rc)
+        return rc;
+    if (!a->sh.robot || !a->have_kind || !a->effects || !a->o.npose)
         return dm_cli_usage("plan", "--robot, --kind, --effects and --poses are required", NULL);
     a->o.seed = (uint64_t)seed;
+    a->o.na = a->sh.na;
+    a->o.nb = a->sh.nb;
+    a->o.threads = a->sh.threads;
+    a->o.force_long = a->sh.force_long;
     return 0;
 }
 
@@ -270,33 +253,30 @@ int dm_cli_plan(int argc, char **argv)
     dm_plan_result r;
     int neff;
     dm_cli_progress view;
-    dm_cli_progress_init(&view, "plan", a.progress);
-    if (a.progress) {
-        a.o.progress = dm_cli_progress_report;
-        a.o.progress_user = &view;
-    }
+    a.o.progress = dm_cli_progress_init(&view, "plan", a.sh.progress);
+    a.o.progress_user = &view;
     if ((rc = dm_plan_parse_effects(a.effects, a.o.kind, eff, &neff, &err)) ||
-        (rc = dm_cli_load_robot(a.robot, a.sets, a.nset, &rb, &err)) ||
+        (rc = dm_cli_load_robot(a.sh.robot, a.sh.sets, a.sh.nset, &rb, &err)) ||
         (rc = dm_plan(&rb, eff, neff, &a.o, &r, &err))) {
         dm_cli_progress_finish(&view);
         return dm_cli_report(&err);
     }
     dm_cli_progress_finish(&view);
-    if (a.json)
+    if (a.sh.json)
         print_plan_json(&rb, &r);
     else
         print_plan(&rb, &r);
-    if (a.out) {
+    if (a.sh.out) {
         dm_file_out out;
-        if (!(rc = dm_file_out_open(&out, a.out, &err))) {
-            dm_plan_write_template(&r, a.robot, out.f);
+        if (!(rc = dm_file_out_open(&out, a.sh.out, &err))) {
+            dm_plan_write_template(&r, a.sh.robot, out.f);
             rc = dm_file_out_commit(&out, &err);
         }
         if (rc)
             dm_cli_report(&err);
-        else if (!a.json)
+        else if (!a.sh.json)
             printf("\nwritten   %s: the measurement template (fill in the measured values, then "
-                   "deltamap diagnose)\n", a.out);
+                   "deltamap diagnose)\n", a.sh.out);
     }
     dm_plan_free(&r);
     return rc;

@@ -1,5 +1,6 @@
 /* deltamap study: mean trajectory error over one or two robot parameters
  * (Chen's cross-section studies, figures 5-7). */
+#include <assert.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
@@ -30,69 +31,50 @@ static const char HELP[] =
     "                  none (the default otherwise)\n";
 
 typedef struct {
-    const char *robot, *out;
-    const char *sets[DM_CLI_MAXSET];
-    int nset, json, progress;
+    dm_cli_shared sh; /* --robot, --set, --mesh, --threads, --progress, --json, --out */
     dm_study st;
 } study_opts;
 
 static int parse(int argc, char **argv, study_opts *t)
 {
-    static const struct option lo[] = {
-        {"robot", 1, 0, 'r'}, {"path", 1, 0, 'p'}, {"vary", 1, 0, 'v'}, {"modes", 1, 0, 'k'},
-        {"dt", 1, 0, 'd'}, {"mesh", 1, 0, 'm'}, {"set", 1, 0, 's'}, {"threads", 1, 0, 'T'},
-        {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {"progress", 1, 0, 'P'},
+    static const struct option own[] = {
+        {"path", 1, 0, 'p'}, {"vary", 1, 0, 'v'}, {"modes", 1, 0, 'k'}, {"dt", 1, 0, 'd'},
         {0, 0, 0, 0}};
-    int c;
+    struct option lo[DM_CLI_MAXOPT];
+    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
+                            DM_CLI_JSON | DM_CLI_OUT, lo);
+    int c, rc;
     memset(t, 0, sizeof *t);
-    t->progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
+    t->sh = (dm_cli_shared){.cmd = "study", .help = HELP};
+    t->sh.progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
     dm_integ_opts_default(&t->st.opts);
     t->st.opts.reference = 0;
-    optind = 1;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+    while ((c = dm_cli_getopt(argc, argv, lo, &t->sh, &rc))) {
         switch (c) {
-        case 'r': t->robot = optarg; break;
         case 'p': t->st.path = optarg; break;
-        case 'o': t->out = optarg; break;
-        case 'j': t->json = 1; break;
-        case 'P':
-            if (dm_cli_parse_progress("study", optarg, &t->progress))
-                return EXIT_USAGE;
-            break;
         case 'v':
             if (t->st.naxis == DM_STUDY_MAXAXIS ||
                 dm_study_axis_parse(optarg, &t->st.axis[t->st.naxis]))
                 return dm_cli_usage("study", "--vary takes SECTION.KEY=FROM:TO:N, at most twice", optarg);
             t->st.naxis++;
             break;
-        case 's':
-            if (dm_cli_add_set("study", t->sets, &t->nset, optarg))
-                return EXIT_USAGE;
-            break;
         case 'k':
             if (dm_cli_parse_int(optarg, 1, 100000, &t->st.opts.k))
                 return dm_cli_usage("study", "--modes takes a whole number >= 1", optarg);
-            break;
-        case 'T':
-            if (dm_cli_parse_int(optarg, 1, 1024, &t->st.threads))
-                return dm_cli_usage("study", "--threads takes a whole number >= 1", optarg);
             break;
         case 'd':
             if (dm_cli_parse_list(optarg, &t->st.opts.dt_s, 1) || !(t->st.opts.dt_s > 0))
                 return dm_cli_usage("study", "--dt takes a time step > 0 in s", optarg);
             break;
-        case 'm':
-            if (dm_cli_parse_mesh(optarg, &t->st.opts.na, &t->st.opts.nb))
-                return dm_cli_usage("study", "--mesh takes NA,NB, whole numbers 1..64", optarg);
-            break;
-        case 'h': fputs(HELP, stdout); exit(0);
-        default: return dm_cli_usage("study", "unknown or incomplete option", argv[optind - 1]);
+        default: assert(0);
         }
     }
-    if (optind < argc)
-        return dm_cli_usage("study", "unexpected argument", argv[optind]);
-    if (!t->robot || !t->st.path || !t->st.naxis)
+    t->st.opts.na = t->sh.na;
+    t->st.opts.nb = t->sh.nb;
+    t->st.threads = t->sh.threads;
+    if (rc)
+        return rc;
+    if (!t->sh.robot || !t->st.path || !t->st.naxis)
         return dm_cli_usage("study", "--robot, --path and --vary are required", NULL);
     return 0;
 }
@@ -128,7 +110,7 @@ static json_t *json_num(double v) { return isnan(v) ? json_null() : json_real(v)
 
 static int write_outputs(const study_opts *t, const dm_study_cell *cells, int n1, int n2)
 {
-    if (t->json) {
+    if (t->sh.json) {
         json_t *o = json_object(), *params = json_array(), *vals = json_array(),
                *mean = json_array(), *peak = json_array();
         for (int a = 0; a < t->st.naxis; a++) {
@@ -158,11 +140,11 @@ static int write_outputs(const study_opts *t, const dm_study_cell *cells, int n1
     } else {
         print_table(t, cells, n1, n2);
     }
-    if (!t->out)
+    if (!t->sh.out)
         return 0;
     dm_file_out out;
     dm_error err;
-    if (dm_file_out_open(&out, t->out, &err))
+    if (dm_file_out_open(&out, t->sh.out, &err))
         return dm_cli_report(&err);
     fprintf(out.f, "%s,%s,mean_error_m,peak_error_m,status\n", t->st.axis[0].key,
             t->st.naxis > 1 ? t->st.axis[1].key : "-");
@@ -188,18 +170,15 @@ int dm_cli_study(int argc, char **argv)
     t.st.threads = dm_cli_threads(t.st.threads);
     dm_robot rb;
     dm_error err;
-    if (dm_cli_load_robot(t.robot, t.sets, t.nset, &rb, &err))
+    if (dm_cli_load_robot(t.sh.robot, t.sh.sets, t.sh.nset, &rb, &err))
         return dm_cli_report(&err);
     int n1 = t.st.axis[0].count, n2 = t.st.naxis > 1 ? t.st.axis[1].count : 1;
     dm_study_cell *cells = calloc((size_t)n1 * n2, sizeof *cells);
     if (!cells)
         return dm_cli_report((dm_fail(&err, DM_ENOMEM, "out of memory"), &err));
     dm_cli_progress view;
-    dm_cli_progress_init(&view, "study", t.progress);
-    if (t.progress) {
-        t.st.progress = dm_cli_progress_report;
-        t.st.progress_user = &view;
-    }
+    t.st.progress = dm_cli_progress_init(&view, "study", t.sh.progress);
+    t.st.progress_user = &view;
     rc = dm_study_run(&rb, &t.st, cells, &err);
     dm_cli_progress_finish(&view);
     rc = rc ? dm_cli_report(&err) : write_outputs(&t, cells, n1, n2);

@@ -1,4 +1,5 @@
 /* deltamap sweep: workspace maps into a store (deltamap info: cli_info.c). */
+#include <assert.h>
 #include <getopt.h>
 #include <math.h>
 #include <signal.h>
@@ -80,11 +81,10 @@ static void on_signal(int sig)
 }
 
 typedef struct {
-    const char *robot, *grid, *out, *shard;
-    const char *sets[DM_CLI_MAXSET];
-    int nset;
+    dm_cli_shared sh;   /* --robot, --set, --mesh, --threads, --progress (bar on a terminal,
+                           else lines), --out, --force-long */
+    const char *grid, *shard;
     dm_sweep_opts o;
-    int progress;       /* DM_CLI_PROGRESS_*: bar on a terminal, else lines */
     int tol_options;    /* --tolerance-seed, --spec, --tol or --tolerance-dist given */
 } sweep_args;
 
@@ -105,49 +105,34 @@ static int parse_samples(const char *arg, long *samples)
 
 static int parse_sweep(int argc, char **argv, sweep_args *a)
 {
-    static const struct option lo[] = {
-        {"robot", 1, 0, 'r'}, {"grid", 1, 0, 'g'}, {"out", 1, 0, 'o'}, {"modes", 1, 0, 'k'},
-        {"mesh", 1, 0, 'm'}, {"tile", 1, 0, 't'}, {"threads", 1, 0, 'T'},
+    static const struct option own[] = {
+        {"grid", 1, 0, 'g'}, {"modes", 1, 0, 'k'}, {"tile", 1, 0, 't'},
         {"no-dynamic", 0, 0, 'D'}, {"amax", 1, 0, 'A'}, {"tau", 1, 0, 'U'}, {"replace", 0, 0, 'R'},
-        {"progress", 1, 0, 'p'}, {"set", 1, 0, 's'}, {"shard", 1, 0, 'S'}, {"help", 0, 0, 'h'},
-        {"force-long", 0, 0, 'L'}, {"tolerance-samples", 1, 0, 'N'},
+        {"shard", 1, 0, 'S'}, {"tolerance-samples", 1, 0, 'N'},
         {"tolerance-seed", 1, 0, 'E'}, {"spec", 1, 0, 'P'}, {"tol", 1, 0, 'O'},
         {"tolerance-dist", 1, 0, 'I'}, {"force", 0, 0, 'f'},
         {0, 0, 0, 0}};
+    struct option lo[DM_CLI_MAXOPT];
+    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
+                            DM_CLI_OUT | DM_CLI_FORCE_LONG, lo);
     int rc;
     dm_tolerance_spec *tol = &a->o.tolerance_spec;
     int c;
     double v[3];
     memset(a, 0, sizeof *a);
     dm_sweep_opts_default(&a->o);
-    a->progress = dm_cli_progress_default(DM_CLI_PROGRESS_LINES);
-    optind = 1;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+    a->sh = (dm_cli_shared){.cmd = "sweep", .help = SWEEP_HELP};
+    a->sh.progress = dm_cli_progress_default(DM_CLI_PROGRESS_LINES);
+    while ((c = dm_cli_getopt(argc, argv, lo, &a->sh, &rc))) {
         switch (c) {
-        case 'r': a->robot = optarg; break;
         case 'g': a->grid = optarg; break;
-        case 'o': a->out = optarg; break;
         case 'S': a->shard = optarg; break;
         case 'f': dm_cli_deprecated("sweep", "--force", "--replace"); /* fall through */
         case 'R': a->o.replace = 1; break;
-        case 'L': a->o.force_long = 1; break;
         case 'D': a->o.dynamic = 0; break;
-        case 's':
-            if (dm_cli_add_set("sweep", a->sets, &a->nset, optarg))
-                return EXIT_USAGE;
-            break;
         case 'k':
             if (dm_cli_parse_int(optarg, 1, DM_MAX_MODES, &a->o.k))
                 return dm_cli_usage("sweep", "--modes takes a whole number 1.." DM_MAX_MODES_TEXT, optarg);
-            break;
-        case 'T':
-            if (dm_cli_parse_int(optarg, 1, 1024, &a->o.threads))
-                return dm_cli_usage("sweep", "--threads takes a whole number >= 1", optarg);
-            break;
-        case 'm':
-            if (dm_cli_parse_mesh(optarg, &a->o.na, &a->o.nb))
-                return dm_cli_usage("sweep", "--mesh takes NA,NB, whole numbers 1..64", optarg);
             break;
         case 't':
             if (dm_cli_parse_list(optarg, v, 3) || v[0] < 1 || v[1] < 1 || v[2] < 1 ||
@@ -162,10 +147,6 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
             if (dm_cli_parse_list(optarg, v, 1) || !(v[0] > 0))
                 return dm_cli_usage("sweep", "--amax and --tau take a value > 0", optarg);
             *(c == 'A' ? &a->o.move.amax_ms2 : &a->o.move.tau_s) = v[0];
-            break;
-        case 'p':
-            if (dm_cli_parse_progress("sweep", optarg, &a->progress))
-                return EXIT_USAGE;
             break;
         case 'N':
             if ((rc = parse_samples(optarg, &tol->samples)))
@@ -184,14 +165,17 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
                 return rc;
             a->tol_options = 1;
             break;
-        case 'h': fputs(SWEEP_HELP, stdout); exit(0);
-        default: return dm_cli_usage("sweep", "unknown or incomplete option", argv[optind - 1]);
+        default: assert(0);
         }
     }
-    if (optind < argc)
-        return dm_cli_usage("sweep", "unexpected argument", argv[optind]);
-    if (!a->robot || !a->grid || !a->out)
+    if (rc)
+        return rc;
+    if (!a->sh.robot || !a->grid || !a->sh.out)
         return dm_cli_usage("sweep", "--robot, --grid and --out are required", NULL);
+    a->o.na = a->sh.na;
+    a->o.nb = a->sh.nb;
+    a->o.threads = a->sh.threads;
+    a->o.force_long = a->sh.force_long;
     if (a->tol_options && !a->o.tolerance)
         return dm_cli_usage("sweep",
                             "--tolerance-seed, --spec, --tol and --tolerance-dist need "
@@ -311,7 +295,7 @@ int dm_cli_sweep(int argc, char **argv)
     dm_robot rb;
     dm_grid grid;
     dm_error err;
-    if (dm_cli_load_robot(a.robot, a.sets, a.nset, &rb, &err))
+    if (dm_cli_load_robot(a.sh.robot, a.sh.sets, a.sh.nset, &rb, &err))
         return dm_cli_report(&err);
     if (dm_grid_parse(a.grid, &grid, &err))
         return dm_cli_report(&err);
@@ -323,12 +307,12 @@ int dm_cli_sweep(int argc, char **argv)
     a.o.on_repair = print_repair;
     dm_sweep_stats st;
     dm_cli_progress view;
-    dm_cli_progress_init(&view, "sweep", a.progress);
-    if (a.progress) {
+    dm_cli_progress_init(&view, "sweep", a.sh.progress);
+    if (a.sh.progress) {
         a.o.progress = draw_progress;
         a.o.progress_user = &view;
     }
-    rc = dm_sweep_run(&rb, &grid, &a.o, a.out, &stop_requested, &st, &err);
+    rc = dm_sweep_run(&rb, &grid, &a.o, a.sh.out, &stop_requested, &st, &err);
     dm_cli_progress_finish(&view);
     if (rc && rc != DM_EINTERRUPT) {
         dm_cli_report(&err);
@@ -352,7 +336,7 @@ int dm_cli_sweep(int argc, char **argv)
             printf(", spec %g m", t->spec_m);
         printf("\n");
     }
-    printf("store   %s\n", a.out);
+    printf("store   %s\n", a.sh.out);
     if (rc)
         return dm_cli_report(&err);
     return 0;

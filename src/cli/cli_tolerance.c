@@ -1,5 +1,6 @@
 /* deltamap tolerance: Monte Carlo of the platform error at one pose over
  * tolerance bands and random clearance states (dm_tolerance). */
+#include <assert.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
@@ -47,9 +48,8 @@ static const char HELP[] =
     "                   terminal), lines, or none (the default otherwise)\n";
 
 typedef struct {
-    const char *robot;
-    const char *sets[DM_CLI_MAXSET];
-    int nset, json, have_at, have_samples, have_seed, threads, progress;
+    dm_cli_shared sh; /* --robot, --set, --mesh, --threads, --progress, --json, --force-long */
+    int have_at, have_samples, have_seed;
     double at[3];
     dm_tolerance_spec spec;
 } tol_opts;
@@ -129,21 +129,20 @@ int dm_cli_tolerance_dist(const char *cmd, const char *flag, const char *arg,
 
 static int parse(int argc, char **argv, tol_opts *t)
 {
-    static const struct option lo[] = {
-        {"robot", 1, 0, 'r'}, {"at", 1, 0, 'a'}, {"samples", 1, 0, 'n'}, {"seed", 1, 0, 'S'},
-        {"tol", 1, 0, 't'}, {"dist", 1, 0, 'd'}, {"spec", 1, 0, 'p'}, {"rigid", 0, 0, 'G'},
-        {"mesh", 1, 0, 'm'}, {"threads", 1, 0, 'T'}, {"set", 1, 0, 's'}, {"force-long", 0, 0, 'L'},
-        {"json", 0, 0, 'j'}, {"help", 0, 0, 'h'}, {"progress", 1, 0, 'P'}, {"force", 0, 0, 'f'},
+    static const struct option own[] = {
+        {"at", 1, 0, 'a'},   {"samples", 1, 0, 'n'}, {"seed", 1, 0, 'S'},  {"tol", 1, 0, 't'},
+        {"dist", 1, 0, 'd'}, {"spec", 1, 0, 'p'},    {"rigid", 0, 0, 'G'}, {"force", 0, 0, 'f'},
         {0, 0, 0, 0}};
+    struct option lo[DM_CLI_MAXOPT];
+    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
+                            DM_CLI_JSON | DM_CLI_FORCE_LONG, lo);
     int c, rc;
     memset(t, 0, sizeof *t);
     dm_tolerance_spec_default(&t->spec);
-    t->progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
-    optind = 1;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+    t->sh = (dm_cli_shared){.cmd = "tolerance", .help = HELP};
+    t->sh.progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
+    while ((c = dm_cli_getopt(argc, argv, lo, &t->sh, &rc))) {
         switch (c) {
-        case 'r': t->robot = optarg; break;
         case 'a':
             if (dm_cli_parse_list(optarg, t->at, 3))
                 return dm_cli_usage("tolerance", "--at takes X,Y,Z in m", optarg);
@@ -175,34 +174,21 @@ static int parse(int argc, char **argv, tol_opts *t)
             if ((rc = dm_cli_tolerance_spec("tolerance", optarg, &t->spec)))
                 return rc;
             break;
-        case 'P':
-            if (dm_cli_parse_progress("tolerance", optarg, &t->progress))
-                return EXIT_USAGE;
-            break;
         case 'G': t->spec.flexibility = 0; break;
-        case 'f': dm_cli_deprecated("tolerance", "--force", "--force-long"); /* fall through */
-        case 'L': t->spec.force_long = 1; break;
-        case 'j': t->json = 1; break;
-        case 'm':
-            if (dm_cli_parse_mesh(optarg, &t->spec.na, &t->spec.nb))
-                return dm_cli_usage("tolerance", "--mesh takes NA,NB, whole numbers 1..64", optarg);
+        case 'f':
+            dm_cli_deprecated("tolerance", "--force", "--force-long");
+            t->sh.force_long = 1;
             break;
-        case 'T':
-            if (dm_cli_parse_int(optarg, 1, 1024, &t->threads))
-                return dm_cli_usage("tolerance", "--threads takes a whole number 1..1024", optarg);
-            break;
-        case 's':
-            if (dm_cli_add_set("tolerance", t->sets, &t->nset, optarg))
-                return EXIT_USAGE;
-            break;
-        case 'h': fputs(HELP, stdout); exit(0);
-        default: return dm_cli_usage("tolerance", "unknown or incomplete option", argv[optind - 1]);
+        default: assert(0);
         }
     }
-    if (optind < argc)
-        return dm_cli_usage("tolerance", "unexpected argument", argv[optind]);
-    if (!t->robot || !t->have_samples || !t->have_seed)
+    if (rc)
+        return rc;
+    if (!t->sh.robot || !t->have_samples || !t->have_seed)
         return dm_cli_usage("tolerance", "--robot, --samples and --seed are required", NULL);
+    t->spec.na = t->sh.na;
+    t->spec.nb = t->sh.nb;
+    t->spec.force_long = t->sh.force_long;
     return 0;
 }
 
@@ -212,7 +198,7 @@ static void print_result(const tol_opts *t, const dm_robot *rb, const double P[3
                          const dm_tolerance_result *r)
 {
     const dm_tolerance_spec *sp = &t->spec;
-    if (t->json) {
+    if (t->sh.json) {
         json_t *o = json_object(), *sens = json_object(), *tol = json_object();
         json_object_set_new(o, "robot", json_string(rb->name));
         json_object_set_new(o, "pose_m", json_pack("[fff]", P[0], P[1], P[2]));
@@ -285,22 +271,19 @@ int dm_cli_tolerance(int argc, char **argv)
     int rc = parse(argc, argv, &t);
     if (rc)
         return rc;
-    t.threads = dm_cli_threads(t.threads);
+    t.sh.threads = dm_cli_threads(t.sh.threads);
     dm_robot rb;
     dm_error err;
-    if (dm_cli_load_robot(t.robot, t.sets, t.nset, &rb, &err))
+    if (dm_cli_load_robot(t.sh.robot, t.sh.sets, t.sh.nset, &rb, &err))
         return dm_cli_report(&err);
     if (dm_tolerance_check(&rb, &t.spec, &err))
         return dm_cli_report(&err);
     const double *P = t.have_at ? t.at : rb.home_m;
     dm_tolerance_result res;
     dm_cli_progress view;
-    dm_cli_progress_init(&view, "tolerance", t.progress);
-    if (t.progress) {
-        t.spec.progress = dm_cli_progress_report;
-        t.spec.progress_user = &view;
-    }
-    rc = dm_tolerance_pose(&rb, &t.spec, P, t.threads, &res, &err);
+    t.spec.progress = dm_cli_progress_init(&view, "tolerance", t.sh.progress);
+    t.spec.progress_user = &view;
+    rc = dm_tolerance_pose(&rb, &t.spec, P, t.sh.threads, &res, &err);
     dm_cli_progress_finish(&view);
     if (rc)
         return dm_cli_report(&err);

@@ -1,4 +1,5 @@
 /* deltamap trajectory: 6-D elastic error of the platform along a path. */
+#include <assert.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
@@ -88,43 +89,38 @@ static const char HELP[] =
     "                   Zheng fig. 15); not with --rigid\n";
 
 typedef struct {
-    const char *robot, *path, *out;
-    const char *sets[DM_CLI_MAXSET];
-    int nset;
-    int json, na, nb, rigid, no_budget;
+    dm_cli_shared sh; /* --robot, --set, --mesh, --threads, --json, --out, --force-long */
+    const char *path;
+    int rigid, no_budget;
     dm_integ_opts o;
     dm_cli_traj_vtk vtk;
 } traj_opts;
 
 static int parse(int argc, char **argv, traj_opts *t)
 {
-    static const struct option lo[] = {
-        {"robot", 1, 0, 'r'}, {"path", 1, 0, 'p'}, {"modes", 1, 0, 'k'}, {"dt", 1, 0, 'd'},
+    static const struct option own[] = {
+        {"path", 1, 0, 'p'}, {"modes", 1, 0, 'k'}, {"dt", 1, 0, 'd'},
         {"integrator", 1, 0, 'i'}, {"rtol", 1, 0, 'R'}, {"atol", 1, 0, 'A'},
         {"quasi-static", 0, 0, 'q'}, {"no-quasi-static", 0, 0, 'Q'}, {"from-rest", 0, 0, 'z'},
-        {"no-reference", 0, 0, 'n'},
-        {"mesh", 1, 0, 'm'}, {"tool", 1, 0, 't'}, {"out", 1, 0, 'o'}, {"json", 0, 0, 'j'},
-        {"set", 1, 0, 's'}, {"load", 1, 0, 'F'}, {"force-long", 0, 0, 'L'},
+        {"no-reference", 0, 0, 'n'}, {"tool", 1, 0, 't'}, {"load", 1, 0, 'F'},
         {"rigid", 0, 0, 'G'}, {"no-budget", 0, 0, 'B'}, {"axes-rotation", 1, 0, 'X'},
-        {"threads", 1, 0, 'T'}, {"vtk", 1, 0, 'V'}, {"vtk-every", 1, 0, 'E'},
-        {"vtk-magnify", 1, 0, 'M'}, {"help", 0, 0, 'h'}, {"force", 1, 0, 'f'}, {0, 0, 0, 0}};
-    int c;
+        {"vtk", 1, 0, 'V'}, {"vtk-every", 1, 0, 'E'}, {"vtk-magnify", 1, 0, 'M'},
+        {"force", 1, 0, 'f'}, {0, 0, 0, 0}};
+    struct option lo[DM_CLI_MAXOPT];
+    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_JSON |
+                            DM_CLI_OUT | DM_CLI_FORCE_LONG, lo);
+    int c, rc;
     double v[2];
     memset(t, 0, sizeof *t);
+    t->sh = (dm_cli_shared){.cmd = "trajectory", .help = HELP};
     dm_integ_opts_default(&t->o);
     t->vtk.every = 10;
     t->vtk.magnify = 100;
-    optind = 1;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+    while ((c = dm_cli_getopt(argc, argv, lo, &t->sh, &rc))) {
         switch (c) {
-        case 'r': t->robot = optarg; break;
         case 'p': t->path = optarg; break;
-        case 'o': t->out = optarg; break;
-        case 'j': t->json = 1; break;
         case 'q': t->o.quasi_static = 1; break;
         case 'Q': t->o.quasi_static = 0; break;
-        case 'L': t->o.force_long = 1; break;
         case 'G': t->rigid = 1; break;
         case 'B': t->no_budget = 1; break;
         case 'X': {
@@ -143,15 +139,7 @@ static int parse(int argc, char **argv, traj_opts *t)
             break;
         }
         case 'z': t->o.from_rest = 1; break;
-        case 's':
-            if (dm_cli_add_set("trajectory", t->sets, &t->nset, optarg))
-                return EXIT_USAGE;
-            break;
         case 'n': t->o.reference = 0; break;
-        case 'T':
-            if (dm_cli_parse_int(optarg, 1, 1024, &t->o.threads))
-                return dm_cli_usage("trajectory", "--threads takes a whole number >= 1", optarg);
-            break;
         case 'k':
             if (!strcmp(optarg, "all"))
                 t->o.k = 0;
@@ -178,10 +166,6 @@ static int parse(int argc, char **argv, traj_opts *t)
             else
                 return dm_cli_usage("trajectory", "--integrator is cvode, closed-form or full", optarg);
             break;
-        case 'm':
-            if (dm_cli_parse_mesh(optarg, &t->o.na, &t->o.nb))
-                return dm_cli_usage("trajectory", "--mesh takes NA,NB, whole numbers 1..64", optarg);
-            break;
         case 'f': dm_cli_deprecated("trajectory", "--force FX,FY,FZ", "--load"); /* fall through */
         case 'F':
             if (dm_cli_parse_list(optarg, t->o.force_n, 3))
@@ -200,14 +184,17 @@ static int parse(int argc, char **argv, traj_opts *t)
             if (dm_cli_parse_list(optarg, &t->vtk.magnify, 1))
                 return dm_cli_usage("trajectory", "--vtk-magnify takes a number", optarg);
             break;
-        case 'h': fputs(HELP, stdout); exit(0);
-        default: return dm_cli_usage("trajectory", "unknown or incomplete option", argv[optind - 1]);
+        default: assert(0);
         }
     }
-    if (optind < argc)
-        return dm_cli_usage("trajectory", "unexpected argument", argv[optind]);
-    if (!t->robot || !t->path)
+    if (rc)
+        return rc;
+    if (!t->sh.robot || !t->path)
         return dm_cli_usage("trajectory", "--robot and --path are required", NULL);
+    t->o.na = t->sh.na;
+    t->o.nb = t->sh.nb;
+    t->o.threads = t->sh.threads;
+    t->o.force_long = t->sh.force_long;
     if (t->o.method == DM_ODE_FULL)
         t->o.k = 0;
     if (t->rigid && t->o.naxes)
@@ -365,7 +352,7 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
     double cmean, cmin, cmax;
     dm_coupling_change_summary(cc, &cmean, &cmin, &cmax);
     static const char *const methods[] = {"CVODE", "closed form", "full model (CVODE)"};
-    if (t->json && b && !b->flexibility) {
+    if (t->sh.json && b && !b->flexibility) {
         json_t *o = json_pack("{s:s, s:s, s:f, s:o}", "robot", rb->name, "path", tr->name,
                               "dt_s", t->o.dt_s, "budget", budget_json(b));
         json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(17));
@@ -373,15 +360,15 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
         json_decref(o);
         return;
     }
-    if (!t->json && b && !b->flexibility) {
+    if (!t->sh.json && b && !b->flexibility) {
         printf("robot       %s, rigid (kinematic error sources only)\n", rb->name);
         printf("path        %s, %.6g s in steps of %g s\n", tr->name, tr->duration_s, t->o.dt_s);
         print_budget(b);
-        if (t->out)
-            printf("written     %s\n", t->out);
+        if (t->sh.out)
+            printf("written     %s\n", t->sh.out);
         return;
     }
-    if (t->json) {
+    if (t->sh.json) {
         json_t *o = json_pack("{s:s, s:s, s:i, s:i, s:I, s:f, s:f, s:f, s:f, s:s, s:b}",
                               "robot", rb->name, "path", tr->name, "dof", s->n, "modes", s->k,
                               "steps", (json_int_t)s->steps, "duration_s", s->duration_s,
@@ -447,8 +434,8 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
             printf("  %10.4g %14.6e %14.6e %14.6e\n", t->o.axes_rotation_rad[a] * 180 / M_PI,
                    s->mean_axes_m[a][0], s->mean_axes_m[a][1], s->mean_axes_m[a][2]);
     }
-    if (t->out)
-        printf("written     %s\n", t->out);
+    if (t->sh.out)
+        printf("written     %s\n", t->sh.out);
 }
 
 int dm_cli_trajectory(int argc, char **argv)
@@ -461,7 +448,7 @@ int dm_cli_trajectory(int argc, char **argv)
     dm_robot rb;
     dm_trajectory tr;
     dm_error err;
-    if (dm_cli_load_robot(t.robot, t.sets, t.nset, &rb, &err))
+    if (dm_cli_load_robot(t.sh.robot, t.sh.sets, t.sh.nset, &rb, &err))
         return dm_cli_report(&err);
     if (dm_traj_make(t.path, &rb, &tr, &err))
         return dm_cli_report(&err);
@@ -470,9 +457,9 @@ int dm_cli_trajectory(int argc, char **argv)
         return dm_cli_report(&err);
     }
     dm_file_out out = {0};
-    int zarr = t.out && ends_with(t.out, ".zarr");
+    int zarr = t.sh.out && ends_with(t.sh.out, ".zarr");
     dm_trajstore_samples kept = {0};
-    if (t.out && !zarr && (rc = dm_file_out_open(&out, t.out, &err))) {
+    if (t.sh.out && !zarr && (rc = dm_file_out_open(&out, t.sh.out, &err))) {
         dm_traj_free(&tr);
         return dm_cli_report(&err);
     }
@@ -494,7 +481,7 @@ int dm_cli_trajectory(int argc, char **argv)
     if (!rc && out.f)
         rc = dm_file_out_commit(&out, &err);
     if (!rc && zarr)
-        rc = dm_trajstore_write(t.out, rb.name, tr.name, &kept, &err);
+        rc = dm_trajstore_write(t.sh.out, rb.name, tr.name, &kept, &err);
     if (ro.vtk) {
         int vrc = dm_cli_traj_vtk_finish(ro.vtk, !rc, &err);
         rc = rc ? rc : vrc;
@@ -506,7 +493,7 @@ int dm_cli_trajectory(int argc, char **argv)
         if (rc == DM_EINTERRUPT && ro.failed)
             err = ro.err;
         else if (rc == DM_EINTERRUPT)
-            dm_fail(&err, DM_EIO, "%s: write failed", t.out);
+            dm_fail(&err, DM_EIO, "%s: write failed", t.sh.out);
         dm_coupling_change_free(&ro.cc);
         dm_traj_free(&tr);
         return dm_cli_report(&err);

@@ -3,6 +3,7 @@
 
 #include <cblas.h>
 
+#include <assert.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -132,13 +133,14 @@ int dm_cli_progress_default(int otherwise)
     return isatty(STDERR_FILENO) ? DM_CLI_PROGRESS_BAR : otherwise;
 }
 
-void dm_cli_progress_init(dm_cli_progress *v, const char *cmd, int mode)
+dm_progress_fn dm_cli_progress_init(dm_cli_progress *v, const char *cmd, int mode)
 {
     memset(v, 0, sizeof *v);
     v->cmd = cmd;
     v->mode = mode;
     v->index = -1;
     v->last = -1e9;
+    return mode == DM_CLI_PROGRESS_NONE ? NULL : dm_cli_progress_report;
 }
 
 void dm_cli_progress_draw(dm_cli_progress *v, int index, const char *stage, long done,
@@ -191,4 +193,85 @@ void dm_cli_progress_finish(dm_cli_progress *v)
         fflush(stderr);
         v->open = 0;
     }
+}
+
+/* ---- the shared options ---------------------------------------------------- */
+
+/* Their getopt codes lie above any character a command's own options use. */
+enum { OPT_ROBOT = 256, OPT_SET, OPT_MESH, OPT_THREADS, OPT_PROGRESS, OPT_JSON, OPT_OUT,
+       OPT_FORCE_LONG, OPT_HELP };
+
+static const struct {
+    struct option opt;
+    unsigned flag; /* 0: every command's */
+} SHARED[] = {
+    {{"robot", 1, 0, OPT_ROBOT}, DM_CLI_ROBOT},
+    {{"set", 1, 0, OPT_SET}, DM_CLI_SET},
+    {{"mesh", 1, 0, OPT_MESH}, DM_CLI_MESH},
+    {{"threads", 1, 0, OPT_THREADS}, DM_CLI_THREADS},
+    {{"progress", 1, 0, OPT_PROGRESS}, DM_CLI_PROGRESS},
+    {{"json", 0, 0, OPT_JSON}, DM_CLI_JSON},
+    {{"out", 1, 0, OPT_OUT}, DM_CLI_OUT},
+    {{"force-long", 0, 0, OPT_FORCE_LONG}, DM_CLI_FORCE_LONG},
+    {{"help", 0, 0, OPT_HELP}, 0},
+};
+
+void dm_cli_options(const struct option *own, unsigned which, struct option *opts)
+{
+    int n = 0;
+    for (; own[n].name; n++) {
+        assert(n < DM_CLI_MAXOPT - 1);
+        opts[n] = own[n];
+    }
+    for (size_t i = 0; i < sizeof SHARED / sizeof *SHARED; i++)
+        if (!SHARED[i].flag || (which & SHARED[i].flag)) {
+            assert(n < DM_CLI_MAXOPT - 1);
+            opts[n++] = SHARED[i].opt;
+        }
+    opts[n] = (struct option){0, 0, 0, 0};
+    optind = 1;
+    opterr = 0;
+}
+
+/* A shared option's code c: 1 when it is one (*rc 0 or a usage error). */
+static int shared_option(dm_cli_shared *sh, int c, const char *arg, int *rc)
+{
+    *rc = 0;
+    switch (c) {
+    case OPT_ROBOT: sh->robot = arg; return 1;
+    case OPT_SET: *rc = dm_cli_add_set(sh->cmd, sh->sets, &sh->nset, arg); return 1;
+    case OPT_MESH:
+        if (dm_cli_parse_mesh(arg, &sh->na, &sh->nb))
+            *rc = dm_cli_usage(sh->cmd, "--mesh takes NA,NB, whole numbers 1..64", arg);
+        return 1;
+    case OPT_THREADS:
+        if (dm_cli_parse_int(arg, 1, 1024, &sh->threads))
+            *rc = dm_cli_usage(sh->cmd, "--threads takes a whole number 1..1024", arg);
+        return 1;
+    case OPT_PROGRESS: *rc = dm_cli_parse_progress(sh->cmd, arg, &sh->progress); return 1;
+    case OPT_JSON: sh->json = 1; return 1;
+    case OPT_OUT: sh->out = arg; return 1;
+    case OPT_FORCE_LONG: sh->force_long = 1; return 1;
+    case OPT_HELP: fputs(sh->help, stdout); exit(0);
+    default: return 0;
+    }
+}
+
+int dm_cli_getopt(int argc, char **argv, const struct option *opts, dm_cli_shared *sh, int *rc)
+{
+    int c;
+    *rc = 0;
+    while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+        if (c == '?' || c == ':') {
+            *rc = dm_cli_usage(sh->cmd, "unknown or incomplete option", argv[optind - 1]);
+            return 0;
+        }
+        if (!shared_option(sh, c, optarg, rc))
+            return c;
+        if (*rc)
+            return 0;
+    }
+    if (optind < argc)
+        *rc = dm_cli_usage(sh->cmd, "unexpected argument", argv[optind]);
+    return 0;
 }
