@@ -31,6 +31,7 @@
 #include "dm_measure.h"
 #include "dm_modal.h"
 #include "dm_nuisance.h"
+#include "dm_pairing.h"
 #include "dm_progress.h"
 #include "dm_robot.h"
 
@@ -119,6 +120,11 @@ typedef struct dm_diagnosis {
     dm_nuisance_fit nuisance;    /* of best when found, else of the baseline */
     double raw_held_chi2, raw_held_rms; /* the baseline without nuisances, held out */
     double nuisance_gain_percent; /* the nuisances' gain against that baseline */
+    /* a modal survey with shapes or directions (dm_pairing.h): its modes
+     * paired with the given robot's, then diagnosed as a plain survey of
+     * the paired ones (unpaired ones left out); pairing.pair NULL
+     * otherwise. The caller frees it: dm_pairing_free(&dg.pairing). */
+    dm_pairing pairing;
 } dm_diagnosis;
 
 typedef struct dm_diagnose_opts {

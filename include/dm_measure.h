@@ -25,7 +25,8 @@ typedef struct dm_sample {
     double sigma;     /* standard deviation; 0 = not given */
     double force[3];  /* static: added force at P (N) */
     double t;         /* tracker: time (s) */
-    int mode;         /* modal: rank, 1 = lowest */
+    int mode;         /* modal: rank, 1 = lowest (with pairing data: among the measured) */
+    int dir;          /* modal: dominant direction + 1 (dm_direction), 0 = not given */
     int comp;         /* static/tracker: 0, 1, 2 = x, y, z */
     int pose_id;      /* samples of one pose (or one tracker time) share it */
     int line;         /* line in the file */
@@ -47,6 +48,20 @@ typedef struct dm_nuisance_spec {
     double align_rms;    /* that alignment's RMS misfit (m) */
 } dm_nuisance_spec;
 
+/* A modal survey's sensor ('# sensor:' line): where on the robot, which
+ * way. Bodies: 0..2 arm i + 1 (at: fraction from its root to its elbow),
+ * 3 + 2 i + s rod s (0 = a, 1 = b) of chain i + 1 (at: fraction from its
+ * upper end), DM_BODY_PLATFORM (at: offset from the centre, m). */
+#define DM_MAX_SENSORS 24
+#define DM_BODY_PLATFORM 9
+typedef struct dm_sensor {
+    char name[32];
+    int body;
+    double at[3];
+    double dir[3];     /* unit vector, base axes */
+    int line;
+} dm_sensor;
+
 typedef struct dm_dataset {
     dm_data_kind kind;
     char source[512];
@@ -54,6 +69,14 @@ typedef struct dm_dataset {
     int n, cap, npose;
     dm_sample *s;
     dm_nuisance_spec nuisance; /* tracker runs only */
+    /* modal surveys with a `dir` or `shape_NAME` column: pair the measured
+     * modes with the model's (dm_pairing.h) instead of taking `mode` as
+     * the model's rank */
+    int pair;
+    int nsensor;
+    dm_sensor sensor[DM_MAX_SENSORS];
+    double *shape;     /* nsensor values per sample (the shape at each sensor), or NULL */
+    int shape_cap;
 } dm_dataset;
 
 const char *dm_data_kind_name(dm_data_kind kind);

@@ -12,7 +12,8 @@
 /* Model predictions for every sample (same order), with the robot's mesh
  * (or na, nb when > 0). Unreachable poses and mode ranks beyond the model
  * are errors naming the sample's line. One run of a dm_predictor made for
- * it. */
+ * it. A survey with mode shapes or directions (data->pair) is refused:
+ * its ranks are the measured ones; predict dm_pairing_apply's survey. */
 int dm_predict(const dm_robot *robot, const dm_dataset *data, int na, int nb, double *pred,
                dm_error *err);
 

@@ -25,6 +25,13 @@ typedef struct dm_synth_opts {
     const char *path;   /* tracker: trajectory spec (default: a circle about home) */
     int na, nb;
     int force_long;     /* run even beyond DM_WORK_LIMIT (dm_work_check) */
+    /* modal: a survey as a modal test gives it (dm_pairing_survey): each
+     * mode's dominant direction (`dir`), with `sensors` its shape at the
+     * default sensors, mode rank `drop_mode` missed, a local mode at
+     * extra_hz (direction extra_dir) added; `modes` counts the model's
+     * modes before the drop */
+    int pairing, sensors, drop_mode, extra_dir;
+    double extra_hz;
 } dm_synth_opts;
 
 int dm_synthesize(const dm_robot *robot, const dm_synth_opts *opts, dm_dataset *data,

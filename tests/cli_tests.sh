@@ -262,6 +262,26 @@ json_true "d['exceeds_noise'] is False"
 expect 0 "synth without noise" "$DM" synth --robot zheng2017 --kind modal --noise 0 --poses 3 --modes 2 --seed 1 --mesh 1,1 --out "$TMP/exact.csv"
 if grep -q "^x,y,z,mode,freq_hz$" "$TMP/exact.csv"; then ok; else bad "synth --noise 0 header"; fi
 expect 0 "compare reads synth --noise 0" "$DM" compare --measured "$TMP/exact.csv" --mesh 1,1
+# modal pairing (docs/measured-data.md, 'Mode shapes and pairing'): the 2nd
+# mode missed, a local y mode at 120 Hz added; paired by direction, by MAC
+expect 0 "synth pairing survey" "$DM" synth --robot zheng2017 --kind modal --noise 0 --poses 3 --modes 4 --seed 1 --mesh 1,1 --drop-mode 2 --extra-mode 120,y --out "$TMP/pair.csv"
+if grep -q "^x,y,z,mode,freq_hz,dir$" "$TMP/pair.csv"; then ok; else bad "pairing survey header"; fi
+expect 0 "compare pairs by direction" "$DM" compare --measured "$TMP/pair.csv" --mesh 1,1 --json
+json_true "d['pairing']['by'] == 'direction' and d['pairing']['paired'] == 9 and d['samples'] == 9 and [m['model_mode'] for m in d['pairing']['modes']] == [1, None, 3, 4] * 3 and [s['model_mode'] for s in d['pairing']['skipped']] == [2] * 3 and d['rms'] < 1e-6"
+expect 0 "compare pairing text" "$DM" compare --measured "$TMP/pair.csv" --mesh 1,1
+contains out "unpaired (no model mode admissible)"
+contains out "pose 1: model mode 2 not measured (skipped)"
+expect 0 "synth shapes survey" "$DM" synth --robot zheng2017 --kind modal --noise 0.02 --poses 6 --modes 5 --seed 2 --mesh 1,1 --pairing shapes --drop-mode 2 --extra-mode 120,y --effect payload_mass=0.3 --out "$TMP/shapes.csv"
+expect 0 "diagnose pairs by MAC" "$DM" diagnose --measured "$TMP/shapes.csv" --mesh 1,1 --no-pairs --json
+json_true "d['pairing']['by'] == 'mac' and d['pairing']['paired'] == 24 and all((m['model_mode'] is None) == (m['freq_hz'] == 120) for m in d['pairing']['modes']) and d['cause'] == 'payload_mass'"
+printf '# robot: zheng2017\n# sensor: s1, arm4, 0.5, 0, 0, 1\nx,y,z,mode,freq_hz,shape_s1\n0,0,-0.4,1,84,1\n' > "$TMP/badsensor.csv"
+expect 2 "sensor on no body" "$DM" compare --measured "$TMP/badsensor.csv" --mesh 1,1
+contains err "badsensor.csv:2: '# sensor:' column 2 (body): 'arm4' is no body of the robot"
+printf '# robot: zheng2017\nx,y,z,mode,freq_hz,shape_s1\n0,0,-0.4,1,84,1\n' > "$TMP/badshape.csv"
+expect 2 "shape column without position" "$DM" diagnose --measured "$TMP/badshape.csv" --mesh 1,1
+contains err "badshape.csv:2: column 6 (shape_s1): no '# sensor: s1, BODY, AT, DX, DY, DZ' line"
+expect 1 "synth pairing of a static survey" "$DM" synth --robot zheng2017 --kind static --drop-mode 2
+expect 1 "synth bad --extra-mode" "$DM" synth --robot zheng2017 --kind modal --extra-mode 120,w
 expect 0 "synth noise only" "$DM" synth --robot zheng2017 --kind static --noise 1e-7 --poses 9 --seed 2 --mesh 1,1 --out "$TMP/null.csv"
 expect 0 "diagnose null" "$DM" diagnose --measured "$TMP/null.csv" --mesh 1,1 --json
 json_true "d['cause'] is None and d['causes'] == [] and d['partial'] is None"

@@ -54,6 +54,7 @@ static const char SYNTH_HELP[] =
     "usage: deltamap synth --robot R --kind modal|static|tracker [--effect NAME=VALUE]...\n"
     "                      [--noise X] [--poses N] [--modes K] [--seed S] [--path P]\n"
     "                      [--at TEMPLATE] [--mesh NA,NB] [--force-long] [--out FILE]\n"
+    "                      [--pairing dir|shapes] [--drop-mode N] [--extra-mode HZ,DIR]\n"
     "\n"
     "Synthetic measured data from the robot extended by the given effects, with\n"
     "Gaussian noise (Hz for modal, m otherwise), in the formats of\n"
@@ -62,6 +63,10 @@ static const char SYNTH_HELP[] =
     "measurement template such as `deltamap plan --out` writes (the kind is then\n"
     "the template's). Data that would take more than 4 hours or 2 GB to make are\n"
     "refused before any work unless --force-long.\n"
+    "A modal survey as a modal test gives it (docs/measured-data.md, 'Mode shapes\n"
+    "and pairing'): --pairing dir writes each mode's dominant direction, shapes\n"
+    "also its shape at 19 sensors; --drop-mode N leaves the model's mode N out,\n"
+    "--extra-mode HZ,DIR adds a local mode the model lacks (both imply dir).\n"
     "Effects: actuator_stiffness, joint_stiffness, base_stiffness,\n"
     "base_stiffness_0/1/2 (N/m, isotropic), payload_mass, elbow_mass (kg),\n"
     "geometric_stiffness=on, damping_alpha (1/s), damping_beta (s), clearance,\n"
@@ -201,6 +206,77 @@ static void finish(stats *st)
     }
 }
 
+/* ---- mode pairing (dm_pairing.h) -------------------------------------------- */
+
+static void print_pairing(const dm_pairing *pg)
+{
+    printf("pairing   %d of %d measured modes paired by %s\n", pg->npaired, pg->n,
+           pg->by_mac ? "MAC of the shapes at the sensors" : "frequency and dominant direction");
+    printf("  line  pose  mode  measured Hz  dir  -> model  model Hz  dir%s\n",
+           pg->by_mac ? "    MAC" : "");
+    for (int i = 0; i < pg->n; i++) {
+        const dm_pair *p = &pg->pair[i];
+        printf("  %4d  %4d  %4d  %11.5g  %-3s", p->line, p->pose_id + 1, p->label,
+               p->freq_meas, dm_direction_name(p->dir_meas));
+        if (p->model_mode)
+            printf("  -> %5d  %8.5g  %-3s", p->model_mode, p->freq_model,
+                   dm_direction_name(p->dir_model));
+        else
+            printf("  -> unpaired (no model mode admissible)");
+        printf(pg->by_mac ? "  %5.3f\n" : "\n", p->mac);
+    }
+    for (int k = 0; k < pg->npose; k++)
+        for (int r = 0; r < 64; r++)
+            if (pg->skipped[k] >> r & 1)
+                printf("  pose %d: model mode %d not measured (skipped)\n", k + 1, r + 1);
+}
+
+static json_t *pairing_json(const dm_pairing *pg)
+{
+    json_t *modes = json_array(), *skipped = json_array();
+    for (int i = 0; i < pg->n; i++) {
+        const dm_pair *p = &pg->pair[i];
+        json_t *m = json_pack("{s:i, s:i, s:i, s:f, s:s}", "line", p->line, "pose",
+                              p->pose_id + 1, "mode", p->label, "freq_hz", p->freq_meas, "dir",
+                              dm_direction_name(p->dir_meas));
+        json_object_set_new(m, "model_mode", p->model_mode ? json_integer(p->model_mode)
+                                                           : json_null());
+        json_object_set_new(m, "model_freq_hz", p->model_mode ? json_real(p->freq_model)
+                                                              : json_null());
+        json_object_set_new(m, "model_dir", p->model_mode ? json_string(dm_direction_name(
+                                                                p->dir_model))
+                                                          : json_null());
+        json_object_set_new(m, "mac", pg->by_mac ? json_real(p->mac) : json_null());
+        json_array_append_new(modes, m);
+    }
+    for (int k = 0; k < pg->npose; k++)
+        for (int r = 0; r < 64; r++)
+            if (pg->skipped[k] >> r & 1)
+                json_array_append_new(skipped, json_pack("{s:i, s:i}", "pose", k + 1,
+                                                         "model_mode", r + 1));
+    return json_pack("{s:s, s:i, s:o, s:o}", "by", pg->by_mac ? "mac" : "direction", "paired",
+                     pg->npaired, "modes", modes, "skipped", skipped);
+}
+
+/* A survey with shapes or directions: its modes paired with the robot's
+ * and *d made the survey of the paired ones; pg->pair NULL for others. */
+static int pair_survey(const measure_args *a, const dm_robot *rb, dm_dataset *d, dm_pairing *pg,
+                       dm_error *err)
+{
+    dm_dataset paired;
+    memset(pg, 0, sizeof *pg);
+    if (d->kind != DM_DATA_MODAL || !d->pair)
+        return DM_OK;
+    int rc = dm_pairing_make(rb, d, a->na, a->nb, pg, err);
+    if (!rc && (rc = dm_pairing_apply(d, pg, &paired, err)))
+        dm_pairing_free(pg);
+    if (!rc) {
+        dm_dataset_free(d);
+        *d = paired;
+    }
+    return rc;
+}
+
 int dm_cli_compare(int argc, char **argv)
 {
     dm_cli_serial_blas();
@@ -211,11 +287,17 @@ int dm_cli_compare(int argc, char **argv)
     dm_dataset d;
     dm_robot rb;
     dm_error err;
+    dm_pairing pg;
     if ((rc = load(&a, &d, &rb, &err)))
         return dm_cli_report(&err);
+    if ((rc = pair_survey(&a, &rb, &d, &pg, &err))) {
+        dm_dataset_free(&d);
+        return dm_cli_report(&err);
+    }
     double *pred = malloc(sizeof(double) * d.n);
     if (!pred || (rc = dm_predict(&rb, &d, a.na, a.nb, pred, &err))) {
         free(pred);
+        dm_pairing_free(&pg);
         dm_dataset_free(&d);
         return dm_cli_report(rc ? &err : (dm_fail(&err, DM_ENOMEM, "out of memory"), &err));
     }
@@ -259,6 +341,8 @@ int dm_cli_compare(int argc, char **argv)
                                                by[k].n, "bias", by[k].bias, "rms", by[k].rms));
         }
         json_object_set_new(o, "groups", g);
+        if (pg.pair) /* modal surveys with shapes or directions only */
+            json_object_set_new(o, "pairing", pairing_json(&pg));
         json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
         putchar('\n');
         json_decref(o);
@@ -268,6 +352,10 @@ int dm_cli_compare(int argc, char **argv)
         printf("overall   bias %+.4g %s, RMS %.4g %s", all.bias, unit, all.rms, unit);
         if (sigma)
             printf(", chi2/N %.3g (noise alone: 1 +- %.2g)", all.chi2 / all.n, 4 * sqrt(2.0 / all.n));
+        if (pg.pair) {
+            printf("\n");
+            print_pairing(&pg);
+        }
         printf("\n\n %-8s %6s %12s %12s %10s\n", d.kind == DM_DATA_MODAL ? "mode" : "axis", "n",
                "bias", "RMS", sigma ? "chi2/n" : "");
         for (int k = 0; k < groups; k++) {
@@ -313,6 +401,7 @@ int dm_cli_compare(int argc, char **argv)
             dm_cli_report(&err);
     }
     free(pred);
+    dm_pairing_free(&pg);
     dm_dataset_free(&d);
     return rc;
 }
@@ -636,6 +725,8 @@ static void print_diagnosis(const dm_dataset *d, const dm_robot *rb, const dm_di
     const char *unit = d->kind == DM_DATA_MODAL ? "Hz" : "m";
     printf("robot     %s against %s (%s data: %d training, %d held-out samples)\n", rb->name,
            d->source, dm_data_kind_name(d->kind), dg->n_train, dg->n_held);
+    if (dg->pairing.pair)
+        print_pairing(&dg->pairing);
     printf("baseline  held-out RMS %.4g %s", dg->base_held_rms, unit);
     if (dg->sigma_known)
         printf(", chi2/N %.3g (noise alone ~1)", dg->base_held_chi2 / dg->n_held);
@@ -752,6 +843,8 @@ static void print_diagnosis_json(const dm_dataset *d, const dm_robot *rb, const 
     json_object_set_new(o, "ranking", rank);
     if (dg->nnuisance) /* absent without: files without nuisances give what they gave */
         json_object_set_new(o, "nuisances", nuisance_json(d, dg));
+    if (dg->pairing.pair) /* likewise: only for surveys with shapes or directions */
+        json_object_set_new(o, "pairing", pairing_json(&dg->pairing));
     json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
     putchar('\n');
     json_decref(o);
@@ -812,6 +905,7 @@ int dm_cli_diagnose(int argc, char **argv)
         print_diagnosis(&d, &rb, &dg);
     if (a.write_robot)
         rc = write_robot(&a, &rb, &dg);
+    dm_pairing_free(&dg.pairing);
     dm_dataset_free(&d);
     return rc;
 }
@@ -825,7 +919,8 @@ int dm_cli_synth(int argc, char **argv)
         {"robot", 1, 0, 'r'}, {"kind", 1, 0, 'k'}, {"effect", 1, 0, 'e'}, {"noise", 1, 0, 'n'},
         {"poses", 1, 0, 'p'}, {"modes", 1, 0, 'M'}, {"seed", 1, 0, 'S'}, {"path", 1, 0, 'P'},
         {"mesh", 1, 0, 'm'}, {"out", 1, 0, 'o'}, {"set", 1, 0, 's'}, {"at", 1, 0, 'A'},
-        {"force-long", 0, 0, 'L'}, {"help", 0, 0, 'h'}, {0, 0, 0, 0}};
+        {"force-long", 0, 0, 'L'}, {"help", 0, 0, 'h'}, {"pairing", 1, 0, 'D'},
+        {"drop-mode", 1, 0, 'X'}, {"extra-mode", 1, 0, 'E'}, {0, 0, 0, 0}};
     const char *robot = NULL, *out_path = NULL, *effects[8], *sets[DM_CLI_MAXSET], *at = NULL;
     int neff = 0, nset = 0, c, have_kind = 0, seed = 1;
     dm_synth_opts o = {0};
@@ -872,12 +967,38 @@ int dm_cli_synth(int argc, char **argv)
             if (dm_cli_parse_mesh(optarg, &o.na, &o.nb))
                 return dm_cli_usage("synth", "--mesh takes NA,NB, whole numbers 1..64", optarg);
             break;
+        case 'D':
+            if (strcmp(optarg, "dir") && strcmp(optarg, "shapes"))
+                return dm_cli_usage("synth", "--pairing is dir or shapes", optarg);
+            o.pairing = 1, o.sensors = !strcmp(optarg, "shapes");
+            break;
+        case 'X':
+            if (dm_cli_parse_int(optarg, 1, DM_MAX_MODES, &o.drop_mode))
+                return dm_cli_usage("synth", "--drop-mode takes a rank 1.." DM_MAX_MODES_TEXT,
+                                    optarg);
+            o.pairing = 1;
+            break;
+        case 'E': {
+            char *dir = strchr(optarg, ',');
+            o.extra_dir = -1;
+            for (int k = 0; dir && k < 6; k++)
+                o.extra_dir = strcmp(dir + 1, dm_direction_name(k)) ? o.extra_dir : k;
+            if (!dir || o.extra_dir < 0 || sscanf(optarg, "%lf", &o.extra_hz) != 1 ||
+                !(o.extra_hz > 0))
+                return dm_cli_usage("synth", "--extra-mode takes HZ,DIR (HZ > 0; DIR x, y, z, "
+                                    "rx, ry or rz)", optarg);
+            o.pairing = 1;
+            break;
+        }
         case 'h': fputs(SYNTH_HELP, stdout); exit(0);
         default: return dm_cli_usage("synth", "unknown or incomplete option", argv[optind - 1]);
         }
     }
     if (optind < argc || !robot || !(have_kind || at))
         return dm_cli_usage("synth", "--robot and --kind (or --at) are required", NULL);
+    if (o.pairing && (at || o.kind != DM_DATA_MODAL))
+        return dm_cli_usage("synth", "--pairing, --drop-mode and --extra-mode make modal "
+                            "surveys (--kind modal, without --at)", NULL);
     o.seed = (uint64_t)seed;
     dm_robot rb;
     dm_error err;

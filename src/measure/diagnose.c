@@ -1268,10 +1268,24 @@ static dm_threads_saved serial_stage(const dm_diagnose_opts *o, dm_diagnose_opts
 int dm_diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_opts *o,
                 dm_diagnosis *dg, dm_error *err)
 {
+    dm_pairing pg = {0};
+    dm_dataset paired;
+    if (d->kind == DM_DATA_MODAL && d->pair) { /* pair once, with the robot given */
+        int rc = dm_pairing_make(rb, d, o->na, o->nb, &pg, err);
+        if (!rc && (rc = dm_pairing_apply(d, &pg, &paired, err)))
+            dm_pairing_free(&pg);
+        if (rc)
+            return rc;
+    }
     dm_diagnose_opts resolved;
     dm_threads_saved saved = serial_stage(o, &resolved);
-    int rc = diagnose(rb, d, &resolved, dg, err);
+    int rc = diagnose(rb, pg.pair ? &paired : d, &resolved, dg, err);
     dm_threads_restore(saved);
+    if (pg.pair)
+        dm_dataset_free(&paired);
+    dg->pairing = pg;
+    if (rc)
+        dm_pairing_free(&dg->pairing);
     return rc;
 }
 

@@ -53,7 +53,10 @@ int dm_dataset_push(dm_dataset *d, const dm_sample *s, dm_error *err)
 void dm_dataset_free(dm_dataset *d)
 {
     free(d->s);
+    free(d->shape);
     d->s = NULL;
+    d->shape = NULL;
+    d->shape_cap = d->nsensor = d->pair = 0;
     d->n = d->cap = d->npose = 0;
 }
 
@@ -95,6 +98,45 @@ static int bad(const csv_ctx *c, const char *name, const char *what)
                    dm_csv_column(&c->in, name) + 1, name, what);
 }
 
+/* A modal row's `dir` cell (x, y, z, rx, ry, rz) into *dir (+1; 0 without
+ * the column). */
+static int direction_cell(const csv_ctx *c, int *dir)
+{
+    static const char *const names[6] = {"x", "y", "z", "rx", "ry", "rz"};
+    int i = dm_csv_column(&c->in, "dir");
+    *dir = 0;
+    if (i < 0)
+        return DM_OK;
+    const char *v = i < c->in.ncells ? c->in.cells[i] : "";
+    for (int k = 0; k < 6; k++)
+        if (!strcmp(v, names[k]))
+            *dir = k + 1;
+    return *dir ? DM_OK : bad(c, "dir", "not a direction x, y, z, rx, ry, rz");
+}
+
+/* The last sample's shape values: column shape_NAME of each sensor. */
+static int shape_cells(const csv_ctx *c, dm_dataset *d)
+{
+    if (!d->nsensor)
+        return DM_OK;
+    if (d->n * d->nsensor > d->shape_cap) {
+        int cap = 2 * d->n * d->nsensor;
+        double *g = realloc(d->shape, sizeof *g * cap);
+        if (!g)
+            return dm_fail(c->err, DM_ENOMEM, "%s: out of memory for the shapes", d->source);
+        d->shape = g, d->shape_cap = cap;
+    }
+    double *row = d->shape + (size_t)(d->n - 1) * d->nsensor;
+    for (int k = 0; k < d->nsensor; k++) {
+        char name[40];
+        snprintf(name, sizeof name, "shape_%s", d->sensor[k].name);
+        int rc = dm_csv_number(&c->in, dm_csv_column(&c->in, name), &row[k], c->err);
+        if (rc)
+            return rc;
+    }
+    return DM_OK;
+}
+
 static int read_row(csv_ctx *c, dm_dataset *d, double *last_t, double last_P[3])
 {
     assert(d->kind >= DM_DATA_MODAL && d->kind <= DM_DATA_TRACKER);
@@ -118,11 +160,14 @@ static int read_row(csv_ctx *c, dm_dataset *d, double *last_t, double last_P[3])
         memcpy(s.P, v, sizeof s.P);
         s.mode = (int)v[3];
         s.value = v[4];
+        if ((rc = direction_cell(c, &s.dir)))
+            return rc;
         if (d->n == 0 || memcmp(s.P, last_P, sizeof s.P))
             d->npose++;
         memcpy(last_P, s.P, sizeof s.P);
         s.pose_id = d->npose - 1;
-        return dm_dataset_push(d, &s, c->err);
+        rc = dm_dataset_push(d, &s, c->err);
+        return rc ? rc : shape_cells(c, d);
     }
     if (d->kind == DM_DATA_STATIC) {
         static const char *const names[9] = {"x", "y", "z", "fx", "fy", "fz", "dx", "dy", "dz"};
@@ -220,6 +265,109 @@ static int nuisance_line(const csv_ctx *c, const char *text, dm_nuisance_spec *n
     return 1;
 }
 
+/* The body a sensor is on: arm1..arm3, rod1a..rod3b, platform; -1: none. */
+static int body_of(const char *name)
+{
+    if (!strcmp(name, "platform"))
+        return DM_BODY_PLATFORM;
+    if (!strncmp(name, "arm", 3) && name[3] >= '1' && name[3] <= '3' && !name[4])
+        return name[3] - '1';
+    if (!strncmp(name, "rod", 3) && name[3] >= '1' && name[3] <= '3' &&
+        (name[4] == 'a' || name[4] == 'b') && !name[5])
+        return 3 + 2 * (name[3] - '1') + (name[4] - 'a');
+    return -1;
+}
+
+/* A '# sensor: NAME, BODY, AT, DX, DY, DZ' line (AT: a fraction of an arm
+ * or a rod, or X, Y, Z for the platform) appended to d's sensors. */
+static int sensor_line(const csv_ctx *c, const char *text, dm_dataset *d)
+{
+    char buf[512], *f[9];
+    int n = 0, line = c->in.line;
+    snprintf(buf, sizeof buf, "%.*s", (int)strcspn(text, "\r\n"), text);
+    for (char *p = buf, *end; n < 9; p = end + 1) {
+        end = p + strcspn(p, ",");
+        int last = !*end;
+        *end = '\0';
+        p += strspn(p, " \t");
+        for (char *q = end; q > p && strchr(" \t", q[-1]); q--)
+            q[-1] = '\0';
+        f[n++] = p;
+        if (last)
+            break;
+    }
+    if (d->nsensor == DM_MAX_SENSORS)
+        return dm_fail(c->err, DM_EINVAL, "%s:%d: more than %d sensors", c->in.path, line,
+                       DM_MAX_SENSORS);
+    dm_sensor *sn = &d->sensor[d->nsensor];
+    memset(sn, 0, sizeof *sn);
+    sn->line = line;
+    if (n < 2 || !*f[0] || strlen(f[0]) >= sizeof sn->name)
+        return dm_fail(c->err, DM_EINVAL, "%s:%d: '# sensor:' needs NAME, BODY, AT, DX, DY, DZ "
+                       "(a name of at most 31 characters first)", c->in.path, line);
+    snprintf(sn->name, sizeof sn->name, "%s", f[0]);
+    if ((sn->body = body_of(f[1])) < 0)
+        return dm_fail(c->err, DM_EINVAL, "%s:%d: '# sensor:' column 2 (body): '%s' is no body "
+                       "of the robot (arm1..arm3, rod1a..rod3b, platform)", c->in.path, line, f[1]);
+    int nat = sn->body == DM_BODY_PLATFORM ? 3 : 1;
+    if (n != 2 + nat + 3)
+        return dm_fail(c->err, DM_EINVAL, "%s:%d: '# sensor:' on %s needs %d fields: NAME, BODY, "
+                       "%s, DX, DY, DZ", c->in.path, line, f[1], 5 + nat,
+                       nat == 3 ? "X, Y, Z (offset from the centre, m)" : "AT (fraction 0..1)");
+    double v[6];
+    for (int k = 0; k < nat + 3; k++) {
+        char *end;
+        v[k] = strtod(f[2 + k], &end);
+        if (end == f[2 + k] || *end || !isfinite(v[k]))
+            return dm_fail(c->err, DM_EINVAL, "%s:%d: '# sensor:' column %d: '%s' is not a "
+                           "number", c->in.path, line, 3 + k, f[2 + k]);
+    }
+    memcpy(sn->at, v, sizeof(double) * nat);
+    double nd = sqrt(v[nat] * v[nat] + v[nat + 1] * v[nat + 1] + v[nat + 2] * v[nat + 2]);
+    if (nat == 1 && !(v[0] >= 0 && v[0] <= 1))
+        return dm_fail(c->err, DM_EINVAL, "%s:%d: '# sensor:' column 3 (at): %g is not a "
+                       "fraction 0..1 of the member", c->in.path, line, v[0]);
+    if (!(nd > 0))
+        return dm_fail(c->err, DM_EINVAL, "%s:%d: '# sensor:' columns %d-%d: the direction is "
+                       "zero", c->in.path, line, 3 + nat, 5 + nat);
+    for (int k = 0; k < 3; k++)
+        sn->dir[k] = v[nat + k] / nd;
+    for (int k = 0; k < d->nsensor; k++)
+        if (!strcmp(d->sensor[k].name, sn->name))
+            return dm_fail(c->err, DM_EINVAL, "%s:%d: sensor '%s' named twice (also line %d)",
+                           c->in.path, line, sn->name, d->sensor[k].line);
+    d->nsensor++;
+    return DM_OK;
+}
+
+/* Shapes and directions belong to modal surveys; every shape column needs
+ * a sensor placed before the header, every sensor its column. */
+static int check_shapes(const csv_ctx *c, dm_dataset *d)
+{
+    if (d->nsensor && d->kind != DM_DATA_MODAL)
+        return dm_fail(c->err, DM_EINVAL, "%s:%d: '# sensor:' is for modal surveys, not %s data",
+                       c->in.path, d->sensor[0].line, dm_data_kind_name(d->kind));
+    for (int i = 0; i < c->in.ncol && d->kind == DM_DATA_MODAL; i++) {
+        const char *name = c->in.names[i];
+        int k;
+        for (k = 0; k < d->nsensor && strcmp(name + 6, d->sensor[k].name); k++)
+            ;
+        if (!strncmp(name, "shape_", 6) && k == d->nsensor)
+            return dm_fail(c->err, DM_EINVAL, "%s:%d: column %d (%s): no '# sensor: %s, BODY, "
+                           "AT, DX, DY, DZ' line before the header gives this sensor's position",
+                           c->in.path, c->in.line, i + 1, name, name + 6);
+    }
+    for (int k = 0; k < d->nsensor; k++) {
+        char name[40];
+        snprintf(name, sizeof name, "shape_%s", d->sensor[k].name);
+        if (dm_csv_column(&c->in, name) < 0)
+            return dm_fail(c->err, DM_EINVAL, "%s:%d: sensor '%s' has no column %s",
+                           c->in.path, d->sensor[k].line, d->sensor[k].name, name);
+    }
+    d->pair = d->kind == DM_DATA_MODAL && (d->nsensor || dm_csv_column(&c->in, "dir") >= 0);
+    return DM_OK;
+}
+
 /* The nuisance header lines make sense only with a tracker run's measured
  * positions, and '# reflector:' and '# clock:' only with '# frame:'. */
 static int check_nuisance(const dm_dataset *d, const dm_nuisance_spec *ns, int any, dm_error *err)
@@ -249,16 +397,24 @@ static int read_file(const char *path, int template, dm_dataset *d, dm_error *er
     dm_csv_line kind;
     dm_nuisance_spec ns = {0};
     int nuisance_at = 0; /* line of the first nuisance header */
+    int header_seen = 0;
     while (!rc && !(rc = dm_csv_next(&c.in, &kind, err)) && kind != DM_CSV_END) {
         const char *robot = c.in.comment;
         if (kind == DM_CSV_COMMENT && nuisance_line(&c, robot, &ns, &rc)) {
             nuisance_at = nuisance_at ? nuisance_at : c.in.line;
+        } else if (kind == DM_CSV_COMMENT && !strncmp(robot, " sensor:", 8)) {
+            rc = header_seen
+                     ? dm_fail(err, DM_EINVAL, "%s:%d: '# sensor:' lines come before the header",
+                               path, c.in.line)
+                     : sensor_line(&c, robot + 8, d);
         } else if (kind == DM_CSV_COMMENT && !strncmp(robot, " robot:", 7) && !d->robot[0]) {
             robot += 7 + strspn(robot + 7, " \t");
             snprintf(d->robot, sizeof d->robot, "%.*s", (int)strcspn(robot, "\r\n"), robot);
-        } else if (kind == DM_CSV_HEADER)
-            rc = detect_kind(&c, d);
-        else if (kind == DM_CSV_ROW)
+        } else if (kind == DM_CSV_HEADER) {
+            header_seen = 1;
+            if (!(rc = detect_kind(&c, d)))
+                rc = check_shapes(&c, d);
+        } else if (kind == DM_CSV_ROW)
             rc = read_row(&c, d, &last_t, last_P);
     }
     dm_csv_close(&c.in);
@@ -286,6 +442,43 @@ int dm_dataset_read_template(const char *path, dm_dataset *d, dm_error *err)
     return read_file(path, 1, d, err);
 }
 
+static void write_sensor(const dm_sensor *sn, FILE *out)
+{
+    static const char *const bodies[] = {"arm1",  "arm2",  "arm3",  "rod1a", "rod1b",
+                                         "rod2a", "rod2b", "rod3a", "rod3b", "platform"};
+    assert(sn->body >= 0 && sn->body <= DM_BODY_PLATFORM);
+    fprintf(out, "# sensor: %s, %s, %.9g", sn->name, bodies[sn->body], sn->at[0]);
+    if (sn->body == DM_BODY_PLATFORM)
+        fprintf(out, ", %.9g, %.9g", sn->at[1], sn->at[2]);
+    fprintf(out, ", %.9g, %.9g, %.9g\n", sn->dir[0], sn->dir[1], sn->dir[2]);
+}
+
+/* A modal survey; the sensors, `dir` and shape columns when it pairs. */
+static void write_modal(const dm_dataset *d, int sigma, FILE *out)
+{
+    static const char *const dirs[] = {"x", "y", "z", "rx", "ry", "rz"};
+    int dir = d->n > 0;
+    for (int i = 0; i < d->n; i++)
+        dir &= d->s[i].dir > 0;
+    for (int k = 0; k < d->nsensor; k++)
+        write_sensor(&d->sensor[k], out);
+    fprintf(out, "x,y,z,mode,freq_hz%s%s", sigma ? ",sigma_hz" : "", dir ? ",dir" : "");
+    for (int k = 0; k < d->nsensor; k++)
+        fprintf(out, ",shape_%s", d->sensor[k].name);
+    fputc('\n', out);
+    for (int i = 0; i < d->n; i++) {
+        const dm_sample *s = &d->s[i];
+        fprintf(out, "%.9g,%.9g,%.9g,%d,%.12g", s->P[0], s->P[1], s->P[2], s->mode, s->value);
+        if (sigma)
+            fprintf(out, ",%.6g", s->sigma);
+        if (dir)
+            fprintf(out, ",%s", dirs[s->dir - 1]);
+        for (int k = 0; k < d->nsensor; k++)
+            fprintf(out, ",%.9g", d->shape[(size_t)i * d->nsensor + k]);
+        fputc('\n', out);
+    }
+}
+
 int dm_dataset_write(const dm_dataset *d, FILE *out)
 {
     /* static and tracker rows are three samples each */
@@ -298,14 +491,7 @@ int dm_dataset_write(const dm_dataset *d, FILE *out)
     for (int i = 0; i < d->n; i++)
         sigma &= d->s[i].sigma > 0;
     if (d->kind == DM_DATA_MODAL) {
-        fprintf(out, "x,y,z,mode,freq_hz%s\n", sigma ? ",sigma_hz" : "");
-        for (int i = 0; i < d->n; i++) {
-            const dm_sample *s = &d->s[i];
-            fprintf(out, "%.9g,%.9g,%.9g,%d,%.12g", s->P[0], s->P[1], s->P[2], s->mode, s->value);
-            if (sigma)
-                fprintf(out, ",%.6g", s->sigma);
-            fputc('\n', out);
-        }
+        write_modal(d, sigma, out);
     } else if (d->kind == DM_DATA_STATIC) {
         fprintf(out, "x,y,z,fx,fy,fz,dx,dy,dz%s\n", sigma ? ",sigma_m" : "");
         for (int i = 0; i + 2 < d->n; i += 3) {

@@ -84,6 +84,11 @@ static int max_mode(const dm_dataset *d)
 dm_predictor *dm_predictor_new(const dm_robot *rb, const dm_dataset *d, int na, int nb,
                                dm_error *err)
 {
+    if (d->kind == DM_DATA_MODAL && d->pair) { /* its ranks are the measured ones */
+        dm_fail(err, DM_EINVAL, "%s: a survey with mode shapes or directions is paired with "
+                "the model's modes first (dm_pairing_apply)", d->source);
+        return NULL;
+    }
     dm_predictor *p = calloc(1, sizeof *p);
     if (!p) {
         dm_fail(err, DM_ENOMEM, "out of memory");
@@ -316,9 +321,10 @@ int dm_predictor_run(dm_predictor *p, const dm_robot *robot, double *pred, dm_er
 
 int dm_predict(const dm_robot *rb, const dm_dataset *d, int na, int nb, double *pred, dm_error *err)
 {
-    dm_predictor *p = dm_predictor_new(rb, d, na, nb, err);
+    dm_error local; /* err may be NULL */
+    dm_predictor *p = dm_predictor_new(rb, d, na, nb, err ? err : &local);
     if (!p)
-        return DM_ENOMEM;
+        return (err ? err : &local)->code;
     int rc = dm_predictor_run(p, rb, pred, err);
     dm_predictor_free(p);
     return rc;

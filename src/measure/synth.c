@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "dm_kinematics.h"
+#include "dm_pairing.h"
 #include "dm_plan.h"
 #include "dm_predict.h"
 #include "dm_trajectory.h"
@@ -142,6 +143,9 @@ int dm_synthesize(const dm_robot *rb, const dm_synth_opts *o, dm_dataset *d, dm_
     for (int i = 0; i < d->n && !rc; i++)
         d->s[i].value = pred[i] + o->noise * dm_rng_normal(&rng);
     free(pred);
+    if (!rc && o->kind == DM_DATA_MODAL && o->pairing)
+        rc = dm_pairing_survey(rb, o->sensors, o->drop_mode, o->extra_hz, o->extra_dir, o->na,
+                               o->nb, &rng, d, err);
     if (rc)
         dm_dataset_free(d);
     return rc;
