@@ -26,6 +26,7 @@
 
 #include "dm_diagnose.h"
 #include "dm_measure.h"
+#include "dm_nuisance.h"
 #include "dm_progress.h"
 #include "dm_robot.h"
 
@@ -49,6 +50,17 @@ typedef struct dm_plan_opts {
     int threads;                /* 0: OpenMP's default; the result does not depend on it */
     int force_long;             /* run even when estimated beyond DM_WORK_LIMIT
                                    (else refused before the predictions) */
+    /* tracker: the run as a lab records it (dm_nuisance.h), 0: none; 1: '# frame:'
+     * (the frame, the reflector offset and the clock offset are fitted with
+     * every model); 2: also the clock rate. The effects are then planned for
+     * what the run determines beyond the nuisances: their information is the
+     * Schur complement of the nuisances' block (the sensitivities projected
+     * orthogonal to the nuisances' design), and dm_plan_result.confound says
+     * which of an effect's combinations the nuisances take. */
+    int nuisance;
+    int frame_tracker;          /* with nuisance: the template says '# frame: tracker' */
+    const char *path;           /* tracker: assess this path (a trajectory spec) instead of
+                                   choosing one from the family; NULL: the family */
     /* progress (dm_progress.h), NULL: none. Stages: "sensitivities" (a
      * survey: its pose analyses, p + 1 per candidate pose; a tracker run:
      * its predictions, p + 1 per path of the family), a survey's "choosing
@@ -68,6 +80,20 @@ typedef struct dm_plan_pair {
     int alike;                  /* that combination is not determined: they stay look-alikes */
 } dm_plan_pair;
 
+/* An effect against a tracker run's nuisances: its combination (unit
+ * vector over its parameters, scaled units) that the nuisances leave least
+ * determined, that combination's 1-sigma alone and beyond the nuisances,
+ * and the nuisance combination that mimics it (coefficients on the
+ * nuisances' design columns scaled to unit norm, the largest 1 in size). */
+typedef struct dm_plan_confound {
+    int effect;
+    double combo[DM_DIAG_MAXV];
+    double sigma_alone, sigma;  /* scaled units, as dm_plan_pair.sigma */
+    double lost_percent;        /* of the combination's information taken by the nuisances */
+    double like[DM_NUISANCE_MAX];
+    int alike;                  /* not determined beyond the nuisances, though alone it is */
+} dm_plan_confound;
+
 typedef struct dm_plan_result {
     dm_dataset design;          /* the planned samples (values 0, sigma = noise) */
     char path[256];             /* tracker: the chosen path */
@@ -85,6 +111,9 @@ typedef struct dm_plan_result {
     double detect[DM_PLAN_MAXEFF];
     int npair;
     dm_plan_pair pair[DM_PLAN_MAXEFF * (DM_PLAN_MAXEFF - 1) / 2];
+    int nnuisance;              /* tracker nuisances marginalised (0: none) */
+    int nconfound;              /* per effect with parameters, when nnuisance */
+    dm_plan_confound confound[DM_PLAN_MAXEFF];
 } dm_plan_result;
 
 /* Parse an effect spec, "NAME[=V[,V,V]],NAME..." (dm_effects_parse_spec:

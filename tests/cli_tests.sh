@@ -374,6 +374,19 @@ json_true "len(d['design']) == 6 and d['candidates'] == 75 and all(e['sigma'][0]
 expect 0 "plan tracker" "$DM" plan --robot zheng2017 --kind tracker --effects error_base_radius,error_platform_radius --poses 30 --mesh 1,1 --out "$TMP/planned-run.csv"
 contains out "indistinguishable on this experiment"
 if grep -q "^t,x_cmd,y_cmd,z_cmd,x_meas,y_meas,z_meas$" "$TMP/planned-run.csv" && [ "$(grep -c ',,,$' "$TMP/planned-run.csv")" -eq 30 ]; then ok; else bad "tracker template"; fi
+expect 0 "plan tracker with nuisances on a planar circle" "$DM" plan --robot zheng2017 --kind tracker --effects error_arm_length=2e-4,-1.5e-4,2.5e-4 --poses 400 --noise 5e-6 --mesh 1,1 --frame base --clock rate --path "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=0.399" --json --out "$TMP/planned-frame.csv"
+json_true "len(d['nuisances']['marginalised']) == 8 and d['nuisances']['least_determined'][0]['not_separated']"
+if grep -q "^# frame: base$" "$TMP/planned-frame.csv" && grep -q "^# clock: rate$" "$TMP/planned-frame.csv"; then ok; else bad "plan template without the nuisance header lines"; fi
+expect 0 "synth at a planned run with nuisances" "$DM" synth --robot zheng2017 --at "$TMP/planned-frame.csv" --noise 5e-6 --seed 3 --mesh 1,1 --out "$TMP/planned-frame-run.csv"
+expect 0 "plan tracker with nuisances" "$DM" plan --robot zheng2017 --kind tracker --effects error_arm_length=2e-4,-1.5e-4,2.5e-4 --poses 400 --noise 5e-6 --mesh 1,1 --frame tracker
+contains out "planned from 24 candidate paths"
+contains out "-> separated from the nuisances"
+expect 1 "plan --clock without --frame" "$DM" plan --robot zheng2017 --kind tracker --effects error_arm_length --poses 40 --clock rate
+contains err "--clock needs --frame"
+expect 1 "plan bad --frame" "$DM" plan --robot zheng2017 --kind tracker --effects error_arm_length --poses 40 --frame sideways
+contains err "--frame is base or tracker"
+expect 2 "plan nuisances on a survey" "$DM" plan --robot zheng2017 --kind static --effects base_stiffness --poses 6 --frame base
+contains err "are for tracker runs"
 expect 2 "plan unknown effect" "$DM" plan --robot zheng2017 --kind modal --effects payload_mass,bogus --poses 6
 contains err "'bogus' is not a candidate effect"
 expect 2 "plan invisible effect" "$DM" plan --robot zheng2017 --kind static --effects payload_mass --poses 6

@@ -173,6 +173,112 @@ static void look_alikes_are_reported(void **state)
     dm_plan_free(&r);
 }
 
+/* A tracker run as a lab records it (dm_nuisance.h): the frame, the
+ * reflector offset and the clock offset are fitted with every model. An
+ * arm-length error on a planar circle is then mostly a rigid motion of the
+ * frame (at 5 um over 0.4 s its weakest combination, alone determined to
+ * 0.0055 of the scale, is left at 0.15 > DM_DIAG_DETERMINED), and the plan
+ * says so; from its family it picks a run that
+ * separates them (the pick cycle's heights and reach), and a diagnosis of a
+ * synthetic run of that path, nuisances in it, reports the uncertainty the
+ * plan predicted.
+ *
+ * Tolerance 10 %: both are the inverse Fisher information of the arm
+ * lengths after the nuisances are marginalised (the plan: the Schur
+ * complement; the fit: variable projection, its Jacobian of residuals with
+ * the nuisances fitted), from the same design. They differ by the points
+ * of linearisation (the assumed against the fitted lengths, a few um on
+ * 0.2 mm: the Jacobian changes by far less than 1 %), the finite
+ * differences, and the fit's misfit scale max(1, chi2/dof): with 3 x 400
+ * samples chi2/dof has a standard deviation sqrt(2/1200) = 4 %, its square
+ * root 2 %, so even 3 sd stay at 6 %. A plan that ignored the nuisances
+ * predicts several times less (at least 2x: the check below), which fails it. */
+#define NUIS_SAMPLES 400
+#define NUIS_NOISE 5e-6 /* m: a laser tracker over a metre */
+#define PLANAR_CIRCLE "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=0.399"
+
+static void nuisance_plan(const dm_robot *rb, const char *spec, const char *path, int nuisance,
+                          dm_plan_result *r)
+{
+    dm_plan_effect eff[DM_PLAN_MAXEFF];
+    dm_error err;
+    int n;
+    assert_int_equal(dm_plan_parse_effects(spec, DM_DATA_TRACKER, eff, &n, NULL), 0);
+    dm_plan_opts o = {.kind = DM_DATA_TRACKER, .npose = NUIS_SAMPLES, .seed = 1, .na = 1,
+                      .nb = 1, .threads = 2, .nuisance = nuisance, .path = path,
+                      .noise = NUIS_NOISE};
+    int rc = dm_plan(rb, eff, n, &o, r, &err);
+    if (rc)
+        print_error("%s\n", err.msg);
+    assert_int_equal(rc, 0);
+}
+
+static void planned_run_separates_effects_from_nuisances(void **state)
+{
+    (void)state;
+    static const char *const names[1] = {"error_arm_length"};
+    static const double truth_v[1][DM_DIAG_MAXV] = {{2e-4, -1.5e-4, 2.5e-4}};
+    const char *spec = "error_arm_length=2e-4,-1.5e-4,2.5e-4";
+    dm_robot rb, truth;
+    dm_plan_result circle, plain, plan;
+    assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
+    /* the planar circle: an arm-length combination the frame takes */
+    nuisance_plan(&rb, spec, PLANAR_CIRCLE, 1, &circle);
+    assert_int_equal(circle.nnuisance, 7);
+    assert_int_equal(circle.nconfound, 1);
+    const dm_plan_confound *c = &circle.confound[0];
+    print_message("circle: least determined %.3g alone, %.3g beyond the nuisances\n",
+                  c->sigma_alone, c->sigma);
+    assert_true(c->alike);
+    assert_true(c->sigma > DM_DIAG_DETERMINED && c->sigma_alone < 0.1 * DM_DIAG_DETERMINED);
+    double frame = 0; /* the frame (translation, rotation) mimics it */
+    for (int k = 0; k < 6; k++)
+        frame = fmax(frame, fabs(c->like[k]));
+    assert_true(frame >= 0.3);
+    /* the plan: a path of the family that separates them */
+    nuisance_plan(&rb, spec, NULL, 1, &plan);
+    print_message("planned %s: least determined %.3g beyond the nuisances\n", plan.path,
+                  plan.confound[0].sigma);
+    assert_int_equal(plan.ncandidates, 24);
+    assert_false(plan.confound[0].alike);
+    assert_true(plan.confound[0].sigma <= DM_DIAG_DETERMINED);
+    assert_true(strncmp(plan.path, "circle", 6)); /* no circle in one plane */
+    assert_true(plan.design.nuisance.on);
+    /* the same path without the nuisances determines far more */
+    nuisance_plan(&rb, spec, plan.path, 0, &plain);
+    assert_int_equal(plain.nnuisance, 0);
+    /* a synthetic run of that path with a frame translation and the robot's
+     * arm-length errors, diagnosed with the nuisances */
+    truth = rb;
+    assert_int_equal(dm_effects_apply(&truth, names[0], truth_v[0], NULL), 0);
+    dm_dataset d;
+    dm_fit f;
+    dm_error err;
+    assert_int_equal(dm_plan_observe(&truth, &plan.design, plan.noise, 7, 1, 1, &d, NULL), 0);
+    assert_true(d.nuisance.on);
+    static const double shift[3] = {3e-5, -2e-5, 4e-5};
+    for (int i = 0; i < d.n; i++)
+        d.s[i].value += shift[d.s[i].comp];
+    dm_diagnose_opts o = {.na = 1, .nb = 1, .pairs = 0, .threads = 2};
+    int rc = dm_fit_effects(&rb, &d, names, 1, truth_v, &o, &f, &err);
+    if (rc)
+        print_error("%s\n", err.msg);
+    assert_int_equal(rc, 0);
+    for (int k = 0; k < 3; k++) {
+        double s = f.sigma[0][k];
+        print_message("arm %d: fitted %.4g +- %.3g (true %.4g); planned 1-sigma %.3g, without "
+                      "nuisances %.3g\n", k, f.value[0][k], s, truth_v[0][k], plan.sigma[k],
+                      plain.sigma[k]);
+        assert_rel(s, plan.sigma[k], 0.10, "arm %d: reported against planned 1-sigma", k);
+        assert_true(fabs(f.value[0][k] - truth_v[0][k]) <= 4 * s);
+        assert_true(plain.sigma[k] < 0.5 * plan.sigma[k]);
+    }
+    dm_dataset_free(&d);
+    dm_plan_free(&plain);
+    dm_plan_free(&plan);
+    dm_plan_free(&circle);
+}
+
 static void bad_input_is_refused(void **state)
 {
     (void)state;
@@ -201,6 +307,9 @@ static void bad_input_is_refused(void **state)
                        .region = "x=1:2:3,y=0,z=-0.4"};
     assert_int_equal(dm_plan(&rb, eff, n, &o, &r, &err), DM_EINVAL);
     assert_non_null(strstr(err.msg, "no reachable pose"));
+    o.nuisance = 1; /* the tracker's nuisances on a static survey */
+    assert_int_equal(dm_plan(&rb, eff, n, &o, &r, &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "are for tracker runs"));
 }
 
 int main(int argc, char **argv)
@@ -213,6 +322,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(look_alikes_are_reported),
         cmocka_unit_test(planned_static_survey_beats_random_poses),
         cmocka_unit_test(planned_tracker_run_beats_random_paths),
+        cmocka_unit_test(planned_run_separates_effects_from_nuisances),
     };
     return cmocka_run_group_tests_name("plan", tests, NULL, NULL);
 }

@@ -17,6 +17,7 @@ static const char PLAN_HELP[] =
     "                     --poses N [--noise S] [--region GRID] [--seed S] [--mesh NA,NB]\n"
     "                     [--modes K] [--threads N] [--set K=V]... [--force-long]\n"
     "                     [--out POSES.csv] [--json] [--progress bar|lines|none]\n"
+    "                     [--frame base|tracker [--clock offset|rate]] [--path SPEC]\n"
     "\n"
     "Picks the N poses of a modal or static survey (tracker: one path of a small\n"
     "family of circles and ring-down moves, N samples at 1 ms) that make the named\n"
@@ -34,12 +35,18 @@ static const char PLAN_HELP[] =
     "--threads. A plan estimated at more than 4 hours or 2 GB is refused before\n"
     "its predictions unless --force-long. --progress: how far it is, on stderr,\n"
     "with an ETA per stage (sensitivities, choosing poses, assessment): a bar (the\n"
-    "default when stderr is a terminal), lines, or none (the default otherwise).\n";
+    "default when stderr is a terminal), lines, or none (the default otherwise).\n"
+    "Tracker runs: --frame base|tracker plans a run as a lab records it (the\n"
+    "'# frame:' header of docs/measured-data.md): the frame, the reflector offset\n"
+    "and the clock offset (--clock rate: and rate) are fitted with every model, so\n"
+    "the effects are planned for what the run determines beyond them, and the\n"
+    "combination of each effect they leave undetermined is printed. --path SPEC\n"
+    "assesses that path (a trajectory spec) instead of choosing one.\n";
 
 typedef struct {
     dm_cli_shared sh; /* --robot, --set, --mesh, --threads, --progress, --json, --out, --force-long */
     const char *effects;
-    int have_kind;
+    int have_kind, clock_rate;
     dm_plan_opts o;
 } plan_args;
 
@@ -47,7 +54,8 @@ static int parse(int argc, char **argv, plan_args *a)
 {
     static const struct option own[] = {
         {"kind", 1, 0, 'k'},  {"effects", 1, 0, 'e'}, {"poses", 1, 0, 'p'}, {"noise", 1, 0, 'n'},
-        {"region", 1, 0, 'g'}, {"seed", 1, 0, 'S'},   {"modes", 1, 0, 'M'}, {0, 0, 0, 0}};
+        {"region", 1, 0, 'g'}, {"seed", 1, 0, 'S'},   {"modes", 1, 0, 'M'}, {"frame", 1, 0, 'F'},
+        {"clock", 1, 0, 'C'}, {"path", 1, 0, 'W'},    {0, 0, 0, 0}};
     struct option lo[DM_CLI_MAXOPT];
     dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
                             DM_CLI_JSON | DM_CLI_OUT | DM_CLI_FORCE_LONG, lo);
@@ -68,6 +76,18 @@ static int parse(int argc, char **argv, plan_args *a)
             if (dm_cli_parse_count(optarg, 1, INT_MAX, &a->o.npose))
                 return dm_cli_usage("plan", "--poses takes a whole number 1..2147483647", optarg);
             break;
+        case 'F':
+            if (strcmp(optarg, "base") && strcmp(optarg, "tracker"))
+                return dm_cli_usage("plan", "--frame is base or tracker", optarg);
+            a->o.nuisance = a->o.nuisance ? a->o.nuisance : 1;
+            a->o.frame_tracker = !strcmp(optarg, "tracker");
+            break;
+        case 'C':
+            if (strcmp(optarg, "offset") && strcmp(optarg, "rate"))
+                return dm_cli_usage("plan", "--clock is offset or rate", optarg);
+            a->clock_rate = !strcmp(optarg, "rate");
+            break;
+        case 'W': a->o.path = optarg; break;
         case 'n':
             if (dm_cli_parse_list(optarg, &a->o.noise, 1) || !(a->o.noise > 0))
                 return dm_cli_usage("plan", "--noise takes a value > 0 (Hz or m)", optarg);
@@ -87,6 +107,9 @@ static int parse(int argc, char **argv, plan_args *a)
         return rc;
     if (!a->sh.robot || !a->have_kind || !a->effects || !a->o.npose)
         return dm_cli_usage("plan", "--robot, --kind, --effects and --poses are required", NULL);
+    if (a->clock_rate && !a->o.nuisance)
+        return dm_cli_usage("plan", "--clock needs --frame", NULL);
+    a->o.nuisance += a->o.nuisance && a->clock_rate;
     a->o.seed = (uint64_t)seed;
     a->o.na = a->sh.na;
     a->o.nb = a->sh.nb;
@@ -116,6 +139,41 @@ static void print_detect(const dm_plan_effect *e, double v)
         printf("up to %.2g %s", v, c->unit); /* springs: stiffer ones look rigid */
     else
         printf("from %.2g %s", v, c->unit);
+}
+
+/* The nuisances that mimic a confound most (|coefficient| >= 0.3 of the largest). */
+static void print_like(const dm_plan_result *r, const double *like, char *buf, size_t len)
+{
+    size_t at = 0;
+    buf[0] = 0;
+    for (int k = 0; k < r->nnuisance && at < len; k++)
+        if (fabs(like[k]) >= 0.3)
+            at += snprintf(buf + at, len - at, "%s%s %+.2f", at ? ", " : "", dm_nuisance_name(k),
+                           like[k]);
+}
+
+/* Each effect's combination least determined beyond the tracker's nuisances. */
+static void print_confounds(const dm_plan_result *r)
+{
+    printf("\nnuisances %d fitted with every model (frame translation with the reflector offset, "
+           "frame rotation,\n          clock offset%s): planned beyond them; per effect its "
+           "least determined combination\n", r->nnuisance, r->nnuisance > 7 ? " and rate" : "");
+    printf(" %-22s %-24s %10s %10s %7s  %s\n", "effect", "combination", "1-sig alone",
+           "beyond", "lost", "mimicked by");
+    for (int k = 0; k < r->nconfound; k++) {
+        const dm_plan_confound *c = &r->confound[k];
+        const dm_effect *e = r->effect[c->effect].cand;
+        char combo[96] = "", like[256];
+        for (int j = 0, at = 0; j < e->nparam && at < (int)sizeof combo; j++)
+            at += snprintf(combo + at, sizeof combo - at, "%s%+.2f", j ? "," : "(", c->combo[j]);
+        strncat(combo, ")", sizeof combo - strlen(combo) - 1);
+        print_like(r, c->like, like, sizeof like);
+        printf(" %-22s %-24s %10.2g %10.2g %6.1f%%  %s\n   %s\n", e->name, combo,
+               c->sigma_alone, c->sigma, c->lost_percent, like,
+               c->alike ? "-> not separated from the nuisances on this run"
+               : c->sigma > DM_DIAG_DETERMINED ? "-> not determined, nuisances or not"
+                                               : "-> separated from the nuisances");
+    }
 }
 
 static void print_plan(const dm_robot *rb, const dm_plan_result *r)
@@ -168,6 +226,8 @@ static void print_plan(const dm_robot *rb, const dm_plan_result *r)
                "  units of the candidates' scale; above %g they stay look-alikes)\n",
                DM_DIAG_DETERMINED);
     }
+    if (r->nnuisance)
+        print_confounds(r);
     if (d->kind != DM_DATA_TRACKER) {
         printf("\nposes (x, y, z in m%s)\n", d->kind == DM_DATA_STATIC ? "; force in N" : "");
         for (int i = 0, last = -1; i < d->n; i++) {
@@ -181,6 +241,29 @@ static void print_plan(const dm_robot *rb, const dm_plan_result *r)
             printf("\n");
         }
     }
+}
+
+static json_t *confounds_json(const dm_plan_result *r)
+{
+    json_t *names = json_array(), *eff = json_array();
+    for (int k = 0; k < r->nnuisance; k++)
+        json_array_append_new(names, json_string(dm_nuisance_name(k)));
+    for (int k = 0; k < r->nconfound; k++) {
+        const dm_plan_confound *c = &r->confound[k];
+        json_t *combo = json_array(), *like = json_object();
+        for (int j = 0; j < r->effect[c->effect].cand->nparam; j++)
+            json_array_append_new(combo, json_real(c->combo[j]));
+        for (int j = 0; j < r->nnuisance; j++)
+            json_object_set_new(like, dm_nuisance_name(j), json_real(c->like[j]));
+        json_array_append_new(
+            eff, json_pack("{s:s, s:o, s:o, s:o, s:f, s:o, s:b}", "effect",
+                           r->effect[c->effect].cand->name, "combination", combo, "sigma_alone",
+                           isfinite(c->sigma_alone) ? json_real(c->sigma_alone) : json_null(),
+                           "sigma", isfinite(c->sigma) ? json_real(c->sigma) : json_null(),
+                           "lost_percent", c->lost_percent, "mimicked_by", like,
+                           "not_separated", c->alike));
+    }
+    return json_pack("{s:o, s:o}", "marginalised", names, "least_determined", eff);
 }
 
 static void print_plan_json(const dm_robot *rb, const dm_plan_result *r)
@@ -235,6 +318,8 @@ static void print_plan_json(const dm_robot *rb, const dm_plan_result *r)
     json_object_set_new(o, "effects", eff);
     json_object_set_new(o, "pairs", pairs);
     json_object_set_new(o, "design", poses);
+    if (r->nnuisance) /* absent without: plans without nuisances give what they gave */
+        json_object_set_new(o, "nuisances", confounds_json(r));
     json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
     putchar('\n');
     json_decref(o);

@@ -21,6 +21,8 @@
 #define DETECT 5.0     /* "seen": the effect moves the data by 5 sigma (norm over samples) */
 #define RANDOM_DRAWS 64
 #define NPATH 22 /* the tracker paths of the family (path_spec) */
+#define NPICK 2  /* with the tracker's nuisances, pick cycles join it (path_spec) */
+#define NPATH_ALL (NPATH + NPICK)
 #define FD_STEP 1e-3   /* scaled units: 0.1 % of a spring, far below any 1-sigma that matters */
 #define RIDGE 1e-6     /* added to F's diagonal while choosing: a 1-sigma of 1000 scaled units */
 #define BISECTIONS 30  /* steps of a detectable magnitude's bisection in log10 */
@@ -57,6 +59,7 @@ typedef struct {
     int neff, p;
     double x0[DM_DIAG_MAXP], sc[DM_DIAG_MAXP];
     const dm_plan_opts *o;
+    const struct nuisance_basis *nb; /* the assessment's, NULL: none (signature()) */
 } model;
 
 static void model_init(model *m, const dm_robot *rb, const dm_plan_effect *eff, int neff,
@@ -296,7 +299,7 @@ static double median(double *v, int n)
 static double random_medians(double *ld, double (*sig)[DM_DIAG_MAXP], int ok, int p,
                              double *sig_median)
 {
-    double col[RANDOM_DRAWS > NPATH ? RANDOM_DRAWS : NPATH];
+    double col[RANDOM_DRAWS > NPATH_ALL ? RANDOM_DRAWS : NPATH_ALL];
     assert(ok <= (int)(sizeof col / sizeof col[0]));
     for (int j = 0; j < p; j++) {
         for (int d = 0; d < ok; d++)
@@ -330,6 +333,82 @@ static double random_sigma(const double *info, int nunit, int p, int n, uint64_t
     }
     free(sel);
     return random_medians(lds, sigs, ok, p, sig);
+}
+
+/* ---- a tracker run's nuisances -------------------------------------------------- */
+
+/* A combination of the nuisances is seen when its singular value of the
+ * column-normalised design is above this share of the largest (the
+ * eigenvalue share 1e-12 of dm_nuisance_apply). */
+#define NUIS_SEEN 1e-6
+
+/* The nuisances' design at a run's samples, N = U S V' with its columns
+ * scaled to unit norm (norm), and the orthonormal basis U of the
+ * combinations the run sees (rank columns). */
+typedef struct nuisance_basis {
+    int n, q, rank;
+    double *U;
+    double s[DM_NUISANCE_MAX], VT[DM_NUISANCE_MAX * DM_NUISANCE_MAX], norm[DM_NUISANCE_MAX];
+} nuisance_basis;
+
+/* The run's nuisances as the plan asks for them (dm_plan_opts.nuisance). */
+static void mark_nuisances(const dm_plan_opts *o, dm_dataset *d)
+{
+    d->nuisance.on = o->nuisance > 0;
+    d->nuisance.tracker_frame = o->nuisance > 0 && o->frame_tracker;
+    d->nuisance.clock_rate = o->nuisance > 1;
+}
+
+/* The basis about the model's prediction pred (elastic error of the
+ * samples); DM_ENOMEM or DM_OK. */
+static int nuisance_basis_make(const dm_dataset *d, const double *pred, nuisance_basis *b)
+{
+    memset(b, 0, sizeof *b);
+    int n = b->n = d->n, q = b->q = dm_nuisance_count(d);
+    assert(q > 0 && q <= DM_NUISANCE_MAX);
+    double *N = malloc(sizeof(double) * n * q), superb[DM_NUISANCE_MAX];
+    b->U = malloc(sizeof(double) * n * q);
+    if (!N || !b->U || n < q) {
+        free(N);
+        return DM_ENOMEM;
+    }
+    dm_nuisance_design(d, n, pred, N);
+    for (int k = 0; k < q; k++) {
+        double ss = 0;
+        for (int i = 0; i < n; i++)
+            ss += N[(size_t)k * n + i] * N[(size_t)k * n + i];
+        b->norm[k] = ss > 0 ? sqrt(ss) : 1;
+        for (int i = 0; i < n; i++)
+            N[(size_t)k * n + i] /= b->norm[k];
+    }
+    int rc = LAPACKE_dgesvd(LAPACK_COL_MAJOR, 'S', 'S', n, q, N, n, b->s, b->U, n, b->VT, q,
+                            superb);
+    free(N);
+    if (rc)
+        return DM_ENOMEM; /* dgesvd fails only without workspace */
+    while (b->rank < q && b->s[b->rank] > NUIS_SEEN * b->s[0])
+        b->rank++;
+    return DM_OK;
+}
+
+static void nuisance_basis_free(nuisance_basis *b) { free(b->U); }
+
+/* J's ncol columns projected orthogonal to the nuisances: J'J becomes the
+ * Schur complement of the nuisances' block in the joint information, the
+ * effects' information after the nuisances are marginalised. */
+static void project_out(const nuisance_basis *b, double *J, int ncol)
+{
+    for (int j = 0; j < ncol; j++) {
+        double *c = J + (size_t)j * b->n;
+        for (int k = 0; k < b->rank; k++) {
+            const double *u = b->U + (size_t)k * b->n;
+            double uc = 0;
+            for (int i = 0; i < b->n; i++)
+                uc += u[i] * c[i];
+            for (int i = 0; i < b->n; i++)
+                c[i] -= uc * u[i];
+        }
+    }
 }
 
 /* ---- candidates -------------------------------------------------------------------- */
@@ -411,19 +490,23 @@ static int check_survey(const model *m, const dm_dataset *cand, int nunit, dm_er
                          "fewer poses or a smaller region", o->force_long, err);
 }
 
-/* Tracker: p + 1 predictions of each of the NPATH paths of n samples (in
+/* The tracker paths the plan chooses from: the option's, or the family
+ * (with the nuisances, the pick cycles too). */
+static int path_count(const dm_plan_opts *o) { return o->path ? 1 : o->nuisance ? NPATH_ALL : NPATH; }
+
+/* Tracker: p + 1 predictions of each of the paths of n samples (in
  * parallel over the parameters), the assessment of the chosen one. */
 static int check_tracker(const model *m, dm_error *err)
 {
     const dm_plan_opts *o = m->o;
-    int p = m->p, n = o->npose, threads = thread_count(o);
+    int p = m->p, n = o->npose, threads = thread_count(o), npath = path_count(o);
     double run = dm_predict_cost_s(m->rb, o->kind, n, o->na, o->nb);
-    double est = NPATH * (p + 1.0) * run / threads + ASSESS_PREDICTIONS(m) * run;
-    double bytes = fmin(threads, NPATH) * 3.0 * n * (p + 2) * sizeof(double) +
+    double est = npath * (p + 1.0) * run / threads + ASSESS_PREDICTIONS(m) * run;
+    double bytes = fmin(threads, npath) * 3.0 * n * (p + 2) * sizeof(double) +
                    3.0 * n * sizeof(dm_sample) + 4.0 * n * sizeof(double);
     char what[160];
     snprintf(what, sizeof what, "plan: a tracker run of %d samples, %d paths, %d parameter%s",
-             n, NPATH, p, p == 1 ? "" : "s");
+             n, npath, p, p == 1 ? "" : "s");
     int rc = dm_work_check(what, (dm_work){est, bytes, 0}, DM_WORK_LIMIT, "fewer samples",
                            o->force_long, err);
     if (!rc && n > INT_MAX / 3) /* the samples are counted in int */
@@ -440,11 +523,16 @@ static const double DIRS[7][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1},           {1,
  * than the standard move's 50 m/s^2 (docs/model.md §5): circles in the three
  * planes (two radii, centripetal 20 and 50 m/s^2) and bang-bang moves (two
  * lengths, five directions, 50 m/s^2, within half the record, shortened to
- * fit), then a dwell in which the structure rings down. */
+ * fit), then a dwell in which the structure rings down; with the tracker's
+ * nuisances also the pick cycle (25 mm up, 305 across, 25 down: heights and
+ * reach that a rigid motion of the frame cannot mimic) along x and along
+ * y, centred on home, at 50 m/s^2 (cycloidal: 2 pi wsum^2 / T^2 with wsum
+ * the sum of the segments' sqrt(length), 0.308 s), then a dwell. 0, or -1
+ * when the record is too short for the path. */
 #define AMAX 50.0
-static void path_spec(const dm_robot *rb, int k, int n, char *spec, size_t len)
+static int path_spec(const dm_robot *rb, int k, int n, char *spec, size_t len)
 {
-    assert(k >= 0 && k < NPATH);
+    assert(k >= 0 && k < NPATH_ALL);
     static const char *const PLANES[3] = {"xy", "xz", "yz"};
     static const double MOVE[5][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}, {1, -1, 0.5}};
     const double *h = rb->home_m, la = rb->arm_length_m, T = (n - 1) * 1e-3;
@@ -453,7 +541,15 @@ static void path_spec(const dm_robot *rb, int k, int n, char *spec, size_t len)
         double a = k / 2 % 2 ? AMAX : 0.4 * AMAX;
         snprintf(spec, len, "circle:centre=%.6g,%.6g,%.6g;radius=%.6g;rate=%.9g;duration=%.9g;plane=%s",
                  h[0], h[1], h[2], r, sqrt(a / r), T, PLANES[k / 4]);
-        return;
+        return 0;
+    }
+    if (k >= NPATH) {
+        int ax = k - NPATH;
+        double wsum = 2 * sqrt(0.025) + sqrt(0.305), tp = sqrt(2 * M_PI * wsum * wsum / AMAX);
+        snprintf(spec, len, "pick:start=%.6g,%.6g,%.6g;duration=%.9g;axis=%s;dwell=%.9g",
+                 h[0] - (ax ? 0 : 0.1525), h[1] - (ax ? 0.1525 : 0), h[2], tp, ax ? "y" : "x",
+                 fmax(T - tp, 0));
+        return tp <= T ? 0 : -1;
     }
     k -= 12;
     const double *u = MOVE[k / 2];
@@ -464,6 +560,7 @@ static void path_spec(const dm_robot *rb, int k, int n, char *spec, size_t len)
              "p2p:from=%.6g,%.6g,%.6g;to=%.6g,%.6g,%.6g;duration=%.9g;law=bangbang;dwell=%.9g",
              h[0] - d * u[0] / 2, h[1] - d * u[1] / 2, h[2] - d * u[2] / 2, h[0] + d * u[0] / 2,
              h[1] + d * u[1] / 2, h[2] + d * u[2] / 2, tau, T - tau);
+    return 0;
 }
 
 /* The tracker samples of a path (n times at 1 ms); DM_EUNREACHABLE if it
@@ -599,47 +696,82 @@ static int plan_survey(const model *m, double noise, dm_plan_result *r, dm_progr
     return rc;
 }
 
+/* A path's information: the sensitivities of its samples d, projected
+ * orthogonal to the nuisances when the plan has them; log det and sig. */
+static int path_information(const model *m, dm_dataset *d, double noise, dm_progress_meter *pm,
+                            double *sig, double *ld, dm_error *err)
+{
+    int p = m->p;
+    double *pred = malloc(sizeof(double) * d->n), *J = malloc(sizeof(double) * d->n * p);
+    double F[DM_DIAG_MAXP * DM_DIAG_MAXP];
+    int first[2] = {0, d->n}, all = 0;
+    int rc = !pred || !J ? dm_fail(err, DM_ENOMEM, "out of memory")
+                         : sensitivities(m, d, noise, pred, J, pm, 0, err);
+    if (!rc && m->o->nuisance) {
+        nuisance_basis b;
+        mark_nuisances(m->o, d);
+        rc = nuisance_basis_make(d, pred, &b);
+        if (!rc)
+            project_out(&b, J, p);
+        nuisance_basis_free(&b);
+        if (rc)
+            rc = dm_fail(err, DM_ENOMEM, "out of memory");
+    }
+    if (!rc) {
+        unit_information(J, d->n, p, first, 1, F);
+        *ld = design_sigma(F, &all, 1, p, sig);
+    }
+    free(pred), free(J);
+    return rc;
+}
+
+/* The tracker path k of the plan: the option's, or the family's k-th;
+ * DM_EUNREACHABLE when the record is too short for it. */
+static int plan_path(const model *m, int k, char *spec, size_t len, dm_error *err)
+{
+    if (m->o->path)
+        snprintf(spec, len, "%s", m->o->path);
+    else if (path_spec(m->rb, k, m->o->npose, spec, len))
+        return dm_fail(err, DM_EUNREACHABLE, "%s: longer than %d samples", spec, m->o->npose);
+    return DM_OK;
+}
+
 /* Tracker: the path of the family with the largest determinant. */
 static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_progress_meter *pm,
                         dm_error *err)
 {
-    int p = m->p, n = m->o->npose, status[NPATH];
-    double ld[NPATH], sig[NPATH][DM_DIAG_MAXP];
-    dm_error perr[NPATH];
+    int p = m->p, n = m->o->npose, status[NPATH_ALL], npath = path_count(m->o);
+    double ld[NPATH_ALL], sig[NPATH_ALL][DM_DIAG_MAXP];
+    dm_error perr[NPATH_ALL];
     int rc0 = check_tracker(m, err);
     if (rc0)
         return rc0;
-    dm_progress_begin(pm, "sensitivities", "predictions", NPATH * (p + 1L));
+    if (m->o->path && strlen(m->o->path) >= sizeof r->path)
+        return dm_fail(err, DM_EINVAL, "path '%.40s...': at most %zu characters", m->o->path,
+                       sizeof r->path - 1);
+    dm_progress_begin(pm, "sensitivities", "predictions", npath * (p + 1L));
 #pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count(m->o))
-    for (int k = 0; k < NPATH; k++) {
+    for (int k = 0; k < npath; k++) {
         char spec[256];
         dm_dataset d;
-        path_spec(m->rb, k, n, spec, sizeof spec);
-        status[k] = path_samples(m->rb, spec, n, noise, &d, &perr[k]);
+        status[k] = plan_path(m, k, spec, sizeof spec, &perr[k]);
+        if (!status[k])
+            status[k] = path_samples(m->rb, spec, n, noise, &d, &perr[k]);
         ld[k] = -INFINITY;
         if (status[k]) {
             dm_progress_add(pm, p + 1); /* a path not taken: its predictions are done */
             continue;
         }
-        double *pred = malloc(sizeof(double) * d.n), *J = malloc(sizeof(double) * d.n * p);
-        double F[DM_DIAG_MAXP * DM_DIAG_MAXP];
-        int first[2] = {0, d.n}, all = 0;
-        status[k] = !pred || !J ? dm_fail(&perr[k], DM_ENOMEM, "out of memory")
-                                : sensitivities(m, &d, noise, pred, J, pm, 0, &perr[k]);
-        if (!status[k]) {
-            unit_information(J, d.n, p, first, 1, F);
-            ld[k] = design_sigma(F, &all, 1, p, sig[k]);
-        }
-        free(pred), free(J);
+        status[k] = path_information(m, &d, noise, pm, sig[k], &ld[k], &perr[k]);
         dm_dataset_free(&d);
     }
     int best = -1, ok = 0;
-    double lds[NPATH], sigs[NPATH][DM_DIAG_MAXP];
-    for (int k = 0; k < NPATH; k++)
-        if (status[k] && status[k] != DM_EUNREACHABLE)
+    double lds[NPATH_ALL], sigs[NPATH_ALL][DM_DIAG_MAXP];
+    for (int k = 0; k < npath; k++)
+        if (status[k] && (status[k] != DM_EUNREACHABLE || m->o->path))
             return err ? (*err = perr[k], perr[k].code) : status[k];
     dm_progress_end(pm);
-    for (int k = 0; k < NPATH; k++) {
+    for (int k = 0; k < npath; k++) {
         if (status[k])
             continue;
         r->ncandidates++;
@@ -652,15 +784,21 @@ static int plan_tracker(const model *m, double noise, dm_plan_result *r, dm_prog
     }
     if (!r->ncandidates)
         return dm_fail(err, DM_EUNREACHABLE, "no path of the family stays in the workspace");
+    if (best < 0 && m->o->path) /* assessed all the same: what it leaves undetermined */
+        best = 0, lds[ok] = ld[0], memcpy(sigs[ok++], sig[0], sizeof sig[0]);
     if (best < 0)
-        return dm_fail(err, DM_EINVAL, "no path of the family determines these effects");
+        return dm_fail(err, DM_EINVAL, "no path of the family determines these effects%s",
+                       m->o->nuisance ? " beyond the tracker's nuisances" : "");
     r->logdet = ld[best];
     r->logdet_random = random_medians(lds, sigs, ok, p, r->sigma_random);
     for (int j = 0; j < p; j++)
         r->sigma[j] = sig[best][j];
-    path_spec(m->rb, best, n, r->path, sizeof r->path);
-    int rc = path_samples(m->rb, r->path, n, noise, &r->design, err);
+    int rc = plan_path(m, best, r->path, sizeof r->path, err);
+    if (!rc)
+        rc = path_samples(m->rb, r->path, n, noise, &r->design, err);
     snprintf(r->design.source, sizeof r->design.source, "planned tracker run");
+    if (!rc)
+        mark_nuisances(m->o, &r->design);
     return rc;
 }
 
@@ -677,9 +815,13 @@ static double signature(const model *m, dm_predictor *pw, int e, const double *x
     dm_progress_add(pm, 1);
     if (rc)
         return NAN;
+    for (int i = 0; i < d->n; i++)
+        buf[i] -= base[i];
+    if (m->nb) /* what the nuisances cannot take */
+        project_out(m->nb, buf, 1);
     double q = 0;
     for (int i = 0; i < d->n; i++)
-        q += (buf[i] - base[i]) * (buf[i] - base[i]);
+        q += buf[i] * buf[i];
     return sqrt(q) / noise;
 }
 
@@ -797,9 +939,75 @@ static void compare_pair(const model *m, const double *F, int a, int b, dm_plan_
         pr->angle_deg = acos(fmin(1.0, sv[0])) * 180 / M_PI;
 }
 
-static int assess(const model *m, double noise, dm_plan_result *r, dm_progress_meter *pm,
+/* Effect e against the nuisances: J0 its sensitivities as they are, J
+ * projected orthogonal to the nuisances (both d->n rows, the model's p
+ * columns). The combination least determined beyond the nuisances (the
+ * smallest eigenvalue of e's block of J'J) and the nuisance combination
+ * closest to it (least squares on the unit-norm design: V S^-1 U' J0 v). */
+static void confound_of(const model *m, const nuisance_basis *b, const double *J0,
+                        const double *J, int e, dm_plan_confound *c)
+{
+    int j0 = first_param(m, e), pe = m->eff[e].cand->nparam, n = b->n;
+    assert(pe >= 1 && pe <= DM_DIAG_MAXV);
+    double A[DM_DIAG_MAXV * DM_DIAG_MAXV], w[DM_DIAG_MAXV], g[DM_NUISANCE_MAX] = {0};
+    memset(c, 0, sizeof *c);
+    c->effect = e;
+    for (int u = 0; u < pe; u++)
+        for (int v = 0; v < pe; v++) {
+            double s = 0;
+            for (int i = 0; i < n; i++)
+                s += J[(size_t)(j0 + u) * n + i] * J[(size_t)(j0 + v) * n + i];
+            A[v * pe + u] = s;
+        }
+    if (LAPACKE_dsyev(LAPACK_COL_MAJOR, 'V', 'U', pe, A, pe, w))
+        w[0] = 0, A[0] = 1; /* not reached: dsyev fails only without workspace */
+    memcpy(c->combo, A, sizeof(double) * pe);
+    double alone = 0, big = 0;
+    for (int i = 0; i < n; i++) {
+        double f = 0;
+        for (int u = 0; u < pe; u++)
+            f += J0[(size_t)(j0 + u) * n + i] * c->combo[u];
+        alone += f * f;
+        for (int k = 0; k < b->rank; k++)
+            g[k] += b->U[(size_t)k * n + i] * f;
+    }
+    c->sigma = w[0] > 0 ? 1 / sqrt(w[0]) : INFINITY;
+    c->sigma_alone = alone > 0 ? 1 / sqrt(alone) : INFINITY;
+    c->lost_percent = alone > 0 ? 100 * (1 - fmax(w[0], 0) / alone) : 0;
+    for (int l = 0; l < b->q; l++) {
+        for (int k = 0; k < b->rank; k++)
+            c->like[l] += b->VT[l * b->q + k] * g[k] / b->s[k];
+        big = fmax(big, fabs(c->like[l]));
+    }
+    for (int l = 0; l < b->q && big > 0; l++)
+        c->like[l] /= big;
+    c->alike = c->sigma > DM_DIAG_DETERMINED && c->sigma_alone <= DM_DIAG_DETERMINED;
+}
+
+/* The assessment's sensitivities beyond the nuisances (J projected, J0
+ * keeps them as they are) and each effect's confound. */
+static int marginalise(const model *m, const dm_dataset *d, const double *pred, double *J,
+                       nuisance_basis *b, dm_plan_result *r)
+{
+    int p = m->p, rc = nuisance_basis_make(d, pred, b);
+    double *J0 = rc ? NULL : malloc(sizeof(double) * d->n * p);
+    if (!J0)
+        return DM_ENOMEM;
+    memcpy(J0, J, sizeof(double) * d->n * p);
+    project_out(b, J, p);
+    r->nnuisance = b->q;
+    for (int e = 0; e < m->neff; e++)
+        if (m->eff[e].cand->nparam)
+            confound_of(m, b, J0, J, e, &r->confound[r->nconfound++]);
+    free(J0);
+    return DM_OK;
+}
+
+static int assess(const model *m0, double noise, dm_plan_result *r, dm_progress_meter *pm,
                   dm_error *err)
 {
+    model mm = *m0, *m = &mm;
+    nuisance_basis nb = {0};
     const dm_dataset *d = &r->design;
     int p = m->p, nrow = d->n;
     double *base = malloc(sizeof(double) * nrow), *buf = malloc(sizeof(double) * nrow);
@@ -818,6 +1026,10 @@ static int assess(const model *m, double noise, dm_plan_result *r, dm_progress_m
     }
     if (!rc)
         rc = sensitivities(m, d, noise, pred, J, pm, 0, err);
+    if (!rc && dm_nuisance_count(d)) {
+        rc = marginalise(m, d, pred, J, &nb, r);
+        mm.nb = &nb;
+    }
     if (!rc) {
         unit_information(J, nrow, p, first, 1, F);
         for (int e = 0; e < m->neff; e++)
@@ -829,6 +1041,7 @@ static int assess(const model *m, double noise, dm_plan_result *r, dm_progress_m
                     compare_pair(m, F, a, b, &r->pair[r->npair++]);
     }
     free(base), free(buf), free(J), free(pred);
+    nuisance_basis_free(&nb);
     dm_predictor_free(pw);
     return rc == DM_ENOMEM ? dm_fail(err, rc, "out of memory") : rc;
 }
@@ -873,6 +1086,12 @@ static int plan(const dm_robot *rb, const dm_plan_effect *eff, int neff, const d
     if (o->npose < m.p)
         return dm_fail(err, DM_EINVAL,
                        "%d poses: fewer than the %d parameters of these effects", o->npose, m.p);
+    if ((o->nuisance || o->path) && o->kind != DM_DATA_TRACKER)
+        return dm_fail(err, DM_EINVAL, "%s: a path and the tracker's nuisances are for tracker "
+                       "runs", o->path ? "path" : "nuisances");
+    if (o->nuisance && o->npose < 2 + (m.p + 8) / 3)
+        return dm_fail(err, DM_EINVAL, "%d samples: too few for the %d parameters and the "
+                       "tracker's nuisances", o->npose, m.p);
     r->neffect = neff;
     memcpy(r->effect, eff, sizeof(dm_plan_effect) * neff);
     r->nparam = m.p;
@@ -998,6 +1217,12 @@ int dm_plan_write_template(const dm_plan_result *r, const char *robot, FILE *out
     } else {
         fprintf(out, "# path: %s\n# tracker files carry no sigma: diagnose with --sigma %g\n",
                 r->path, r->noise);
+        if (d->nuisance.on && d->nuisance.tracker_frame) /* read as a template it has no frame */
+            fprintf(out, "# with the measured values in the tracker's frame, add '# frame: "
+                    "tracker', '# reflector: X, Y, Z' and '# clock: %s' (docs/measured-data.md)\n",
+                    d->nuisance.clock_rate ? "rate" : "offset");
+        else if (d->nuisance.on)
+            fprintf(out, "# frame: base\n# clock: %s\n", d->nuisance.clock_rate ? "rate" : "offset");
         fprintf(out, "t,x_cmd,y_cmd,z_cmd,x_meas,y_meas,z_meas\n");
         for (int i = 0; i + 2 < d->n; i += 3) {
             const dm_sample *s = &d->s[i];
