@@ -281,6 +281,8 @@ printf '# robot: zheng2017\nx,y,z,mode,freq_hz,shape_s1\n0,0,-0.4,1,84,1\n' > "$
 expect 2 "shape column without position" "$DM" diagnose --measured "$TMP/badshape.csv" --mesh 1,1
 contains err "badshape.csv:2: column 6 (shape_s1): no '# sensor: s1, BODY, AT, DX, DY, DZ' line"
 expect 1 "synth pairing of a static survey" "$DM" synth --robot zheng2017 --kind static --drop-mode 2
+expect 2 "synth --drop-mode beyond --modes" "$DM" synth --robot zheng2017 --kind modal --modes 3 --poses 3 --mesh 1,1 --drop-mode 4
+contains err "mode 4 to leave out is beyond the 3 modes made"
 expect 1 "synth bad --extra-mode" "$DM" synth --robot zheng2017 --kind modal --extra-mode 120,w
 expect 0 "synth noise only" "$DM" synth --robot zheng2017 --kind static --noise 1e-7 --poses 9 --seed 2 --mesh 1,1 --out "$TMP/null.csv"
 expect 0 "diagnose null" "$DM" diagnose --measured "$TMP/null.csv" --mesh 1,1 --json

@@ -236,9 +236,10 @@ static json_t *pairing_json(const dm_pairing *pg)
     json_t *modes = json_array(), *skipped = json_array();
     for (int i = 0; i < pg->n; i++) {
         const dm_pair *p = &pg->pair[i];
-        json_t *m = json_pack("{s:i, s:i, s:i, s:f, s:s}", "line", p->line, "pose",
+        json_t *m = json_pack("{s:i, s:i, s:i, s:f, s:o}", "line", p->line, "pose",
                               p->pose_id + 1, "mode", p->label, "freq_hz", p->freq_meas, "dir",
-                              dm_direction_name(p->dir_meas));
+                              p->dir_meas >= 0 ? json_string(dm_direction_name(p->dir_meas))
+                                               : json_null());
         json_object_set_new(m, "model_mode", p->model_mode ? json_integer(p->model_mode)
                                                            : json_null());
         json_object_set_new(m, "model_freq_hz", p->model_mode ? json_real(p->freq_model)

@@ -372,6 +372,11 @@ int dm_pairing_survey(const dm_robot *rb, int sensors, int drop, double extra_hz
     for (int first = 0, end; first < d->n && !rc; first = end) {
         for (end = first; end < d->n && d->s[end].pose_id == d->s[first].pose_id; end++)
             ;
+        if (drop > end - first) {
+            rc = dm_fail(err, DM_EINVAL, "mode %d to leave out is beyond the %d modes made",
+                         drop, end - first);
+            break;
+        }
         out.npose++;
         rc = survey_pose(rb, d, first, end, drop, extra_hz, extra_dir, na, nb, rng, &out, err);
     }
