@@ -54,6 +54,14 @@ typedef struct dm_nuisance_fit {
 int dm_nuisance_apply(const dm_dataset *data, int n, const char *held, const double *w,
                       double *pred, double covscale, dm_nuisance_fit *fit);
 
+/* The nuisances fitted to the residuals of pred on every sample (weights
+ * 1/sigma, 1 without), their contribution added to pred; the 1-sigma
+ * scaled by max(1, chi2/dof) with sigma known, chi2/dof without (as a
+ * diagnosis scales its fits). For residuals after the nuisances (compare).
+ * DM_EINVAL (naming the file) for data without nuisances, DM_ENOMEM. */
+int dm_nuisance_fit_all(const dm_dataset *data, double *pred, dm_nuisance_fit *fit,
+                        dm_error *err);
+
 /* The nuisances' design at samples i < n: N (n x dm_nuisance_count,
  * column-major), d(measured - commanded)/d(nuisance k) at sample i, about
  * the model's prediction pred. */

@@ -383,6 +383,29 @@ expect 0 "synth at a planned run with nuisances" "$DM" synth --robot zheng2017 -
 expect 0 "plan tracker with nuisances" "$DM" plan --robot zheng2017 --kind tracker --effects error_arm_length=2e-4,-1.5e-4,2.5e-4 --poses 400 --noise 5e-6 --mesh 1,1 --frame tracker
 contains out "planned from 24 candidate paths"
 contains out "-> separated from the nuisances"
+# compare --after-nuisances: a run in a base frame found 30-40 um off
+expect 0 "synth a tracker run" "$DM" synth --robot zheng2017 --kind tracker --path "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=0.2" --noise 2e-6 --seed 4 --mesh 1,1 --out "$TMP/nuis-run.csv"
+python3 - "$TMP/nuis-run.csv" "$TMP/nuis-run-frame.csv" <<'PY'
+import sys
+rows = open(sys.argv[1]).read().splitlines()
+head = [r for r in rows if r.startswith('#')] + ['# frame: base']
+body = [r for r in rows if not r.startswith('#')]
+cols = body[0].split(',')
+out = head + [body[0]]
+for r in body[1:]:
+    v = r.split(',')
+    for c, o in (('x_meas', 3e-5), ('y_meas', -2e-5), ('z_meas', 4e-5)):
+        v[cols.index(c)] = repr(float(v[cols.index(c)]) + o)
+    out.append(','.join(v))
+open(sys.argv[2], 'w').write('\n'.join(out) + '\n')
+PY
+expect 0 "compare before the nuisances" "$DM" compare --measured "$TMP/nuis-run-frame.csv" --sigma 2e-6 --mesh 1,1 --json
+json_true "d['chi2_per_sample'] > 100 and 'nuisances_fitted' not in d"
+expect 0 "compare after the nuisances" "$DM" compare --measured "$TMP/nuis-run-frame.csv" --sigma 2e-6 --mesh 1,1 --json --after-nuisances
+json_true "d['chi2_per_sample'] < 1 + 4 * (2 / 603) ** 0.5 and abs(d['nuisances_fitted']['frame_translation_z']['value'] - 4e-5) < 3 * d['nuisances_fitted']['frame_translation_z']['sigma']"
+expect 2 "compare --after-nuisances without '# frame:'" "$DM" compare --measured "$TMP/nuis-run.csv" --sigma 2e-6 --mesh 1,1 --after-nuisances
+contains err "nuis-run.csv: no nuisances to fit"
+expect 1 "diagnose --after-nuisances" "$DM" diagnose --measured "$TMP/nuis-run.csv" --after-nuisances
 expect 1 "plan --clock without --frame" "$DM" plan --robot zheng2017 --kind tracker --effects error_arm_length --poses 40 --clock rate
 contains err "--clock needs --frame"
 expect 1 "plan bad --frame" "$DM" plan --robot zheng2017 --kind tracker --effects error_arm_length --poses 40 --frame sideways

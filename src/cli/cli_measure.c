@@ -17,14 +17,16 @@
 
 static const char COMPARE_HELP[] =
     "usage: deltamap compare --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"
-    "                        [--sigma S] [--out RESIDUALS.csv] [--json]\n"
+    "                        [--sigma S] [--out RESIDUALS.csv] [--json] [--after-nuisances]\n"
     "\n"
     "What the simulation gets wrong: residuals (measured - predicted) per sample\n"
     "and in summary (bias, RMS, normalised by sigma), where they are largest\n"
     "(which modes or directions, which poses) and whether they exceed the noise.\n"
     "--robot defaults to the file's '# robot:' line; --sigma gives the noise level\n"
     "(Hz or m) of samples whose file has none (tracker files never do). Plot with\n"
-    "tools/plot_compare.py RESIDUALS.csv.\n";
+    "tools/plot_compare.py RESIDUALS.csv. --after-nuisances: a tracker run with\n"
+    "'# frame:' (docs/measured-data.md) shown after its nuisances (frame, reflector\n"
+    "offset, clock) are fitted to the robot file's prediction, and those printed.\n";
 
 static const char DIAGNOSE_HELP[] =
     "usage: deltamap diagnose --measured FILE [--robot R] [--mesh NA,NB] [--set K=V]...\n"
@@ -79,6 +81,7 @@ typedef struct {
     const char *measured, *robot, *out, *write_robot;
     const char *sets[DM_CLI_MAXSET];
     int nset, json, pairs, threads, na, nb, force_long;
+    int after_nuisances; /* compare: residuals after the tracker's nuisances */
     int progress;       /* diagnose: DM_CLI_PROGRESS_* */
     double sigma;       /* --sigma: noise level for samples that give none */
 } measure_args;
@@ -90,7 +93,7 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
         {"write-robot", 1, 0, 'w'}, {"set", 1, 0, 's'}, {"mesh", 1, 0, 'm'},
         {"no-pairs", 0, 0, 'P'}, {"threads", 1, 0, 'T'}, {"sigma", 1, 0, 'S'},
         {"json", 0, 0, 'j'},     {"help", 0, 0, 'h'},    {"force-long", 0, 0, 'L'},
-        {"progress", 1, 0, 'p'}, {0, 0, 0, 0}};
+        {"progress", 1, 0, 'p'}, {"after-nuisances", 0, 0, 'A'}, {0, 0, 0, 0}};
     int c;
     memset(a, 0, sizeof *a);
     a->pairs = 1;
@@ -105,6 +108,11 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
         case 'w': a->write_robot = optarg; break;
         case 'j': a->json = 1; break;
         case 'P': a->pairs = 0; break;
+        case 'A':
+            if (strcmp(cmd, "compare"))
+                return dm_cli_usage(cmd, "unknown or incomplete option", argv[optind - 1]);
+            a->after_nuisances = 1;
+            break;
         case 'L':
             if (strcmp(cmd, "diagnose"))
                 return dm_cli_usage(cmd, "unknown or incomplete option", argv[optind - 1]);
@@ -278,6 +286,30 @@ static int pair_survey(const measure_args *a, const dm_robot *rb, dm_dataset *d,
     return rc;
 }
 
+/* Fitted nuisances, one a line (diagnose and compare --after-nuisances). */
+static void print_nuisance_values(const dm_nuisance_fit *nf)
+{
+    for (int k = 0; k < nf->n; k++) {
+        printf("          %-20s %12.4g +- ", dm_nuisance_name(k), nf->value[k]);
+        if (isfinite(nf->sigma[k]))
+            printf("%-9.2g %s\n", nf->sigma[k], dm_nuisance_unit(k));
+        else
+            printf("%-9s %s (not determined by this path)\n", "inf", dm_nuisance_unit(k));
+    }
+}
+
+static json_t *nuisance_values_json(const dm_nuisance_fit *nf)
+{
+    json_t *par = json_object();
+    for (int k = 0; k < nf->n; k++)
+        json_object_set_new(par, dm_nuisance_name(k),
+                            json_pack("{s:f, s:o, s:s}", "value", nf->value[k], "sigma",
+                                      isfinite(nf->sigma[k]) ? json_real(nf->sigma[k])
+                                                             : json_null(),
+                                      "unit", dm_nuisance_unit(k)));
+    return par;
+}
+
 int dm_cli_compare(int argc, char **argv)
 {
     dm_cli_serial_blas();
@@ -296,7 +328,9 @@ int dm_cli_compare(int argc, char **argv)
         return dm_cli_report(&err);
     }
     double *pred = malloc(sizeof(double) * d.n);
-    if (!pred || (rc = dm_predict(&rb, &d, a.na, a.nb, pred, &err))) {
+    dm_nuisance_fit nf = {0};
+    if (!pred || (rc = dm_predict(&rb, &d, a.na, a.nb, pred, &err)) ||
+        (a.after_nuisances && (rc = dm_nuisance_fit_all(&d, pred, &nf, &err)))) {
         free(pred);
         dm_pairing_free(&pg);
         dm_dataset_free(&d);
@@ -344,6 +378,8 @@ int dm_cli_compare(int argc, char **argv)
         json_object_set_new(o, "groups", g);
         if (pg.pair) /* modal surveys with shapes or directions only */
             json_object_set_new(o, "pairing", pairing_json(&pg));
+        if (nf.n) /* --after-nuisances: the residuals above are after them */
+            json_object_set_new(o, "nuisances_fitted", nuisance_values_json(&nf));
         json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
         putchar('\n');
         json_decref(o);
@@ -356,6 +392,13 @@ int dm_cli_compare(int argc, char **argv)
         if (pg.pair) {
             printf("\n");
             print_pairing(&pg);
+        }
+        if (nf.n) {
+            printf("\nnuisances fitted to the robot file's prediction; the residuals are after "
+                   "them:\n");
+            print_nuisance_values(&nf);
+            printf("          (the translation includes the reflector offset's error; rotations "
+                   "about the run's centroid)");
         }
         printf("\n\n %-8s %6s %12s %12s %10s\n", d.kind == DM_DATA_MODAL ? "mode" : "axis", "n",
                "bias", "RMS", sigma ? "chi2/n" : "");
@@ -679,16 +722,9 @@ static void print_verdict(const dm_dataset *d, const dm_robot *rb, const dm_diag
 /* A tracker run's nuisances: fitted with every model, never a cause. */
 static void print_nuisances(const dm_dataset *d, const dm_diagnosis *dg)
 {
-    const dm_nuisance_fit *nf = &dg->nuisance;
     printf("nuisances fitted with every model (of the %s; never a cause):\n",
            dg->found ? "verdict's model" : "baseline");
-    for (int k = 0; k < nf->n; k++) {
-        printf("          %-20s %12.4g +- ", dm_nuisance_name(k), nf->value[k]);
-        if (isfinite(nf->sigma[k]))
-            printf("%-9.2g %s\n", nf->sigma[k], dm_nuisance_unit(k));
-        else
-            printf("%-9s %s (not determined by this path)\n", "inf", dm_nuisance_unit(k));
-    }
+    print_nuisance_values(&dg->nuisance);
     printf("          (the translation is the frame's plus the reflector offset's error: only "
            "their sum is determined; rotations about the run's centroid)\n");
     if (d->nuisance.tracker_frame)
@@ -700,14 +736,7 @@ static void print_nuisances(const dm_dataset *d, const dm_diagnosis *dg)
 
 static json_t *nuisance_json(const dm_dataset *d, const dm_diagnosis *dg)
 {
-    const dm_nuisance_fit *nf = &dg->nuisance;
-    json_t *par = json_object();
-    for (int k = 0; k < nf->n; k++)
-        json_object_set_new(par, dm_nuisance_name(k),
-                            json_pack("{s:f, s:o, s:s}", "value", nf->value[k], "sigma",
-                                      isfinite(nf->sigma[k]) ? json_real(nf->sigma[k])
-                                                             : json_null(),
-                                      "unit", dm_nuisance_unit(k)));
+    json_t *par = nuisance_values_json(&dg->nuisance);
     json_t *o = json_pack("{s:s, s:o, s:b, s:f, s:f, s:f}", "of",
                           dg->found ? "verdict" : "baseline", "parameters", par,
                           "translation_includes_reflector_offset", 1,

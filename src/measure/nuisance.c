@@ -170,6 +170,32 @@ int dm_nuisance_apply(const dm_dataset *d, int n, const char *held, const double
     return DM_OK;
 }
 
+int dm_nuisance_fit_all(const dm_dataset *d, double *pred, dm_nuisance_fit *fit, dm_error *err)
+{
+    assert(fit);
+    if (!dm_nuisance_count(d))
+        return dm_fail(err, DM_EINVAL, "%s: no nuisances to fit (a tracker run with a '# frame:' "
+                       "header line, docs/measured-data.md)", d->source);
+    char *held = calloc(d->n, 1);
+    double *w = malloc(sizeof(double) * d->n);
+    int rc = !held || !w ? DM_ENOMEM : DM_OK, known = 1;
+    for (int i = 0; !rc && i < d->n; i++) {
+        known &= d->s[i].sigma > 0;
+        w[i] = d->s[i].sigma > 0 ? 1 / d->s[i].sigma : 1;
+    }
+    if (!rc)
+        rc = dm_nuisance_apply(d, d->n, held, w, pred, 1.0, fit);
+    double ss = 0;
+    for (int i = 0; !rc && i < d->n; i++)
+        ss += (d->s[i].value - pred[i]) * (d->s[i].value - pred[i]) * w[i] * w[i];
+    double reduced = ss / (d->n > fit->nseen ? d->n - fit->nseen : 1);
+    double scale = sqrt(known ? fmax(1.0, reduced) : reduced);
+    for (int k = 0; !rc && k < fit->n; k++)
+        fit->sigma[k] *= scale;
+    free(held), free(w);
+    return rc ? dm_fail(err, rc, "out of memory") : DM_OK;
+}
+
 /* ---- reading ------------------------------------------------------------------- */
 
 /* The rigid transform base = R m + d that takes the measured points m_j
