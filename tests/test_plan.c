@@ -217,7 +217,8 @@ static void planned_run_separates_effects_from_nuisances(void **state)
 {
     (void)state;
     static const char *const names[1] = {"error_arm_length"};
-    static const double truth_v[1][DM_DIAG_MAXV] = {{2e-4, -1.5e-4, 2.5e-4}};
+    /* two rows: dm_fit_effects reads a start for up to two effects */
+    static const double truth_v[2][DM_DIAG_MAXV] = {{2e-4, -1.5e-4, 2.5e-4}};
     const char *spec = "error_arm_length=2e-4,-1.5e-4,2.5e-4";
     dm_robot rb, truth;
     dm_plan_result circle, plain, plan;
