@@ -1,4 +1,5 @@
 /* deltamap compare / diagnose / synth: the model against measured data. */
+#include <assert.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <limits.h>
@@ -78,74 +79,48 @@ static const char SYNTH_HELP[] =
     "(m), error_theta_deg, error_alpha0_deg (deg) as =C0,C1,C2.\n";
 
 typedef struct {
-    const char *measured, *robot, *out, *write_robot;
-    const char *sets[DM_CLI_MAXSET];
-    int nset, json, pairs, threads, na, nb, force_long;
+    dm_cli_shared sh; /* --robot, --set, --mesh, --threads, --json, --out; diagnose also
+                         --progress, --force-long */
+    const char *measured, *write_robot;
+    int pairs;
     int after_nuisances; /* compare: residuals after the tracker's nuisances */
-    int progress;       /* diagnose: DM_CLI_PROGRESS_* */
     double sigma;       /* --sigma: noise level for samples that give none */
 } measure_args;
 
 static int parse(const char *cmd, const char *help, int argc, char **argv, measure_args *a)
 {
-    static const struct option lo[] = {
-        {"measured", 1, 0, 'd'}, {"robot", 1, 0, 'r'}, {"out", 1, 0, 'o'},
-        {"write-robot", 1, 0, 'w'}, {"set", 1, 0, 's'}, {"mesh", 1, 0, 'm'},
-        {"no-pairs", 0, 0, 'P'}, {"threads", 1, 0, 'T'}, {"sigma", 1, 0, 'S'},
-        {"json", 0, 0, 'j'},     {"help", 0, 0, 'h'},    {"force-long", 0, 0, 'L'},
-        {"progress", 1, 0, 'p'}, {"after-nuisances", 0, 0, 'A'}, {0, 0, 0, 0}};
-    int c;
+    static const struct option own[] = {
+        {"measured", 1, 0, 'd'}, {"write-robot", 1, 0, 'w'}, {"no-pairs", 0, 0, 'P'},
+        {"sigma", 1, 0, 'S'},    {"after-nuisances", 0, 0, 'A'}, {0, 0, 0, 0}};
+    struct option lo[DM_CLI_MAXOPT];
+    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_JSON |
+                            DM_CLI_OUT |
+                            (strcmp(cmd, "diagnose") ? 0 : DM_CLI_PROGRESS | DM_CLI_FORCE_LONG),
+                   lo);
+    int c, rc;
     memset(a, 0, sizeof *a);
+    a->sh = (dm_cli_shared){.cmd = cmd, .help = help};
     a->pairs = 1;
-    a->progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
-    optind = 1;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+    a->sh.progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
+    while ((c = dm_cli_getopt(argc, argv, lo, &a->sh, &rc))) {
         switch (c) {
         case 'd': a->measured = optarg; break;
-        case 'r': a->robot = optarg; break;
-        case 'o': a->out = optarg; break;
         case 'w': a->write_robot = optarg; break;
-        case 'j': a->json = 1; break;
         case 'P': a->pairs = 0; break;
         case 'A':
             if (strcmp(cmd, "compare"))
                 return dm_cli_usage(cmd, "unknown or incomplete option", argv[optind - 1]);
             a->after_nuisances = 1;
             break;
-        case 'L':
-            if (strcmp(cmd, "diagnose"))
-                return dm_cli_usage(cmd, "unknown or incomplete option", argv[optind - 1]);
-            a->force_long = 1;
-            break;
-        case 'p':
-            if (strcmp(cmd, "diagnose"))
-                return dm_cli_usage(cmd, "unknown or incomplete option", argv[optind - 1]);
-            if (dm_cli_parse_progress(cmd, optarg, &a->progress))
-                return EXIT_USAGE;
-            break;
-        case 'T':
-            if (dm_cli_parse_int(optarg, 1, 1024, &a->threads))
-                return dm_cli_usage(cmd, "--threads takes a whole number >= 1", optarg);
-            break;
         case 'S':
             if (dm_cli_parse_list(optarg, &a->sigma, 1) || !(a->sigma > 0))
                 return dm_cli_usage(cmd, "--sigma takes the noise level > 0 (Hz or m)", optarg);
             break;
-        case 's':
-            if (dm_cli_add_set(cmd, a->sets, &a->nset, optarg))
-                return EXIT_USAGE;
-            break;
-        case 'm':
-            if (dm_cli_parse_mesh(optarg, &a->na, &a->nb))
-                return dm_cli_usage(cmd, "--mesh takes NA,NB, whole numbers 1..64", optarg);
-            break;
-        case 'h': fputs(help, stdout); exit(0);
-        default: return dm_cli_usage(cmd, "unknown or incomplete option", argv[optind - 1]);
+        default: assert(0);
         }
     }
-    if (optind < argc)
-        return dm_cli_usage(cmd, "unexpected argument", argv[optind]);
+    if (rc)
+        return rc;
     if (!a->measured)
         return dm_cli_usage(cmd, "--measured is required", NULL);
     return 0;
@@ -160,13 +135,13 @@ static int load(const measure_args *a, dm_dataset *d, dm_robot *rb, dm_error *er
     for (int i = 0; i < d->n && a->sigma > 0; i++)
         if (!(d->s[i].sigma > 0))
             d->s[i].sigma = a->sigma;
-    const char *spec = a->robot ? a->robot : d->robot[0] ? d->robot : NULL;
+    const char *spec = a->sh.robot ? a->sh.robot : d->robot[0] ? d->robot : NULL;
     if (!spec) {
         dm_dataset_free(d);
         return dm_fail(err, DM_EINVAL, "%s names no robot ('# robot: NAME'); give --robot",
                        a->measured);
     }
-    rc = dm_cli_load_robot(spec, a->sets, a->nset, rb, err);
+    rc = dm_cli_load_robot(spec, a->sh.sets, a->sh.nset, rb, err);
     if (rc)
         dm_dataset_free(d);
     return rc;
@@ -276,7 +251,7 @@ static int pair_survey(const measure_args *a, const dm_robot *rb, dm_dataset *d,
     memset(pg, 0, sizeof *pg);
     if (d->kind != DM_DATA_MODAL || !d->pair)
         return DM_OK;
-    int rc = dm_pairing_make(rb, d, a->na, a->nb, pg, err);
+    int rc = dm_pairing_make(rb, d, a->sh.na, a->sh.nb, pg, err);
     if (!rc && (rc = dm_pairing_apply(d, pg, &paired, err)))
         dm_pairing_free(pg);
     if (!rc) {
@@ -329,7 +304,7 @@ int dm_cli_compare(int argc, char **argv)
     }
     double *pred = malloc(sizeof(double) * d.n);
     dm_nuisance_fit nf = {0};
-    if (!pred || (rc = dm_predict(&rb, &d, a.na, a.nb, pred, &err)) ||
+    if (!pred || (rc = dm_predict(&rb, &d, a.sh.na, a.sh.nb, pred, &err)) ||
         (a.after_nuisances && (rc = dm_nuisance_fit_all(&d, pred, &nf, &err)))) {
         free(pred);
         dm_pairing_free(&pg);
@@ -360,7 +335,7 @@ int dm_cli_compare(int argc, char **argv)
     double limit = all.n + 4 * sqrt(2.0 * all.n);
     int exceeds = sigma && all.chi2 > limit;
     const char *unit = d.kind == DM_DATA_MODAL ? "Hz" : "m";
-    if (a.json) {
+    if (a.sh.json) {
         json_t *o = json_pack("{s:s, s:s, s:s, s:i, s:f, s:f}", "robot", rb.name, "measured",
                               a.measured, "kind", dm_data_kind_name(d.kind), "samples", d.n,
                               "bias", all.bias, "rms", all.rms);
@@ -421,9 +396,9 @@ int dm_cli_compare(int argc, char **argv)
                                    : exceeds ? "the residuals exceed the noise: the model misses something (try deltamap diagnose)"
                                              : "the residuals are within the noise");
     }
-    if (a.out) {
+    if (a.sh.out) {
         dm_file_out out;
-        if ((rc = dm_file_out_open(&out, a.out, &err)) == DM_OK) {
+        if ((rc = dm_file_out_open(&out, a.sh.out, &err)) == DM_OK) {
             /* modal: the mode rank; deflections and tracker errors: the axis
              * (0, 1, 2 = x, y, z); tracker data also the time */
             int modal = d.kind == DM_DATA_MODAL, tracker = d.kind == DM_DATA_TRACKER;
@@ -912,15 +887,14 @@ int dm_cli_diagnose(int argc, char **argv)
     int rc = parse("diagnose", DIAGNOSE_HELP, argc, argv, &a);
     if (rc)
         return rc;
-    a.threads = dm_cli_threads(a.threads);
+    a.sh.threads = dm_cli_threads(a.sh.threads);
     dm_dataset d;
     dm_robot rb;
     dm_error err;
     dm_diagnosis dg;
     dm_cli_progress view;
-    dm_cli_progress_init(&view, "diagnose", a.progress);
-    dm_diagnose_opts o = {a.na, a.nb, a.pairs, a.threads, a.force_long,
-                          a.progress ? dm_cli_progress_report : NULL, &view};
+    dm_progress_fn draw = dm_cli_progress_init(&view, "diagnose", a.sh.progress);
+    dm_diagnose_opts o = {a.sh.na, a.sh.nb, a.pairs, a.sh.threads, a.sh.force_long, draw, &view};
     if ((rc = load(&a, &d, &rb, &err)))
         return dm_cli_report(&err);
     rc = dm_diagnose(&rb, &d, &o, &dg, &err);
@@ -929,7 +903,7 @@ int dm_cli_diagnose(int argc, char **argv)
         dm_dataset_free(&d);
         return dm_cli_report(&err);
     }
-    if (a.json)
+    if (a.sh.json)
         print_diagnosis_json(&d, &rb, &dg);
     else
         print_diagnosis(&d, &rb, &dg);
@@ -945,21 +919,19 @@ int dm_cli_diagnose(int argc, char **argv)
 int dm_cli_synth(int argc, char **argv)
 {
     dm_cli_serial_blas();
-    static const struct option lo[] = {
-        {"robot", 1, 0, 'r'}, {"kind", 1, 0, 'k'}, {"effect", 1, 0, 'e'}, {"noise", 1, 0, 'n'},
-        {"poses", 1, 0, 'p'}, {"modes", 1, 0, 'M'}, {"seed", 1, 0, 'S'}, {"path", 1, 0, 'P'},
-        {"mesh", 1, 0, 'm'}, {"out", 1, 0, 'o'}, {"set", 1, 0, 's'}, {"at", 1, 0, 'A'},
-        {"force-long", 0, 0, 'L'}, {"help", 0, 0, 'h'}, {"pairing", 1, 0, 'D'},
+    static const struct option own[] = {
+        {"kind", 1, 0, 'k'},    {"effect", 1, 0, 'e'},    {"noise", 1, 0, 'n'},
+        {"poses", 1, 0, 'p'},   {"modes", 1, 0, 'M'},     {"seed", 1, 0, 'S'},
+        {"path", 1, 0, 'P'},    {"at", 1, 0, 'A'},        {"pairing", 1, 0, 'D'},
         {"drop-mode", 1, 0, 'X'}, {"extra-mode", 1, 0, 'E'}, {0, 0, 0, 0}};
-    const char *robot = NULL, *out_path = NULL, *effects[8], *sets[DM_CLI_MAXSET], *at = NULL;
-    int neff = 0, nset = 0, c, have_kind = 0, seed = 1;
+    struct option lo[DM_CLI_MAXOPT];
+    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_OUT | DM_CLI_FORCE_LONG, lo);
+    dm_cli_shared sh = {.cmd = "synth", .help = SYNTH_HELP};
+    const char *effects[8], *at = NULL;
+    int neff = 0, c, rc, have_kind = 0, seed = 1;
     dm_synth_opts o = {0};
-    optind = 1;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, "", lo, NULL)) != -1) {
+    while ((c = dm_cli_getopt(argc, argv, lo, &sh, &rc))) {
         switch (c) {
-        case 'r': robot = optarg; break;
-        case 'o': out_path = optarg; break;
         case 'P': o.path = optarg; break;
         case 'A': at = optarg; break;
         case 'k':
@@ -972,10 +944,6 @@ int dm_cli_synth(int argc, char **argv)
                 return dm_cli_usage("synth", "at most 8 --effect options", optarg);
             effects[neff++] = optarg;
             break;
-        case 's':
-            if (dm_cli_add_set("synth", sets, &nset, optarg))
-                return EXIT_USAGE;
-            break;
         case 'n':
             if (dm_cli_parse_list(optarg, &o.noise, 1) || o.noise < 0)
                 return dm_cli_usage("synth", "--noise takes a value >= 0", optarg);
@@ -984,7 +952,6 @@ int dm_cli_synth(int argc, char **argv)
             if (dm_cli_parse_count(optarg, 3, INT_MAX, &o.npose))
                 return dm_cli_usage("synth", "--poses takes a whole number 3..2147483647", optarg);
             break;
-        case 'L': o.force_long = 1; break;
         case 'M':
             if (dm_cli_parse_int(optarg, 1, DM_MAX_MODES, &o.modes))
                 return dm_cli_usage("synth", "--modes takes 1.." DM_MAX_MODES_TEXT, optarg);
@@ -992,10 +959,6 @@ int dm_cli_synth(int argc, char **argv)
         case 'S':
             if (dm_cli_parse_int(optarg, 0, 2147483647, &seed))
                 return dm_cli_usage("synth", "--seed takes a whole number >= 0", optarg);
-            break;
-        case 'm':
-            if (dm_cli_parse_mesh(optarg, &o.na, &o.nb))
-                return dm_cli_usage("synth", "--mesh takes NA,NB, whole numbers 1..64", optarg);
             break;
         case 'D':
             if (strcmp(optarg, "dir") && strcmp(optarg, "shapes"))
@@ -1020,20 +983,24 @@ int dm_cli_synth(int argc, char **argv)
             o.pairing = 1;
             break;
         }
-        case 'h': fputs(SYNTH_HELP, stdout); exit(0);
-        default: return dm_cli_usage("synth", "unknown or incomplete option", argv[optind - 1]);
+        default: assert(0);
         }
     }
-    if (optind < argc || !robot || !(have_kind || at))
+    if (rc)
+        return rc;
+    if (!sh.robot || !(have_kind || at))
         return dm_cli_usage("synth", "--robot and --kind (or --at) are required", NULL);
     if (o.pairing && (at || o.kind != DM_DATA_MODAL))
         return dm_cli_usage("synth", "--pairing, --drop-mode and --extra-mode make modal "
                             "surveys (--kind modal, without --at)", NULL);
     o.seed = (uint64_t)seed;
+    o.na = sh.na;
+    o.nb = sh.nb;
+    o.force_long = sh.force_long;
     dm_robot rb;
     dm_error err;
     dm_dataset d;
-    int rc = dm_cli_load_robot(robot, sets, nset, &rb, &err);
+    rc = dm_cli_load_robot(sh.robot, sh.sets, sh.nset, &rb, &err);
     for (int i = 0; i < neff && !rc; i++)
         rc = dm_effects_apply_spec(&rb, effects[i], &err);
     if (!rc && at) { /* the template's poses */
@@ -1052,12 +1019,12 @@ int dm_cli_synth(int argc, char **argv)
     }
     if (rc)
         return dm_cli_report(&err);
-    snprintf(d.robot, sizeof d.robot, "%s", robot);
+    snprintf(d.robot, sizeof d.robot, "%s", sh.robot);
     dm_file_out out;
     FILE *f = stdout;
-    if (out_path && (rc = dm_file_out_open(&out, out_path, &err)))
+    if (sh.out && (rc = dm_file_out_open(&out, sh.out, &err)))
         return dm_cli_report(&err);
-    if (out_path)
+    if (sh.out)
         f = out.f;
     fprintf(f, "# synthetic %s data from deltamap synth: seed %d, noise %g", dm_data_kind_name(o.kind),
             seed, o.noise);
@@ -1065,7 +1032,7 @@ int dm_cli_synth(int argc, char **argv)
         fprintf(f, ", %s", effects[i]);
     fprintf(f, "\n");
     dm_dataset_write(&d, f);
-    if (out_path && (rc = dm_file_out_commit(&out, &err)))
+    if (sh.out && (rc = dm_file_out_commit(&out, &err)))
         dm_cli_report(&err);
     dm_dataset_free(&d);
     return rc;

@@ -113,7 +113,7 @@ static int parse(int argc, char **argv, plan_args *a)
     a->o.seed = (uint64_t)seed;
     a->o.na = a->sh.na;
     a->o.nb = a->sh.nb;
-    a->o.threads = a->sh.threads;
+    a->o.threads = dm_cli_threads(a->sh.threads);
     a->o.force_long = a->sh.force_long;
     return 0;
 }
@@ -331,7 +331,6 @@ int dm_cli_plan(int argc, char **argv)
     int rc = parse(argc, argv, &a);
     if (rc)
         return rc;
-    a.o.threads = dm_cli_threads(a.o.threads);
     dm_robot rb;
     dm_error err;
     dm_plan_effect eff[DM_PLAN_MAXEFF];

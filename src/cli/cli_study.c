@@ -71,7 +71,7 @@ static int parse(int argc, char **argv, study_opts *t)
     }
     t->st.opts.na = t->sh.na;
     t->st.opts.nb = t->sh.nb;
-    t->st.threads = t->sh.threads;
+    t->st.threads = dm_cli_threads(t->sh.threads);
     if (rc)
         return rc;
     if (!t->sh.robot || !t->st.path || !t->st.naxis)
@@ -164,14 +164,11 @@ static int write_outputs(const study_opts *t, const dm_study_cell *cells, int n1
 int dm_cli_study(int argc, char **argv)
 {
     study_opts t;
-    int rc = parse(argc, argv, &t);
-    if (rc)
-        return rc;
-    t.st.threads = dm_cli_threads(t.st.threads);
     dm_robot rb;
+    int rc = parse(argc, argv, &t);
+    if (rc || (rc = dm_cli_robot(&t.sh, &rb)))
+        return rc;
     dm_error err;
-    if (dm_cli_load_robot(t.sh.robot, t.sh.sets, t.sh.nset, &rb, &err))
-        return dm_cli_report(&err);
     int n1 = t.st.axis[0].count, n2 = t.st.naxis > 1 ? t.st.axis[1].count : 1;
     dm_study_cell *cells = calloc((size_t)n1 * n2, sizeof *cells);
     if (!cells)

@@ -189,6 +189,7 @@ static int parse(int argc, char **argv, tol_opts *t)
     t->spec.na = t->sh.na;
     t->spec.nb = t->sh.nb;
     t->spec.force_long = t->sh.force_long;
+    t->sh.threads = dm_cli_threads(t->sh.threads);
     return 0;
 }
 
@@ -268,14 +269,11 @@ static void print_result(const tol_opts *t, const dm_robot *rb, const double P[3
 int dm_cli_tolerance(int argc, char **argv)
 {
     tol_opts t;
-    int rc = parse(argc, argv, &t);
-    if (rc)
-        return rc;
-    t.sh.threads = dm_cli_threads(t.sh.threads);
     dm_robot rb;
+    int rc = parse(argc, argv, &t);
+    if (rc || (rc = dm_cli_robot(&t.sh, &rb)))
+        return rc;
     dm_error err;
-    if (dm_cli_load_robot(t.sh.robot, t.sh.sets, t.sh.nset, &rb, &err))
-        return dm_cli_report(&err);
     if (dm_tolerance_check(&rb, &t.spec, &err))
         return dm_cli_report(&err);
     const double *P = t.have_at ? t.at : rb.home_m;

@@ -193,7 +193,7 @@ static int parse(int argc, char **argv, traj_opts *t)
         return dm_cli_usage("trajectory", "--robot and --path are required", NULL);
     t->o.na = t->sh.na;
     t->o.nb = t->sh.nb;
-    t->o.threads = t->sh.threads;
+    t->o.threads = dm_cli_threads(t->sh.threads);
     t->o.force_long = t->sh.force_long;
     if (t->o.method == DM_ODE_FULL)
         t->o.k = 0;
@@ -441,15 +441,12 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
 int dm_cli_trajectory(int argc, char **argv)
 {
     traj_opts t;
-    int rc = parse(argc, argv, &t);
-    if (rc)
-        return rc;
-    t.o.threads = dm_cli_threads(t.o.threads);
     dm_robot rb;
+    int rc = parse(argc, argv, &t);
+    if (rc || (rc = dm_cli_robot(&t.sh, &rb)))
+        return rc;
     dm_trajectory tr;
     dm_error err;
-    if (dm_cli_load_robot(t.sh.robot, t.sh.sets, t.sh.nset, &rb, &err))
-        return dm_cli_report(&err);
     if (dm_traj_make(t.path, &rb, &tr, &err))
         return dm_cli_report(&err);
     if (t.vtk.dir && dm_cli_traj_vtk_check(&t.vtk, &err)) {

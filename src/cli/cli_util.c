@@ -78,6 +78,12 @@ void dm_cli_serial_blas(void)
         openblas_set_num_threads(1);
 }
 
+int dm_cli_robot(const dm_cli_shared *sh, dm_robot *rb)
+{
+    dm_error err;
+    return dm_cli_load_robot(sh->robot, sh->sets, sh->nset, rb, &err) ? dm_cli_report(&err) : 0;
+}
+
 int dm_cli_threads(int requested)
 {
     int all_cores = omp_get_max_threads(); /* read first: serial BLAS may set it to 1 */
