@@ -59,6 +59,60 @@ int dm_boundary_count(dm_boundary *bw, double sigma, int *count, dm_error *err);
  * (Rayleigh-Ritz on a subspace). */
 int dm_boundary_reduced_modes(dm_boundary *bw, int k, double *lambda, dm_error *err);
 
+/* The reduced problem's k lowest modes by a warm-started iteration
+ * (src/solve/boundary_eig.c; docs/model-choices.md "Member bases"): in the
+ * reduced coordinates K = diag(S, d) is block diagonal (d: the kept
+ * fixed-interface eigenvalues and, once per robot diagonalised, the
+ * residual vectors' stiffness) and M = [M_BB, B'; B, I] couples only
+ * through the boundary, so K^-1 is S's Cholesky factor (the statics') and
+ * a division, and M costs two nv x nB products. Block Rayleigh-Ritz on the
+ * current Ritz vectors X and their preconditioned residuals K^-1 (K X -
+ * M X Theta) (steepest descent with the exact K^-1), started from the
+ * previous solve's Ritz vectors (the neighbour pose: the coordinates are
+ * the members' own and the boundary's global ones, continuous in the
+ * pose), cold from random vectors. Stopped when for every wanted Ritz
+ * value theta_j the quadratic residual bound in the standard form
+ * mu = 1/lambda (Kato-Temple, for a cluster of Ritz values its block form
+ * |mu_i - rho_i| <= ||R||^2 / delta),
+ *   |lambda_j - theta_j| / theta_j <= e / (rho_j - e),
+ *   e = sum_{i in cluster} r_i' K^-1 r_i / theta_i^3 / delta,
+ * with delta the gap in mu from the cluster to the other Ritz values, is
+ * below DM_BOUNDARY_EIG_TOL. Then a Wittrick-Williams count of the
+ * reduced problem at 1e-9 above the k-th mode's cluster must equal the
+ * Ritz values below it (each is an upper bound of its eigenvalue), else a
+ * mode was missed: the guard vectors are
+ * replaced by random ones and the iteration resumed. The modes then
+ * serve dm_boundary_mode_shapes like dm_boundary_reduced_modes'. */
+#define DM_BOUNDARY_EIG_TOL 1e-12
+typedef struct dm_boundary_eig dm_boundary_eig;
+
+typedef struct dm_boundary_eig_info {
+    int iterations; /* Rayleigh-Ritz steps after the start's */
+    int restarts;   /* modes found missing by the count, and recovered */
+    int cold;       /* 1: started from random vectors */
+} dm_boundary_eig_info;
+
+/* A solver of k modes for bw's reduced problem (block of k + guard
+ * vectors); one thread's, like bw. */
+dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err);
+void dm_boundary_eig_free(dm_boundary_eig *e);
+
+/* The k lowest eigenvalues of the reduced problem at bw's last solve's
+ * pose, and (estimate, may be NULL) each one's relative error bound as
+ * above. DM_ENUMERIC when the iteration does not converge or a count
+ * contradicts it (the caller uses dm_boundary_reduced_modes). */
+int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, double *estimate,
+                          dm_boundary_eig_info *info, dm_error *err);
+
+/* Start the next solve from these ncol reduced vectors (nred each,
+ * column-major, the coordinates of dm_boundary_reduced_vectors), or cold
+ * (ncol 0); more than k columns (up to k + 24) become the block. */
+void dm_boundary_eig_start(dm_boundary_eig *e, const double *Y, int ncol);
+
+/* The last dm_boundary_reduced_modes' or dm_boundary_eig_solve's first k
+ * reduced eigenvectors (nred x k, column-major, M-normalised). */
+void dm_boundary_reduced_vectors(const dm_boundary *bw, int k, double *Y);
+
 /* The last dm_boundary_reduced_modes' first k mode shapes in the model's
  * DOFs (phi: n x k, column-major), M-normalised (the reduced problem is
  * the model's projection on the member bases, so its normalisation
@@ -67,6 +121,11 @@ void dm_boundary_mode_shapes(dm_boundary *bw, int k, double *phi);
 
 /* The reduced problem's size: boundary DOFs + kept modes + residual vectors. */
 int dm_boundary_reduced_size(const dm_boundary *bw);
+
+/* The reduced pair at the last solve's pose, dense (nred x nred each,
+ * column-major, both triangles): the check of the solvers against an
+ * independent one. Overwrites dm_boundary_reduced_modes' vectors. */
+void dm_boundary_reduced_pair(dm_boundary *bw, double *K, double *M);
 
 /* Certified per-mode error bounds of reduced eigenvalues lambda:
  * bound[j] = tau lambda[j] for the smallest tau in 1e-9 x 10^(i/2) with

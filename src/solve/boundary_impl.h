@@ -26,4 +26,12 @@ struct dm_boundary {
     lapack_int *ipiv;     /* nB, then dsygvd's liwork */
 };
 
+/* The boundary's mass through the clamped members, M_b + sum C' Mhat C,
+ * into T (leading dimension ld). */
+void dm_boundary_mass(dm_boundary *bw, double *T, int ld);
+
+/* Negative eigenvalues of the symmetric n x n D (lower triangle,
+ * destroyed; n <= nB) by Sylvester's inertia; -1 if singular. */
+int dm_boundary_negatives(dm_boundary *bw, double *D, int n);
+
 #endif

@@ -34,8 +34,7 @@ static void add_congruence(dm_boundary *bw, int m, const double *X, double s, do
         }
 }
 
-/* The boundary's mass through the clamped members: M_b + sum C' Mhat C. */
-static void boundary_mass(dm_boundary *bw, double *T, int ld)
+void dm_boundary_mass(dm_boundary *bw, double *T, int ld)
 {
     int nB = bw->nB;
     double *X = bw->D; /* scratch, nB x nB */
@@ -46,9 +45,8 @@ static void boundary_mass(dm_boundary *bw, double *T, int ld)
         memcpy(T + (size_t)c * ld, X + (size_t)c * nB, sizeof(double) * nB);
 }
 
-/* Negative eigenvalues of the symmetric D (lower triangle, destroyed):
- * Sylvester's inertia from its Bunch-Kaufman factor. -1 if singular. */
-static int negatives(dm_boundary *bw, double *D, int n)
+/* Sylvester's inertia from D's Bunch-Kaufman factor. */
+int dm_boundary_negatives(dm_boundary *bw, double *D, int n)
 {
     lapack_int info = LAPACKE_dsytrf_work(LAPACK_COL_MAJOR, 'L', n, D, n, bw->ipiv, bw->wsy,
                                           64 * n);
@@ -74,7 +72,7 @@ int dm_boundary_count(dm_boundary *bw, double sigma, int *count, dm_error *err)
     const dm_members *ms = bw->ms;
     int nB = bw->nB, below = 0;
     double G[81];
-    boundary_mass(bw, bw->Mr, nB); /* Mr as scratch: M_BB */
+    dm_boundary_mass(bw, bw->Mr, nB); /* Mr as scratch: M_BB */
     for (size_t k = 0; k < (size_t)nB * nB; k++) /* D(sigma) = S - sigma M_BB - ... */
         bw->D[k] = bw->Sk[k] - sigma * bw->Mr[k];
     for (int m = 0; m < DM_MEMBERS_N; m++) {
@@ -92,7 +90,7 @@ int dm_boundary_count(dm_boundary *bw, double sigma, int *count, dm_error *err)
         }
         add_congruence(bw, m, G, -sigma * sigma, bw->D);
     }
-    int neg = negatives(bw, bw->D, nB);
+    int neg = dm_boundary_negatives(bw, bw->D, nB);
     if (neg < 0)
         return dm_fail(err, DM_ENUMERIC, "count: the shift is an eigenvalue of the boundary problem");
     *count = below + neg;
@@ -110,7 +108,7 @@ static void reduced_matrices(dm_boundary *bw)
     memset(M, 0, sizeof(double) * nr * nr);
     for (int c = 0; c < nB; c++)
         memcpy(K + (size_t)c * nr, bw->Sk + (size_t)c * nB, sizeof(double) * nB);
-    boundary_mass(bw, M, nr);
+    dm_boundary_mass(bw, M, nr);
     for (int m = 0; m < DM_MEMBERS_N; m++) {
         const dm_member_basis *mb = &ms->member[m];
         int nb = mb->nb, ni = mb->ni, nv = mb->nkeep + mb->nres;
@@ -196,6 +194,14 @@ dm_members *dm_boundary_members_for_modes(const dm_model *md, const dm_pose *pos
 }
 
 int dm_boundary_reduced_size(const dm_boundary *bw) { return bw->nred; }
+
+void dm_boundary_reduced_pair(dm_boundary *bw, double *K, double *M)
+{
+    size_t n2 = (size_t)bw->nred * bw->nred;
+    reduced_matrices(bw);
+    memcpy(K, bw->Kr, sizeof(double) * n2);
+    memcpy(M, bw->Mr, sizeof(double) * n2);
+}
 
 void dm_boundary_mode_shapes(dm_boundary *bw, int k, double *phi)
 {

@@ -1,0 +1,477 @@
+/* The reduced problem's lowest modes by warm-started block Rayleigh-Ritz
+ * (dm_boundary.h, dm_boundary_eig_solve: the method and the bound). BLAS
+ * and LAPACK calls only: no per-path kernels. */
+#include <assert.h>
+#include <cblas.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "boundary_impl.h"
+#include "dm_rng.h"
+
+enum { GUARD = 6, MAX_GROW = 4, MAX_STEPS = 80, MAX_RESTARTS = 3 };
+#define CLUSTER 1e-3 /* Ritz values within 0.1 % share one block bound */
+#define COUNT_SHIFT 1e-9
+
+struct dm_boundary_eig {
+    const dm_members *ms;
+    int k, p, pmax, nr, nB, nv; /* p: the block's columns, growing to pmax */
+    int q0[DM_MEMBERS_N], v0[DM_MEMBERS_N]; /* member's first interior coordinate, its V */
+    double *d;           /* nv: K's interior diagonal */
+    double *V;           /* each member's residual rotation (KR's eigenvectors) */
+    double *B, *Mbb, *D; /* nv x nB: M_qB at the pose; nB x nB: M_BB; count scratch */
+    double *X, *KX, *MX, *W, *KW, *MW, *T; /* nr x p (W, KW, MW, T: nr x 2p) */
+    double *H, *Z, *w, *s, *est, *work; /* projected problem (2p x 2p), residual norms */
+    lapack_int *iwork;
+    int lwork, liwork, nstart;
+    dm_rng rng;
+};
+
+void dm_boundary_eig_free(dm_boundary_eig *e)
+{
+    if (!e)
+        return;
+    double *a[] = {e->d, e->V, e->B, e->Mbb, e->D, e->X, e->KX, e->MX, e->W,
+                   e->KW, e->MW, e->T, e->H, e->Z, e->w, e->s, e->est, e->work};
+    for (size_t i = 0; i < sizeof a / sizeof *a; i++)
+        free(a[i]);
+    free(e->iwork);
+    free(e);
+}
+
+/* d and V: the kept modes' eigenvalues, and each member's residual block
+ * KR = V diag(omega) V' turned diagonal once (pose-independent). */
+static int interior_stiffness(dm_boundary_eig *e, const dm_members *ms)
+{
+    int q = 0, v = 0;
+    for (int m = 0; m < DM_MEMBERS_N; m++) {
+        const dm_member_basis *mb = &ms->member[m];
+        e->q0[m] = q, e->v0[m] = v;
+        for (int j = 0; j < mb->nkeep; j++)
+            e->d[q++] = mb->lambda[j];
+        int nr = mb->nres;
+        memcpy(e->V + v, mb->KR, sizeof(double) * nr * nr);
+        if (nr && LAPACKE_dsyev(LAPACK_COL_MAJOR, 'V', 'L', nr, e->V + v, nr, e->d + q))
+            return -1;
+        for (int j = 0; j < nr; j++)
+            if (!(e->d[q + j] > 0))
+                return -1;
+        q += nr, v += nr * nr;
+    }
+    assert(q == e->nv);
+    return 0;
+}
+
+dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
+{
+    dm_boundary_eig *e = calloc(1, sizeof *e);
+    if (!e) {
+        dm_fail(err, DM_ENOMEM, "out of memory for the reduced eigensolver");
+        return NULL;
+    }
+    int nr = bw->nred, nB = bw->nB, p = k + MAX_GROW * GUARD < nr ? k + MAX_GROW * GUARD : nr;
+    int q = 2 * p;
+    assert(k >= 1 && k < nr);
+    e->ms = bw->ms, e->k = k, e->pmax = p, e->p = k + GUARD < p ? k + GUARD : p, e->nr = nr, e->nB = nB, e->nv = nr - nB;
+    e->rng.state = 0x39e1;
+    e->lwork = 26 * q + q * q, e->liwork = 10 * q;
+    size_t vsz = 1, n2 = (size_t)nr * q;
+    for (int m = 0; m < DM_MEMBERS_N; m++)
+        vsz += (size_t)bw->ms->member[m].nres * bw->ms->member[m].nres;
+    double **a[] = {&e->d, &e->V, &e->B, &e->Mbb, &e->D, &e->X, &e->KX, &e->MX, &e->W,
+                    &e->KW, &e->MW, &e->T, &e->H, &e->Z, &e->w, &e->s, &e->est, &e->work};
+    size_t sz[] = {e->nv, vsz, (size_t)e->nv * nB, (size_t)nB * nB, (size_t)nB * nB,
+                   (size_t)nr * p, (size_t)nr * p, (size_t)nr * p, n2, n2, n2, n2,
+                   (size_t)q * q, (size_t)q * q, q, q, q, e->lwork};
+    int fail = 0;
+    for (size_t i = 0; i < sizeof sz / sizeof *sz; i++)
+        fail |= !(*a[i] = malloc(sizeof(double) * sz[i]));
+    fail |= !(e->iwork = malloc(sizeof(lapack_int) * (e->liwork + 2 * q)));
+    if (fail || interior_stiffness(e, bw->ms)) {
+        dm_boundary_eig_free(e);
+        dm_fail(err, fail ? DM_ENOMEM : DM_ENUMERIC,
+                fail ? "out of memory for the reduced eigensolver"
+                     : "member bases: a residual block is not positive definite");
+        return NULL;
+    }
+    return e;
+}
+
+/* B = M_qB at the pose: C' Gam' rows for the kept modes, V' C' GamR' for
+ * the residual vectors (rotated); and M_BB. */
+static void pose_mass(dm_boundary_eig *e, dm_boundary *bw)
+{
+    const dm_members *ms = bw->ms;
+    int nB = e->nB, nv = e->nv;
+    double g[9 * DM_MEMBERS_MAX_BOUND];
+    dm_boundary_mass(bw, e->Mbb, nB);
+    for (int m = 0; m < DM_MEMBERS_N; m++) {
+        const dm_member_basis *mb = &ms->member[m];
+        int nb = mb->nb, ni = mb->ni, nres = mb->nres, q = e->q0[m];
+        dm_members_coupling(ms, &bw->mp, m, bw->C);
+        for (int c = 0; c < nB; c++) {
+            const double *Cc = bw->C + (size_t)c * nb;
+            for (int j = 0; j < mb->nkeep; j++) {
+                double v = 0;
+                for (int r = 0; r < nb; r++)
+                    v += Cc[r] * mb->Gam[(size_t)r * ni + j];
+                e->B[(size_t)c * nv + q + j] = v;
+            }
+            for (int a = 0; a < nres; a++) {
+                g[a] = 0;
+                for (int r = 0; r < nb; r++)
+                    g[a] += Cc[r] * mb->GamR[(size_t)r * nres + a];
+            }
+            for (int b = 0; b < nres; b++) {
+                double v = 0;
+                for (int a = 0; a < nres; a++)
+                    v += e->V[e->v0[m] + (size_t)b * nres + a] * g[a];
+                e->B[(size_t)c * nv + q + mb->nkeep + b] = v;
+            }
+        }
+    }
+}
+
+/* Y = M X (ncol columns, leading dimension nr). */
+static void apply_M(const dm_boundary_eig *e, const double *X, int ncol, double *Y)
+{
+    int nr = e->nr, nB = e->nB, nv = e->nv;
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nB, ncol, nB, 1, e->Mbb, nB, X, nr, 0,
+                Y, nr);
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nB, ncol, nv, 1, e->B, nv, X + nB, nr, 1,
+                Y, nr);
+    for (int c = 0; c < ncol; c++)
+        memcpy(Y + (size_t)c * nr + nB, X + (size_t)c * nr + nB, sizeof(double) * nv);
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nv, ncol, nB, 1, e->B, nv, X, nr, 1,
+                Y + nB, nr);
+}
+
+/* Y = K X; and X = K^-1 X in place (S's Cholesky factor from the statics). */
+static void apply_K(const dm_boundary_eig *e, const dm_boundary *bw, const double *X, int ncol,
+                    double *Y)
+{
+    int nr = e->nr, nB = e->nB;
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nB, ncol, nB, 1, bw->Sk, nB, X, nr, 0,
+                Y, nr);
+    for (int c = 0; c < ncol; c++)
+        for (int i = 0; i < e->nv; i++)
+            Y[(size_t)c * nr + nB + i] = e->d[i] * X[(size_t)c * nr + nB + i];
+}
+
+static void solve_K(const dm_boundary_eig *e, const dm_boundary *bw, double *X, int ncol)
+{
+    int nr = e->nr, nB = e->nB;
+    LAPACKE_dpotrs_work(LAPACK_COL_MAJOR, 'L', nB, ncol, bw->S, nB, X, nr);
+    for (int c = 0; c < ncol; c++)
+        for (int i = 0; i < e->nv; i++)
+            X[(size_t)c * nr + nB + i] /= e->d[i];
+}
+
+/* A = A Q for A nr x p, Q p x p (ld q), through T. */
+static void times(dm_boundary_eig *e, double *A, const double *Q, int q)
+{
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, e->nr, e->p, e->p, 1, A, e->nr, Q, q, 0,
+                e->T, e->nr);
+    memcpy(A, e->T, sizeof(double) * e->nr * e->p);
+}
+
+/* Rayleigh-Ritz on the block X alone (a start): X, KX, MX become
+ * M-orthonormal Ritz vectors, w their values. -1 if X'MX is singular. */
+static int ritz_on_start(dm_boundary_eig *e, const dm_boundary *bw)
+{
+    int nr = e->nr, p = e->p;
+    double *G = e->Z;
+    apply_K(e, bw, e->X, p, e->KX);
+    apply_M(e, e->X, p, e->MX);
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, p, p, nr, 1, e->X, nr, e->KX, nr, 0, e->H,
+                p);
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, p, p, nr, 1, e->X, nr, e->MX, nr, 0, G, p);
+    if (LAPACKE_dsygv_work(LAPACK_COL_MAJOR, 1, 'V', 'L', p, e->H, p, G, p, e->w, e->work,
+                           e->lwork))
+        return -1;
+    times(e, e->X, e->H, p);
+    times(e, e->KX, e->H, p);
+    times(e, e->MX, e->H, p);
+    return 0;
+}
+
+/* Residuals R = KX - MX Theta into T, preconditioned W = K^-1 R, and
+ * s_j = r_j' K^-1 r_j. */
+static void residuals(dm_boundary_eig *e, const dm_boundary *bw)
+{
+    int nr = e->nr, p = e->p;
+    for (int j = 0; j < p; j++)
+        for (int i = 0; i < nr; i++) {
+            size_t a = (size_t)j * nr + i;
+            e->T[a] = e->KX[a] - e->w[j] * e->MX[a];
+        }
+    memcpy(e->W, e->T, sizeof(double) * nr * p);
+    solve_K(e, bw, e->W, p);
+    for (int j = 0; j < p; j++)
+        e->s[j] = fabs(cblas_ddot(nr, e->T + (size_t)j * nr, 1, e->W + (size_t)j * nr, 1));
+}
+
+/* est_j: the relative bound of dm_boundary.h from the residuals s and the
+ * Ritz values' clusters; INFINITY for a cluster that reaches the block's
+ * top (no gap known above it). Returns the last wanted cluster's end. */
+static int estimates(dm_boundary_eig *e)
+{
+    int p = e->p, top = 0;
+    for (int a = 0; a < p;) {
+        int b = a;
+        while (b + 1 < p && e->w[b + 1] <= e->w[b] * (1 + CLUSTER))
+            b++;
+        double sum = 0, delta = INFINITY;
+        for (int i = a; i <= b; i++)
+            sum += e->s[i] / (e->w[i] * e->w[i] * e->w[i]);
+        if (a > 0)
+            delta = 1 / e->w[a - 1] - 1 / e->w[a];
+        delta = b + 1 < p ? fmin(delta, 1 / e->w[b] - 1 / e->w[b + 1]) : 0;
+        for (int i = a; i <= b; i++) {
+            double rho = 1 / e->w[i], x = delta > 0 ? sum / delta : INFINITY;
+            e->est[i] = x < rho ? x / (rho - x) : INFINITY;
+        }
+        if (a < e->k)
+            top = b;
+        a = b + 1;
+    }
+    return top;
+}
+
+/* W's first nw columns made M-orthonormal to X and among themselves
+ * (twice classical Gram-Schmidt in M, then the Gram matrix's eigenvectors,
+ * dropping directions below 1e-10 of a unit column); MW follows. Returns
+ * how many remain. */
+static int orthonormalise(dm_boundary_eig *e, int nw)
+{
+    int nr = e->nr, p = e->p, nk = 0;
+    double *P = e->Z, *G = e->H, *g = e->s;
+    for (int pass = 0; pass < 2; pass++) {
+        cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, p, nw, nr, 1, e->X, nr, e->MW, nr, 0,
+                    P, p);
+        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nr, nw, p, -1, e->X, nr, P, p, 1,
+                    e->W, nr);
+        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nr, nw, p, -1, e->MX, nr, P, p, 1,
+                    e->MW, nr);
+    }
+    for (int j = 0; j < nw; j++) {
+        double a = sqrt(fabs(cblas_ddot(nr, e->W + (size_t)j * nr, 1, e->MW + (size_t)j * nr, 1)));
+        cblas_dscal(nr, a > 0 ? 1 / a : 0, e->W + (size_t)j * nr, 1);
+        cblas_dscal(nr, a > 0 ? 1 / a : 0, e->MW + (size_t)j * nr, 1);
+    }
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nw, nw, nr, 1, e->W, nr, e->MW, nr, 0, G,
+                nw);
+    if (LAPACKE_dsyev_work(LAPACK_COL_MAJOR, 'V', 'L', nw, G, nw, g, e->work, e->lwork))
+        return 0;
+    for (int j = 0; j < nw; j++) /* ascending: the kept ones are the last */
+        if (g[j] > 1e-10) {
+            cblas_dscal(nw, 1 / sqrt(g[j]), G + (size_t)j * nw, 1);
+            if (nk != j)
+                memcpy(G + (size_t)nk * nw, G + (size_t)j * nw, sizeof(double) * nw);
+            nk++;
+        }
+    double *pair[2] = {e->W, e->MW};
+    for (int t = 0; t < 2; t++) {
+        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nr, nk, nw, 1, pair[t], nr, G, nw,
+                    0, e->T, nr);
+        memcpy(pair[t], e->T, sizeof(double) * nr * nk);
+    }
+    return nk;
+}
+
+/* One step: Rayleigh-Ritz on [X, W], W the preconditioned residuals of
+ * the Ritz pairs not yet at a hundredth of the tolerance. -1 if LAPACK
+ * fails. */
+static int expand_and_ritz(dm_boundary_eig *e, const dm_boundary *bw)
+{
+    int nr = e->nr, p = e->p, nw = 0, n;
+    for (int j = 0; j < p; j++)
+        if (e->est[j] > 1e-2 * DM_BOUNDARY_EIG_TOL) {
+            if (nw != j)
+                memcpy(e->W + (size_t)nw * nr, e->W + (size_t)j * nr, sizeof(double) * nr);
+            nw++;
+        }
+    apply_M(e, e->W, nw, e->MW);
+    nw = nw ? orthonormalise(e, nw) : 0;
+    if (!nw)
+        return 0;
+    apply_K(e, bw, e->W, nw, e->KW);
+    n = p + nw;
+    memset(e->H, 0, sizeof(double) * n * n);
+    for (int j = 0; j < p; j++)
+        e->H[(size_t)j * n + j] = e->w[j];
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nw, p, nr, 1, e->W, nr, e->KX, nr, 0,
+                e->H + p, n);
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nw, nw, nr, 1, e->W, nr, e->KW, nr, 0,
+                e->H + (size_t)p * n + p, n);
+    lapack_int m, *isuppz = e->iwork + e->liwork;
+    if (LAPACKE_dsyevr_work(LAPACK_COL_MAJOR, 'V', 'I', 'L', n, e->H, n, 0, 0, 1, p, 0, &m, e->w,
+                            e->Z, n, isuppz, e->work, e->lwork, e->iwork, e->liwork) ||
+        m != p)
+        return -1;
+    double *from[3] = {e->X, e->KX, e->MX}, *by[3] = {e->W, e->KW, e->MW};
+    for (int t = 0; t < 3; t++) {
+        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nr, p, p, 1, from[t], nr, e->Z, n, 0,
+                    e->T, nr);
+        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nr, p, nw, 1, by[t], nr, e->Z + p, n,
+                    1, e->T, nr);
+        memcpy(from[t], e->T, sizeof(double) * nr * p);
+    }
+    return 0;
+}
+
+/* Wittrick-Williams for the reduced pair: interior coordinates below
+ * sigma plus the negative eigenvalues of
+ *   S - sigma M_BB - sigma^2 B' (d - sigma)^-1 B.  -1 when singular. */
+static int count_reduced(dm_boundary_eig *e, dm_boundary *bw, double sigma, int *count)
+{
+    int nB = e->nB, nv = e->nv, below = 0;
+    assert((size_t)nv * nB <= (size_t)e->nr * 2 * e->pmax);
+    for (int i = 0; i < nv; i++) {
+        double f = e->d[i] - sigma;
+        if (f == 0)
+            return -1;
+        below += f < 0;
+        for (int c = 0; c < nB; c++)
+            e->T[(size_t)c * nv + i] = e->B[(size_t)c * nv + i] / f;
+    }
+    for (size_t a = 0; a < (size_t)nB * nB; a++)
+        e->D[a] = bw->Sk[a] - sigma * e->Mbb[a];
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nB, nB, nv, -sigma * sigma, e->B, nv,
+                e->T, nv, 1, e->D, nB);
+    int neg = dm_boundary_negatives(bw, e->D, nB);
+    *count = below + neg;
+    return neg < 0 ? -1 : 0;
+}
+
+/* Columns from..p-1 of X: random, then one step of K^-1 M (away from the
+ * stiff end of the spectrum). */
+static void random_columns(dm_boundary_eig *e, const dm_boundary *bw, int from)
+{
+    int nr = e->nr, nc = e->p - from;
+    double *X = e->X + (size_t)from * nr;
+    for (size_t a = 0; a < (size_t)nr * nc; a++)
+        e->W[a] = dm_rng_normal(&e->rng);
+    apply_M(e, e->W, nc, X);
+    solve_K(e, bw, X, nc);
+}
+
+/* Between the member's residual coordinates as stored (dm_boundary_reduced_
+ * vectors) and rotated (diagonal K): y_rot = V' y (to 1) or y = V y_rot. */
+static void rotate(const dm_boundary_eig *e, const dm_members *ms, double *y, int to_rotated)
+{
+    double t[DM_MEMBERS_MAX_BOUND];
+    for (int m = 0; m < DM_MEMBERS_N; m++) {
+        const dm_member_basis *mb = &ms->member[m];
+        int nres = mb->nres;
+        double *q = y + e->nB + e->q0[m] + mb->nkeep;
+        const double *V = e->V + e->v0[m];
+        for (int b = 0; b < nres; b++) {
+            t[b] = 0;
+            for (int a = 0; a < nres; a++)
+                t[b] += to_rotated ? V[(size_t)b * nres + a] * q[a] : V[(size_t)a * nres + b] * q[a];
+        }
+        memcpy(q, t, sizeof(double) * nres);
+    }
+}
+
+void dm_boundary_eig_start(dm_boundary_eig *e, const double *Y, int ncol)
+{
+    assert(ncol >= 0 && ncol <= e->pmax);
+    if (ncol > e->k) /* the block is these columns */
+        e->p = ncol;
+    memcpy(e->X, Y, sizeof(double) * e->nr * ncol);
+    for (int j = 0; j < ncol; j++)
+        rotate(e, e->ms, e->X + (size_t)j * e->nr, 1);
+    e->nstart = ncol;
+}
+
+void dm_boundary_reduced_vectors(const dm_boundary *bw, int k, double *Y)
+{
+    memcpy(Y, bw->Kr, sizeof(double) * bw->nred * k);
+}
+
+/* Iterate from the Ritz vectors of the block X until every wanted
+ * cluster meets the tolerance; *top: the last wanted cluster's end.
+ * -1 when it does not converge, 1 when the block must grow. */
+static int converge(dm_boundary_eig *e, const dm_boundary *bw, int *top, int *steps)
+{
+    int fresh = 1; /* KX, MX and the Ritz values from X itself, not updated */
+    if (ritz_on_start(e, bw))
+        return -1;
+    for (*steps = 0;; ++*steps) {
+        residuals(e, bw);
+        *top = estimates(e);
+        int done = 1;
+        for (int j = 0; j <= *top; j++)
+            done &= e->est[j] <= DM_BOUNDARY_EIG_TOL;
+        if (done && fresh)
+            return 0;
+        if (done) { /* judged again on products and Ritz values made afresh */
+            if (ritz_on_start(e, bw))
+                return -1;
+            fresh = 1;
+            continue;
+        }
+        /* a wanted cluster at the block's top has no gap above it, and
+         * one near the top converges slowly: more guard vectors */
+        if (e->p < e->pmax && ((*top == e->p - 1 && *steps >= 2) || *steps == 10))
+            return 1;
+        if (*steps == MAX_STEPS || expand_and_ritz(e, bw))
+            return -1;
+        fresh = 0;
+    }
+}
+
+int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, double *estimate,
+                          dm_boundary_eig_info *info, dm_error *err)
+{
+    dm_boundary_eig_info dummy;
+    info = info ? info : &dummy;
+    memset(info, 0, sizeof *info);
+    pose_mass(e, bw);
+    info->cold = e->nstart == 0;
+    random_columns(e, bw, e->nstart);
+    for (int attempt = 0;; attempt++) {
+        int top = 0, steps = 0, count, rc = converge(e, bw, &top, &steps);
+        info->iterations += steps;
+        if (rc == 1) { /* a cluster wider than the guard: grow the block */
+            int from = e->p;
+            e->p = e->p + GUARD < e->pmax ? e->p + GUARD : e->pmax;
+            random_columns(e, bw, from);
+            attempt--;
+            continue;
+        }
+        if (rc) {
+            e->nstart = 0;
+            return dm_fail(err, DM_ENUMERIC, "reduced eigensolver: no convergence");
+        }
+        /* just above the wanted clusters (their values are within the
+         * tolerance, far below the shift's 1e-9; the counts resolve ~1e-11) */
+        if (count_reduced(e, bw, e->w[top] * (1 + COUNT_SHIFT), &count)) {
+            e->nstart = 0;
+            return dm_fail(err, DM_ENUMERIC, "reduced eigensolver: the count's shift is singular");
+        }
+        if (count == top + 1)
+            break;
+        if (count < top + 1 || attempt == MAX_RESTARTS) { /* Ritz values are upper bounds */
+            e->nstart = 0;
+            return dm_fail(err, DM_ENUMERIC, "reduced eigensolver: %d modes below %d Ritz values",
+                           count, top + 1);
+        }
+        info->restarts++; /* a mode missed below: fresh guard vectors find it */
+        random_columns(e, bw, top + 1);
+    }
+    for (int j = 0; j < e->k; j++) {
+        lambda[j] = e->w[j];
+        if (estimate)
+            estimate[j] = e->est[j];
+    }
+    for (int j = 0; j < e->p; j++) { /* the modes in dm_boundary's coordinates */
+        memcpy(bw->Kr + (size_t)j * e->nr, e->X + (size_t)j * e->nr, sizeof(double) * e->nr);
+        rotate(e, e->ms, bw->Kr + (size_t)j * e->nr, 0);
+    }
+    e->nstart = e->p;
+    return DM_OK;
+}
