@@ -87,6 +87,7 @@ typedef struct {
     double at[3];
     int have_at, k;
     dm_eigen_method method;
+    dm_robot rb; /* loaded by parse_modes_opts */
 } modes_opts;
 
 static int parse_modes_opts(int argc, char **argv, modes_opts *o)
@@ -129,7 +130,7 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
         return rc;
     if (!o->sh.robot)
         return dm_cli_usage("modes", "--robot is required", NULL);
-    return 0;
+    return dm_cli_start(&o->sh, NULL, &o->rb);
 }
 
 static void print_modes_table(const dm_robot *rb, const dm_analysis *an,
@@ -221,18 +222,16 @@ static int print_modes_json(const dm_robot *rb, const dm_analysis *an,
 
 static int cmd_modes(int argc, char **argv)
 {
-    dm_cli_serial_blas();
     modes_opts o;
     int rc = parse_modes_opts(argc, argv, &o);
     if (rc)
         return rc;
-    dm_robot rb;
+    dm_robot *rb = &o.rb;
     dm_error err;
-    if (dm_cli_load_robot(o.sh.robot, o.sh.sets, o.sh.nset, &rb, &err) ||
-        (o.vtk && dm_vtk_check_dir(o.vtk, &err)))
+    if (o.vtk && dm_vtk_check_dir(o.vtk, &err))
         return dm_cli_report(&err);
-    int na = o.sh.na ? o.sh.na : rb.na, nb = o.sh.nb ? o.sh.nb : rb.nb;
-    dm_analysis *an = dm_analysis_alloc(&rb, na, nb, o.k, o.method, &err);
+    int na = o.sh.na ? o.sh.na : rb->na, nb = o.sh.nb ? o.sh.nb : rb->nb;
+    dm_analysis *an = dm_analysis_alloc(rb, na, nb, o.k, o.method, &err);
     if (!an)
         return dm_cli_report(&err);
     if (o.k > an->model->n) {
@@ -242,23 +241,23 @@ static int cmd_modes(int argc, char **argv)
         return DM_EINVAL;
     }
     dm_pose_result res;
-    const double *P = o.have_at ? o.at : rb.home_m;
+    const double *P = o.have_at ? o.at : rb->home_m;
     double nominal = 0;
     dm_coupling *cw = NULL;
     dm_shape_set *shapes = NULL;
     rc = dm_analysis_run(an, P, o.k, &res, &err);
     if (!rc && (o.sh.json || o.vtk) &&
-        !(shapes = dm_shape_set_make(an, &res, dm_shape_default_max(&rb), &err)))
+        !(shapes = dm_shape_set_make(an, &res, dm_shape_default_max(rb), &err)))
         rc = err.code;
-    if (!rc && !(cw = dm_coupling_alloc(&rb, na, nb, &err)))
+    if (!rc && !(cw = dm_coupling_alloc(rb, na, nb, &err)))
         rc = err.code;
     if (!rc)
         rc = dm_coupling_nominal_log10(cw, P, &nominal, &err);
-    if (!rc && o.sh.json && (rc = print_modes_json(&rb, an, &res, nominal, shapes)))
+    if (!rc && o.sh.json && (rc = print_modes_json(rb, an, &res, nominal, shapes)))
         dm_fail(&err, rc, "modes --json: the JSON could not be made or written (out of "
                 "memory, or stdout failed)");
     else if (!rc && !o.sh.json)
-        print_modes_table(&rb, an, &res, nominal);
+        print_modes_table(rb, an, &res, nominal);
     if (!rc && o.vtk) /* files last: a failure before leaves none behind */
         rc = dm_cli_modes_vtk(o.vtk, shapes, res.modes->platform_share, res.modes->freq_hz, &err);
     if (rc)

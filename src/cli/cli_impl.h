@@ -154,9 +154,12 @@ void dm_cli_options(const struct option *own, unsigned which, struct option *opt
  * that is no option. */
 int dm_cli_getopt(int argc, char **argv, const struct option *opts, dm_cli_shared *sh, int *rc);
 
-/* Load sh's robot with its --set overrides: 0, or the error reported
- * (dm_cli_report) and its exit code. */
-int dm_cli_robot(const dm_cli_shared *sh, dm_robot *robot);
+/* The start-up every robot command shares once its options are parsed:
+ * the threads it runs on (*threads = the --threads choice, dm_cli_threads;
+ * threads NULL: a serial command, dm_cli_serial_blas) and sh's robot loaded
+ * with its --set overrides. 0, or the error reported (dm_cli_report) and its
+ * exit code. */
+int dm_cli_start(const dm_cli_shared *sh, int *threads, dm_robot *robot);
 
 /* Commands. */
 int dm_cli_trajectory(int argc, char **argv);

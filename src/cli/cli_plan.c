@@ -48,6 +48,9 @@ typedef struct {
     const char *effects;
     int have_kind, clock_rate;
     dm_plan_opts o;
+    dm_plan_effect eff[DM_PLAN_MAXEFF]; /* parsed from effects */
+    int neff;
+    dm_robot rb; /* loaded by parse */
 } plan_args;
 
 static int parse(int argc, char **argv, plan_args *a)
@@ -113,9 +116,11 @@ static int parse(int argc, char **argv, plan_args *a)
     a->o.seed = (uint64_t)seed;
     a->o.na = a->sh.na;
     a->o.nb = a->sh.nb;
-    a->o.threads = dm_cli_threads(a->sh.threads);
     a->o.force_long = a->sh.force_long;
-    return 0;
+    dm_error err;
+    if (dm_plan_parse_effects(a->effects, a->o.kind, a->eff, &a->neff, &err))
+        return dm_cli_report(&err);
+    return dm_cli_start(&a->sh, &a->o.threads, &a->rb);
 }
 
 static const char *unit_of(const dm_plan_result *r)
@@ -331,25 +336,20 @@ int dm_cli_plan(int argc, char **argv)
     int rc = parse(argc, argv, &a);
     if (rc)
         return rc;
-    dm_robot rb;
     dm_error err;
-    dm_plan_effect eff[DM_PLAN_MAXEFF];
     dm_plan_result r;
-    int neff;
     dm_cli_progress view;
     a.o.progress = dm_cli_progress_init(&view, "plan", a.sh.progress);
     a.o.progress_user = &view;
-    if ((rc = dm_plan_parse_effects(a.effects, a.o.kind, eff, &neff, &err)) ||
-        (rc = dm_cli_load_robot(a.sh.robot, a.sh.sets, a.sh.nset, &rb, &err)) ||
-        (rc = dm_plan(&rb, eff, neff, &a.o, &r, &err))) {
+    if ((rc = dm_plan(&a.rb, a.eff, a.neff, &a.o, &r, &err))) {
         dm_cli_progress_finish(&view);
         return dm_cli_report(&err);
     }
     dm_cli_progress_finish(&view);
     if (a.sh.json)
-        print_plan_json(&rb, &r);
+        print_plan_json(&a.rb, &r);
     else
-        print_plan(&rb, &r);
+        print_plan(&a.rb, &r);
     if (a.sh.out) {
         dm_file_out out;
         if (!(rc = dm_file_out_open(&out, a.sh.out, &err))) {

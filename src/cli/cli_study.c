@@ -33,6 +33,7 @@ static const char HELP[] =
 typedef struct {
     dm_cli_shared sh; /* --robot, --set, --mesh, --threads, --progress, --json, --out */
     dm_study st;
+    dm_robot rb; /* loaded by parse */
 } study_opts;
 
 static int parse(int argc, char **argv, study_opts *t)
@@ -71,12 +72,11 @@ static int parse(int argc, char **argv, study_opts *t)
     }
     t->st.opts.na = t->sh.na;
     t->st.opts.nb = t->sh.nb;
-    t->st.threads = dm_cli_threads(t->sh.threads);
     if (rc)
         return rc;
     if (!t->sh.robot || !t->st.path || !t->st.naxis)
         return dm_cli_usage("study", "--robot, --path and --vary are required", NULL);
-    return 0;
+    return dm_cli_start(&t->sh, &t->st.threads, &t->rb);
 }
 
 static void print_table(const study_opts *t, const dm_study_cell *cells, int n1, int n2)
@@ -164,19 +164,18 @@ static int write_outputs(const study_opts *t, const dm_study_cell *cells, int n1
 int dm_cli_study(int argc, char **argv)
 {
     study_opts t;
-    dm_robot rb;
     int rc = parse(argc, argv, &t);
-    if (rc || (rc = dm_cli_robot(&t.sh, &rb)))
+    if (rc)
         return rc;
-    dm_error err;
     int n1 = t.st.axis[0].count, n2 = t.st.naxis > 1 ? t.st.axis[1].count : 1;
+    dm_error err;
     dm_study_cell *cells = calloc((size_t)n1 * n2, sizeof *cells);
     if (!cells)
         return dm_cli_report((dm_fail(&err, DM_ENOMEM, "out of memory"), &err));
     dm_cli_progress view;
     t.st.progress = dm_cli_progress_init(&view, "study", t.sh.progress);
     t.st.progress_user = &view;
-    rc = dm_study_run(&rb, &t.st, cells, &err);
+    rc = dm_study_run(&t.rb, &t.st, cells, &err);
     dm_cli_progress_finish(&view);
     rc = rc ? dm_cli_report(&err) : write_outputs(&t, cells, n1, n2);
     free(cells);

@@ -287,16 +287,13 @@ int dm_cli_sweep(int argc, char **argv)
 {
     sweep_args a;
     int rc = parse_sweep(argc, argv, &a);
+    dm_robot rb;
     if (!rc)
         rc = resolve_shard(a.shard, &a.o);
-    if (rc)
+    if (rc || (rc = dm_cli_start(&a.sh, &a.o.threads, &rb)))
         return rc;
-    a.o.threads = dm_cli_threads(a.o.threads);
-    dm_robot rb;
     dm_grid grid;
     dm_error err;
-    if (dm_cli_load_robot(a.sh.robot, a.sh.sets, a.sh.nset, &rb, &err))
-        return dm_cli_report(&err);
     if (dm_grid_parse(a.grid, &grid, &err))
         return dm_cli_report(&err);
     struct sigaction sa;

@@ -52,6 +52,7 @@ typedef struct {
     int have_at, have_samples, have_seed;
     double at[3];
     dm_tolerance_spec spec;
+    dm_robot rb; /* loaded by parse */
 } tol_opts;
 
 int dm_cli_parse_tol(const char *arg, dm_tolerance_spec *sp)
@@ -189,8 +190,7 @@ static int parse(int argc, char **argv, tol_opts *t)
     t->spec.na = t->sh.na;
     t->spec.nb = t->sh.nb;
     t->spec.force_long = t->sh.force_long;
-    t->sh.threads = dm_cli_threads(t->sh.threads);
-    return 0;
+    return dm_cli_start(&t->sh, &t->sh.threads, &t->rb);
 }
 
 static json_t *num(double v) { return isnan(v) ? json_null() : json_real(v); }
@@ -269,22 +269,21 @@ static void print_result(const tol_opts *t, const dm_robot *rb, const double P[3
 int dm_cli_tolerance(int argc, char **argv)
 {
     tol_opts t;
-    dm_robot rb;
     int rc = parse(argc, argv, &t);
-    if (rc || (rc = dm_cli_robot(&t.sh, &rb)))
+    if (rc)
         return rc;
+    const double *P = t.have_at ? t.at : t.rb.home_m;
     dm_error err;
-    if (dm_tolerance_check(&rb, &t.spec, &err))
+    if (dm_tolerance_check(&t.rb, &t.spec, &err))
         return dm_cli_report(&err);
-    const double *P = t.have_at ? t.at : rb.home_m;
     dm_tolerance_result res;
     dm_cli_progress view;
     t.spec.progress = dm_cli_progress_init(&view, "tolerance", t.sh.progress);
     t.spec.progress_user = &view;
-    rc = dm_tolerance_pose(&rb, &t.spec, P, t.sh.threads, &res, &err);
+    rc = dm_tolerance_pose(&t.rb, &t.spec, P, t.sh.threads, &res, &err);
     dm_cli_progress_finish(&view);
     if (rc)
         return dm_cli_report(&err);
-    print_result(&t, &rb, P, &res);
+    print_result(&t, &t.rb, P, &res);
     return 0;
 }

@@ -94,6 +94,7 @@ typedef struct {
     int rigid, no_budget;
     dm_integ_opts o;
     dm_cli_traj_vtk vtk;
+    dm_robot rb; /* loaded by parse */
 } traj_opts;
 
 static int parse(int argc, char **argv, traj_opts *t)
@@ -193,7 +194,6 @@ static int parse(int argc, char **argv, traj_opts *t)
         return dm_cli_usage("trajectory", "--robot and --path are required", NULL);
     t->o.na = t->sh.na;
     t->o.nb = t->sh.nb;
-    t->o.threads = dm_cli_threads(t->sh.threads);
     t->o.force_long = t->sh.force_long;
     if (t->o.method == DM_ODE_FULL)
         t->o.k = 0;
@@ -201,7 +201,7 @@ static int parse(int argc, char **argv, traj_opts *t)
         return dm_cli_usage("trajectory", "--axes-rotation reports the flexible run: not with --rigid", NULL);
     if (t->rigid && t->no_budget)
         return dm_cli_usage("trajectory", "--rigid is a budget run: it cannot go with --no-budget", NULL);
-    return 0;
+    return dm_cli_start(&t->sh, &t->o.threads, &t->rb);
 }
 
 /* What the sinks write to: CSV rows or kept samples, and the coupling
@@ -441,13 +441,12 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
 int dm_cli_trajectory(int argc, char **argv)
 {
     traj_opts t;
-    dm_robot rb;
     int rc = parse(argc, argv, &t);
-    if (rc || (rc = dm_cli_robot(&t.sh, &rb)))
+    if (rc)
         return rc;
     dm_trajectory tr;
     dm_error err;
-    if (dm_traj_make(t.path, &rb, &tr, &err))
+    if (dm_traj_make(t.path, &t.rb, &tr, &err))
         return dm_cli_report(&err);
     if (t.vtk.dir && dm_cli_traj_vtk_check(&t.vtk, &err)) {
         dm_traj_free(&tr);
@@ -460,7 +459,7 @@ int dm_cli_trajectory(int argc, char **argv)
         dm_traj_free(&tr);
         return dm_cli_report(&err);
     }
-    int budget = !t.no_budget && (t.rigid || dm_effects_geometry_errors(&rb.effects));
+    int budget = !t.no_budget && (t.rigid || dm_effects_geometry_errors(&t.rb.effects));
     if (out.f)
         fprintf(out.f, "t_s,x_m,y_m,z_m,dx_m,dy_m,dz_m,ex_rad,ey_rad,ez_rad,error_m,"
                        "tool_dx_m,tool_dy_m,tool_dz_m,f1_hz,f2_hz,f3_hz,coupling_index_log10,"
@@ -469,16 +468,16 @@ int dm_cli_trajectory(int argc, char **argv)
     dm_integ_summary sum;
     dm_budget_summary bsum;
     run_out ro = {.csv = out.f, .kept = zarr ? &kept : NULL, .vtk = t.vtk.dir ? &t.vtk : NULL};
-    rc = dm_coupling_change_init(&ro.cc, &rb, t.o.na, t.o.nb, &err);
+    rc = dm_coupling_change_init(&ro.cc, &t.rb, t.o.na, t.o.nb, &err);
     if (!rc && budget) {
-        rc = dm_budget_trajectory(&rb, &tr, &t.o, !t.rigid, budget_sample, &ro, &bsum, &err);
+        rc = dm_budget_trajectory(&t.rb, &tr, &t.o, !t.rigid, budget_sample, &ro, &bsum, &err);
         sum = bsum.run;
     } else if (!rc)
-        rc = dm_integrate_trajectory(&rb, &tr, &t.o, run_sample, &ro, &sum, &err);
+        rc = dm_integrate_trajectory(&t.rb, &tr, &t.o, run_sample, &ro, &sum, &err);
     if (!rc && out.f)
         rc = dm_file_out_commit(&out, &err);
     if (!rc && zarr)
-        rc = dm_trajstore_write(t.sh.out, rb.name, tr.name, &kept, &err);
+        rc = dm_trajstore_write(t.sh.out, t.rb.name, tr.name, &kept, &err);
     if (ro.vtk) {
         int vrc = dm_cli_traj_vtk_finish(ro.vtk, !rc, &err);
         rc = rc ? rc : vrc;
@@ -501,7 +500,7 @@ int dm_cli_trajectory(int argc, char **argv)
                 "s: step-boundary projections can alias into high modes and grow (docs/model.md "
                 "§4). Add damping, keep <= 20 modes, or use --dt 1.25e-4.\n",
                 t.o.dt_s);
-    print_summary(&t, &rb, &tr, &sum, budget ? &bsum : NULL, &ro.cc);
+    print_summary(&t, &t.rb, &tr, &sum, budget ? &bsum : NULL, &ro.cc);
     dm_coupling_change_free(&ro.cc);
     dm_traj_free(&tr);
     return 0;

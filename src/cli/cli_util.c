@@ -78,9 +78,13 @@ void dm_cli_serial_blas(void)
         openblas_set_num_threads(1);
 }
 
-int dm_cli_robot(const dm_cli_shared *sh, dm_robot *rb)
+int dm_cli_start(const dm_cli_shared *sh, int *threads, dm_robot *rb)
 {
     dm_error err;
+    if (threads)
+        *threads = dm_cli_threads(sh->threads);
+    else
+        dm_cli_serial_blas();
     return dm_cli_load_robot(sh->robot, sh->sets, sh->nset, rb, &err) ? dm_cli_report(&err) : 0;
 }
 
