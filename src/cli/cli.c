@@ -95,13 +95,13 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
     static const struct option own[] = {
         {"at", required_argument, 0, 'a'}, {"modes", required_argument, 0, 'k'},
         {"method", required_argument, 0, 'M'}, {"vtk", required_argument, 0, 'V'}, {0, 0, 0, 0}};
-    struct option longopts[DM_CLI_MAXOPT];
-    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_JSON, longopts);
     int c, rc;
     memset(o, 0, sizeof *o);
-    o->sh = (dm_cli_shared){.cmd = "modes", .help = MODES_HELP};
+    dm_cli_begin(&o->sh, "modes", MODES_HELP, own,
+                 DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_JSON,
+                 DM_CLI_PROGRESS_NONE);
     o->k = 10;
-    while ((c = dm_cli_getopt(argc, argv, longopts, &o->sh, &rc))) {
+    while ((c = dm_cli_getopt(argc, argv, &o->sh, &rc))) {
         switch (c) {
         case 'a':
             if (dm_cli_parse_list(optarg, o->at, 3))

@@ -129,8 +129,10 @@ enum {
     DM_CLI_FORCE_LONG = 1 << 7, /* --force-long (dm_work.h) */
 };
 
+#define DM_CLI_MAXOPT 48
 typedef struct dm_cli_shared {
     const char *cmd, *help; /* the command's name (messages) and --help text */
+    struct option opts[DM_CLI_MAXOPT]; /* the command's getopt table (dm_cli_begin) */
     const char *robot;
     const char *sets[DM_CLI_MAXSET];
     int nset;
@@ -141,18 +143,20 @@ typedef struct dm_cli_shared {
     const char *out;
 } dm_cli_shared;
 
-/* The command's table `own` (ended by a zero entry) followed by the shared
- * options in `which` and --help, into opts (DM_CLI_MAXOPT entries); and
- * getopt set to read a command line from its start, silently. */
-#define DM_CLI_MAXOPT 48
-void dm_cli_options(const struct option *own, unsigned which, struct option *opts);
+/* The start of every command's parsing: sh cleared for command cmd (its
+ * --help text help), its getopt table the command's `own` (ended by a zero
+ * entry) followed by the shared options in `which` and --help, its progress
+ * dm_cli_progress_default(progress); and getopt set to read a command line
+ * from its start, silently. */
+void dm_cli_begin(dm_cli_shared *sh, const char *cmd, const char *help,
+                  const struct option *own, unsigned which, int progress);
 
-/* The next of the command's own options (getopt_long over opts, its
+/* The next of the command's own options (getopt_long over sh->opts, its
  * argument in optarg), the shared ones handled on the way into sh (--help
  * prints sh->help and exits). 0 at the end, *rc then 0 or the usage error
  * to return: a shared option's bad value, an unknown option, an argument
  * that is no option. */
-int dm_cli_getopt(int argc, char **argv, const struct option *opts, dm_cli_shared *sh, int *rc);
+int dm_cli_getopt(int argc, char **argv, dm_cli_shared *sh, int *rc);
 
 /* The start-up every robot command shares once its options are parsed:
  * the threads it runs on (*threads = the --threads choice, dm_cli_threads;

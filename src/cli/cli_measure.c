@@ -92,17 +92,15 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
     static const struct option own[] = {
         {"measured", 1, 0, 'd'}, {"write-robot", 1, 0, 'w'}, {"no-pairs", 0, 0, 'P'},
         {"sigma", 1, 0, 'S'},    {"after-nuisances", 0, 0, 'A'}, {0, 0, 0, 0}};
-    struct option lo[DM_CLI_MAXOPT];
-    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_JSON |
-                            DM_CLI_OUT |
-                            (strcmp(cmd, "diagnose") ? 0 : DM_CLI_PROGRESS | DM_CLI_FORCE_LONG),
-                   lo);
     int c, rc;
     memset(a, 0, sizeof *a);
-    a->sh = (dm_cli_shared){.cmd = cmd, .help = help};
+    dm_cli_begin(&a->sh, cmd, help, own,
+                 DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_JSON |
+                     DM_CLI_OUT |
+                     (strcmp(cmd, "diagnose") ? 0 : DM_CLI_PROGRESS | DM_CLI_FORCE_LONG),
+                 DM_CLI_PROGRESS_NONE);
     a->pairs = 1;
-    a->sh.progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
-    while ((c = dm_cli_getopt(argc, argv, lo, &a->sh, &rc))) {
+    while ((c = dm_cli_getopt(argc, argv, &a->sh, &rc))) {
         switch (c) {
         case 'd': a->measured = optarg; break;
         case 'w': a->write_robot = optarg; break;
@@ -924,13 +922,14 @@ int dm_cli_synth(int argc, char **argv)
         {"poses", 1, 0, 'p'},   {"modes", 1, 0, 'M'},     {"seed", 1, 0, 'S'},
         {"path", 1, 0, 'P'},    {"at", 1, 0, 'A'},        {"pairing", 1, 0, 'D'},
         {"drop-mode", 1, 0, 'X'}, {"extra-mode", 1, 0, 'E'}, {0, 0, 0, 0}};
-    struct option lo[DM_CLI_MAXOPT];
-    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_OUT | DM_CLI_FORCE_LONG, lo);
-    dm_cli_shared sh = {.cmd = "synth", .help = SYNTH_HELP};
+    dm_cli_shared sh;
+    dm_cli_begin(&sh, "synth", SYNTH_HELP, own,
+                 DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_OUT | DM_CLI_FORCE_LONG,
+                 DM_CLI_PROGRESS_NONE);
     const char *effects[8], *at = NULL;
     int neff = 0, c, rc, have_kind = 0, seed = 1;
     dm_synth_opts o = {0};
-    while ((c = dm_cli_getopt(argc, argv, lo, &sh, &rc))) {
+    while ((c = dm_cli_getopt(argc, argv, &sh, &rc))) {
         switch (c) {
         case 'P': o.path = optarg; break;
         case 'A': at = optarg; break;

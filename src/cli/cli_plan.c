@@ -59,14 +59,13 @@ static int parse(int argc, char **argv, plan_args *a)
         {"kind", 1, 0, 'k'},  {"effects", 1, 0, 'e'}, {"poses", 1, 0, 'p'}, {"noise", 1, 0, 'n'},
         {"region", 1, 0, 'g'}, {"seed", 1, 0, 'S'},   {"modes", 1, 0, 'M'}, {"frame", 1, 0, 'F'},
         {"clock", 1, 0, 'C'}, {"path", 1, 0, 'W'},    {0, 0, 0, 0}};
-    struct option lo[DM_CLI_MAXOPT];
-    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
-                            DM_CLI_JSON | DM_CLI_OUT | DM_CLI_FORCE_LONG, lo);
     int c, rc, seed = 1;
     memset(a, 0, sizeof *a);
-    a->sh = (dm_cli_shared){.cmd = "plan", .help = PLAN_HELP};
-    a->sh.progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
-    while ((c = dm_cli_getopt(argc, argv, lo, &a->sh, &rc))) {
+    dm_cli_begin(&a->sh, "plan", PLAN_HELP, own,
+                 DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
+                     DM_CLI_JSON | DM_CLI_OUT | DM_CLI_FORCE_LONG,
+                 DM_CLI_PROGRESS_NONE);
+    while ((c = dm_cli_getopt(argc, argv, &a->sh, &rc))) {
         switch (c) {
         case 'e': a->effects = optarg; break;
         case 'g': a->o.region = optarg; break;

@@ -41,16 +41,15 @@ static int parse(int argc, char **argv, study_opts *t)
     static const struct option own[] = {
         {"path", 1, 0, 'p'}, {"vary", 1, 0, 'v'}, {"modes", 1, 0, 'k'}, {"dt", 1, 0, 'd'},
         {0, 0, 0, 0}};
-    struct option lo[DM_CLI_MAXOPT];
-    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
-                            DM_CLI_JSON | DM_CLI_OUT, lo);
     int c, rc;
     memset(t, 0, sizeof *t);
-    t->sh = (dm_cli_shared){.cmd = "study", .help = HELP};
-    t->sh.progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
+    dm_cli_begin(&t->sh, "study", HELP, own,
+                 DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
+                     DM_CLI_JSON | DM_CLI_OUT,
+                 DM_CLI_PROGRESS_NONE);
     dm_integ_opts_default(&t->st.opts);
     t->st.opts.reference = 0;
-    while ((c = dm_cli_getopt(argc, argv, lo, &t->sh, &rc))) {
+    while ((c = dm_cli_getopt(argc, argv, &t->sh, &rc))) {
         switch (c) {
         case 'p': t->st.path = optarg; break;
         case 'v':

@@ -112,18 +112,17 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
         {"tolerance-seed", 1, 0, 'E'}, {"spec", 1, 0, 'P'}, {"tol", 1, 0, 'O'},
         {"tolerance-dist", 1, 0, 'I'}, {"force", 0, 0, 'f'},
         {0, 0, 0, 0}};
-    struct option lo[DM_CLI_MAXOPT];
-    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
-                            DM_CLI_OUT | DM_CLI_FORCE_LONG, lo);
     int rc;
     dm_tolerance_spec *tol = &a->o.tolerance_spec;
     int c;
     double v[3];
     memset(a, 0, sizeof *a);
     dm_sweep_opts_default(&a->o);
-    a->sh = (dm_cli_shared){.cmd = "sweep", .help = SWEEP_HELP};
-    a->sh.progress = dm_cli_progress_default(DM_CLI_PROGRESS_LINES);
-    while ((c = dm_cli_getopt(argc, argv, lo, &a->sh, &rc))) {
+    dm_cli_begin(&a->sh, "sweep", SWEEP_HELP, own,
+                 DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
+                     DM_CLI_OUT | DM_CLI_FORCE_LONG,
+                 DM_CLI_PROGRESS_LINES);
+    while ((c = dm_cli_getopt(argc, argv, &a->sh, &rc))) {
         switch (c) {
         case 'g': a->grid = optarg; break;
         case 'S': a->shard = optarg; break;

@@ -134,15 +134,14 @@ static int parse(int argc, char **argv, tol_opts *t)
         {"at", 1, 0, 'a'},   {"samples", 1, 0, 'n'}, {"seed", 1, 0, 'S'},  {"tol", 1, 0, 't'},
         {"dist", 1, 0, 'd'}, {"spec", 1, 0, 'p'},    {"rigid", 0, 0, 'G'}, {"force", 0, 0, 'f'},
         {0, 0, 0, 0}};
-    struct option lo[DM_CLI_MAXOPT];
-    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
-                            DM_CLI_JSON | DM_CLI_FORCE_LONG, lo);
     int c, rc;
     memset(t, 0, sizeof *t);
     dm_tolerance_spec_default(&t->spec);
-    t->sh = (dm_cli_shared){.cmd = "tolerance", .help = HELP};
-    t->sh.progress = dm_cli_progress_default(DM_CLI_PROGRESS_NONE);
-    while ((c = dm_cli_getopt(argc, argv, lo, &t->sh, &rc))) {
+    dm_cli_begin(&t->sh, "tolerance", HELP, own,
+                 DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
+                     DM_CLI_JSON | DM_CLI_FORCE_LONG,
+                 DM_CLI_PROGRESS_NONE);
+    while ((c = dm_cli_getopt(argc, argv, &t->sh, &rc))) {
         switch (c) {
         case 'a':
             if (dm_cli_parse_list(optarg, t->at, 3))

@@ -107,17 +107,17 @@ static int parse(int argc, char **argv, traj_opts *t)
         {"rigid", 0, 0, 'G'}, {"no-budget", 0, 0, 'B'}, {"axes-rotation", 1, 0, 'X'},
         {"vtk", 1, 0, 'V'}, {"vtk-every", 1, 0, 'E'}, {"vtk-magnify", 1, 0, 'M'},
         {"force", 1, 0, 'f'}, {0, 0, 0, 0}};
-    struct option lo[DM_CLI_MAXOPT];
-    dm_cli_options(own, DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_JSON |
-                            DM_CLI_OUT | DM_CLI_FORCE_LONG, lo);
     int c, rc;
     double v[2];
     memset(t, 0, sizeof *t);
-    t->sh = (dm_cli_shared){.cmd = "trajectory", .help = HELP};
+    dm_cli_begin(&t->sh, "trajectory", HELP, own,
+                 DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_JSON |
+                     DM_CLI_OUT | DM_CLI_FORCE_LONG,
+                 DM_CLI_PROGRESS_NONE);
     dm_integ_opts_default(&t->o);
     t->vtk.every = 10;
     t->vtk.magnify = 100;
-    while ((c = dm_cli_getopt(argc, argv, lo, &t->sh, &rc))) {
+    while ((c = dm_cli_getopt(argc, argv, &t->sh, &rc))) {
         switch (c) {
         case 'p': t->path = optarg; break;
         case 'q': t->o.quasi_static = 1; break;

@@ -226,8 +226,11 @@ static const struct {
     {{"help", 0, 0, OPT_HELP}, 0},
 };
 
-void dm_cli_options(const struct option *own, unsigned which, struct option *opts)
+void dm_cli_begin(dm_cli_shared *sh, const char *cmd, const char *help,
+                  const struct option *own, unsigned which, int progress)
 {
+    *sh = (dm_cli_shared){.cmd = cmd, .help = help, .progress = dm_cli_progress_default(progress)};
+    struct option *opts = sh->opts;
     int n = 0;
     for (; own[n].name; n++) {
         assert(n < DM_CLI_MAXOPT - 1);
@@ -267,11 +270,11 @@ static int shared_option(dm_cli_shared *sh, int c, const char *arg, int *rc)
     }
 }
 
-int dm_cli_getopt(int argc, char **argv, const struct option *opts, dm_cli_shared *sh, int *rc)
+int dm_cli_getopt(int argc, char **argv, dm_cli_shared *sh, int *rc)
 {
     int c;
     *rc = 0;
-    while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, "", sh->opts, NULL)) != -1) {
         if (c == '?' || c == ':') {
             *rc = dm_cli_usage(sh->cmd, "unknown or incomplete option", argv[optind - 1]);
             return 0;
