@@ -21,6 +21,8 @@ int dm_cli_usage(const char *cmd, const char *msg, const char *arg);
 /* "a,b,c": exactly n finite numbers. */
 int dm_cli_parse_list(const char *s, double *out, int n);
 
+/* s as one value > 0 into *out: 0, or the usage error "cmd: msg" (dm_cli_usage). */
+int dm_cli_parse_positive(const char *cmd, const char *msg, const char *s, double *out);
 int dm_cli_parse_int(const char *s, int lo, int hi, int *out);
 /* A whole number lo..hi, written as such or in exponent form (1e6). */
 int dm_cli_parse_count(const char *s, int lo, int hi, int *out);

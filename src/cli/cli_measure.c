@@ -111,8 +111,9 @@ static int parse(const char *cmd, const char *help, int argc, char **argv, measu
             a->after_nuisances = 1;
             break;
         case 'S':
-            if (dm_cli_parse_list(optarg, &a->sigma, 1) || !(a->sigma > 0))
-                return dm_cli_usage(cmd, "--sigma takes the noise level > 0 (Hz or m)", optarg);
+            if ((rc = dm_cli_parse_positive(cmd, "--sigma takes the noise level > 0 (Hz or m)",
+                                            optarg, &a->sigma)))
+                return rc;
             break;
         default: assert(0);
         }

@@ -91,8 +91,9 @@ static int parse(int argc, char **argv, plan_args *a)
             break;
         case 'W': a->o.path = optarg; break;
         case 'n':
-            if (dm_cli_parse_list(optarg, &a->o.noise, 1) || !(a->o.noise > 0))
-                return dm_cli_usage("plan", "--noise takes a value > 0 (Hz or m)", optarg);
+            if ((rc = dm_cli_parse_positive("plan", "--noise takes a value > 0 (Hz or m)", optarg,
+                                            &a->o.noise)))
+                return rc;
             break;
         case 'S':
             if (dm_cli_parse_int(optarg, 0, 2147483647, &seed))

@@ -63,8 +63,9 @@ static int parse(int argc, char **argv, study_opts *t)
                 return dm_cli_usage("study", "--modes takes a whole number >= 1", optarg);
             break;
         case 'd':
-            if (dm_cli_parse_list(optarg, &t->st.opts.dt_s, 1) || !(t->st.opts.dt_s > 0))
-                return dm_cli_usage("study", "--dt takes a time step > 0 in s", optarg);
+            if ((rc = dm_cli_parse_positive("study", "--dt takes a time step > 0 in s", optarg,
+                                            &t->st.opts.dt_s)))
+                return rc;
             break;
         default: assert(0);
         }

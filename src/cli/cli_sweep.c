@@ -143,9 +143,9 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
             break;
         case 'A':
         case 'U':
-            if (dm_cli_parse_list(optarg, v, 1) || !(v[0] > 0))
-                return dm_cli_usage("sweep", "--amax and --tau take a value > 0", optarg);
-            *(c == 'A' ? &a->o.move.amax_ms2 : &a->o.move.tau_s) = v[0];
+            if ((rc = dm_cli_parse_positive("sweep", "--amax and --tau take a value > 0", optarg,
+                                            c == 'A' ? &a->o.move.amax_ms2 : &a->o.move.tau_s)))
+                return rc;
             break;
         case 'N':
             if ((rc = parse_samples(optarg, &tol->samples)))

@@ -108,7 +108,6 @@ static int parse(int argc, char **argv, traj_opts *t)
         {"vtk", 1, 0, 'V'}, {"vtk-every", 1, 0, 'E'}, {"vtk-magnify", 1, 0, 'M'},
         {"force", 1, 0, 'f'}, {0, 0, 0, 0}};
     int c, rc;
-    double v[2];
     memset(t, 0, sizeof *t);
     dm_cli_begin(&t->sh, "trajectory", HELP, own,
                  DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_JSON |
@@ -148,14 +147,15 @@ static int parse(int argc, char **argv, traj_opts *t)
                 return dm_cli_usage("trajectory", "--modes takes a whole number >= 1 or 'all'", optarg);
             break;
         case 'd':
-            if (dm_cli_parse_list(optarg, &t->o.dt_s, 1) || !(t->o.dt_s > 0))
-                return dm_cli_usage("trajectory", "--dt takes a time step > 0 in s", optarg);
+            if ((rc = dm_cli_parse_positive("trajectory", "--dt takes a time step > 0 in s", optarg,
+                                            &t->o.dt_s)))
+                return rc;
             break;
         case 'R':
         case 'A':
-            if (dm_cli_parse_list(optarg, v, 1) || !(v[0] > 0))
-                return dm_cli_usage("trajectory", "tolerances must be > 0", optarg);
-            *(c == 'R' ? &t->o.rtol : &t->o.atol) = v[0];
+            if ((rc = dm_cli_parse_positive("trajectory", "tolerances must be > 0", optarg,
+                                            c == 'R' ? &t->o.rtol : &t->o.atol)))
+                return rc;
             break;
         case 'i':
             if (!strcmp(optarg, "cvode"))

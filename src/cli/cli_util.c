@@ -95,6 +95,15 @@ int dm_cli_threads(int requested)
     return requested > 0 ? requested : all_cores;
 }
 
+int dm_cli_parse_positive(const char *cmd, const char *msg, const char *s, double *out)
+{
+    double v;
+    if (dm_cli_parse_list(s, &v, 1) || !(v > 0))
+        return dm_cli_usage(cmd, msg, s);
+    *out = v;
+    return 0;
+}
+
 int dm_cli_parse_mesh(const char *s, int *na, int *nb)
 {
     double v[2];
