@@ -82,10 +82,9 @@ static const char ROBOT_HELP[] =
 /* ---- modes ------------------------------------------------------------- */
 
 typedef struct {
-    dm_cli_shared sh; /* --robot, --set, --mesh, --json */
+    dm_cli_shared sh; /* --robot, --set, --mesh, --json, --at */
     const char *vtk;
-    double at[3];
-    int have_at, k;
+    int k;
     dm_eigen_method method;
     dm_robot rb; /* loaded by parse_modes_opts */
 } modes_opts;
@@ -93,21 +92,16 @@ typedef struct {
 static int parse_modes_opts(int argc, char **argv, modes_opts *o)
 {
     static const struct option own[] = {
-        {"at", required_argument, 0, 'a'}, {"modes", required_argument, 0, 'k'},
+        {"modes", required_argument, 0, 'k'},
         {"method", required_argument, 0, 'M'}, {"vtk", required_argument, 0, 'V'}, {0, 0, 0, 0}};
     int c, rc;
     memset(o, 0, sizeof *o);
     dm_cli_begin(&o->sh, "modes", MODES_HELP, own,
-                 DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_JSON,
+                 DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_JSON | DM_CLI_AT,
                  DM_CLI_PROGRESS_NONE);
     o->k = 10;
     while ((c = dm_cli_getopt(argc, argv, &o->sh, &rc))) {
         switch (c) {
-        case 'a':
-            if (dm_cli_parse_list(optarg, o->at, 3))
-                return dm_cli_usage("modes", "--at takes X,Y,Z in m", optarg);
-            o->have_at = 1;
-            break;
         case 'k':
             if (dm_cli_parse_int(optarg, 1, 100000, &o->k))
                 return dm_cli_usage("modes", "--modes takes a whole number >= 1", optarg);
@@ -241,7 +235,7 @@ static int cmd_modes(int argc, char **argv)
         return DM_EINVAL;
     }
     dm_pose_result res;
-    const double *P = o.have_at ? o.at : rb->home_m;
+    const double *P = o.sh.have_at ? o.sh.at : rb->home_m;
     double nominal = 0;
     dm_coupling *cw = NULL;
     dm_shape_set *shapes = NULL;

@@ -115,7 +115,7 @@ void dm_cli_progress_finish(dm_cli_progress *v);
 /* ---- the options every command spells alike ----
  *
  * One table (cli_util.c) of --robot, --set, --mesh, --threads, --progress,
- * --json, --out, --force-long and --help: a command names those it takes,
+ * --json, --out, --force-long, --at and --help: a command names those it takes,
  * dm_cli_options merges them into its own getopt table, and
  * dm_cli_shared_option handles them (its own switch never sees them). */
 #include <getopt.h>
@@ -129,6 +129,7 @@ enum {
     DM_CLI_JSON = 1 << 5,       /* --json */
     DM_CLI_OUT = 1 << 6,        /* --out FILE */
     DM_CLI_FORCE_LONG = 1 << 7, /* --force-long (dm_work.h) */
+    DM_CLI_AT = 1 << 8,         /* --at X,Y,Z in m: the pose (modes, tolerance) */
 };
 
 #define DM_CLI_MAXOPT 48
@@ -143,6 +144,8 @@ typedef struct dm_cli_shared {
     int progress;           /* DM_CLI_PROGRESS_*: set the command's default first */
     int json, force_long;
     const char *out;
+    double at[3];           /* --at, when have_at */
+    int have_at;
 } dm_cli_shared;
 
 /* The start of every command's parsing: sh cleared for command cmd (its

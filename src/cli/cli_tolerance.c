@@ -48,9 +48,9 @@ static const char HELP[] =
     "                   terminal), lines, or none (the default otherwise)\n";
 
 typedef struct {
-    dm_cli_shared sh; /* --robot, --set, --mesh, --threads, --progress, --json, --force-long */
-    int have_at, have_samples, have_seed;
-    double at[3];
+    dm_cli_shared sh; /* --robot, --set, --mesh, --threads, --progress, --json, --force-long,
+                         --at */
+    int have_samples, have_seed;
     dm_tolerance_spec spec;
     dm_robot rb; /* loaded by parse */
 } tol_opts;
@@ -131,7 +131,7 @@ int dm_cli_tolerance_dist(const char *cmd, const char *flag, const char *arg,
 static int parse(int argc, char **argv, tol_opts *t)
 {
     static const struct option own[] = {
-        {"at", 1, 0, 'a'},   {"samples", 1, 0, 'n'}, {"seed", 1, 0, 'S'},  {"tol", 1, 0, 't'},
+        {"samples", 1, 0, 'n'}, {"seed", 1, 0, 'S'},  {"tol", 1, 0, 't'},
         {"dist", 1, 0, 'd'}, {"spec", 1, 0, 'p'},    {"rigid", 0, 0, 'G'}, {"force", 0, 0, 'f'},
         {0, 0, 0, 0}};
     int c, rc;
@@ -139,15 +139,10 @@ static int parse(int argc, char **argv, tol_opts *t)
     dm_tolerance_spec_default(&t->spec);
     dm_cli_begin(&t->sh, "tolerance", HELP, own,
                  DM_CLI_ROBOT | DM_CLI_SET | DM_CLI_MESH | DM_CLI_THREADS | DM_CLI_PROGRESS |
-                     DM_CLI_JSON | DM_CLI_FORCE_LONG,
+                     DM_CLI_JSON | DM_CLI_FORCE_LONG | DM_CLI_AT,
                  DM_CLI_PROGRESS_NONE);
     while ((c = dm_cli_getopt(argc, argv, &t->sh, &rc))) {
         switch (c) {
-        case 'a':
-            if (dm_cli_parse_list(optarg, t->at, 3))
-                return dm_cli_usage("tolerance", "--at takes X,Y,Z in m", optarg);
-            t->have_at = 1;
-            break;
         case 'n': {
             double v;
             /* bad values (0, negative) are checked with the rest of the spec */
@@ -271,7 +266,7 @@ int dm_cli_tolerance(int argc, char **argv)
     int rc = parse(argc, argv, &t);
     if (rc)
         return rc;
-    const double *P = t.have_at ? t.at : t.rb.home_m;
+    const double *P = t.sh.have_at ? t.sh.at : t.rb.home_m;
     dm_error err;
     if (dm_tolerance_check(&t.rb, &t.spec, &err))
         return dm_cli_report(&err);

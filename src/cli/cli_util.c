@@ -218,7 +218,7 @@ void dm_cli_progress_finish(dm_cli_progress *v)
 
 /* Their getopt codes lie above any character a command's own options use. */
 enum { OPT_ROBOT = 256, OPT_SET, OPT_MESH, OPT_THREADS, OPT_PROGRESS, OPT_JSON, OPT_OUT,
-       OPT_FORCE_LONG, OPT_HELP };
+       OPT_FORCE_LONG, OPT_AT, OPT_HELP };
 
 static const struct {
     struct option opt;
@@ -232,6 +232,7 @@ static const struct {
     {{"json", 0, 0, OPT_JSON}, DM_CLI_JSON},
     {{"out", 1, 0, OPT_OUT}, DM_CLI_OUT},
     {{"force-long", 0, 0, OPT_FORCE_LONG}, DM_CLI_FORCE_LONG},
+    {{"at", 1, 0, OPT_AT}, DM_CLI_AT},
     {{"help", 0, 0, OPT_HELP}, 0},
 };
 
@@ -274,6 +275,11 @@ static int shared_option(dm_cli_shared *sh, int c, const char *arg, int *rc)
     case OPT_JSON: sh->json = 1; return 1;
     case OPT_OUT: sh->out = arg; return 1;
     case OPT_FORCE_LONG: sh->force_long = 1; return 1;
+    case OPT_AT:
+        if (dm_cli_parse_list(arg, sh->at, 3))
+            *rc = dm_cli_usage(sh->cmd, "--at takes X,Y,Z in m", arg);
+        sh->have_at = 1;
+        return 1;
     case OPT_HELP: fputs(sh->help, stdout); exit(0);
     default: return 0;
     }
