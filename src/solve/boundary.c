@@ -129,6 +129,19 @@ int dm_boundary_solve(dm_boundary *bw, const dm_pose *pose, dm_boundary_statics 
     return DM_OK;
 }
 
+/* Member m's boundary displacements x_b = C y from the boundary vector y
+ * (its coupling C left in bw->C). */
+void dm_boundary_member_dofs(dm_boundary *bw, int m, const double *y, double *xb)
+{
+    int nb = bw->ms->member[m].nb;
+    dm_members_coupling(bw->ms, &bw->mp, m, bw->C);
+    for (int r = 0; r < nb; r++) {
+        xb[r] = 0;
+        for (int c = 0; c < bw->nB; c++)
+            xb[r] += bw->C[(size_t)c * nb + r] * y[c];
+    }
+}
+
 void dm_boundary_displacement(dm_boundary *bw, double *U)
 {
     const dm_members *ms = bw->ms;
@@ -136,12 +149,7 @@ void dm_boundary_displacement(dm_boundary *bw, double *U)
     for (int m = 0; m < DM_MEMBERS_N; m++) {
         const dm_member_basis *mb = &ms->member[m];
         double xb[9];
-        dm_members_coupling(ms, &bw->mp, m, bw->C);
-        for (int r = 0; r < mb->nb; r++) {
-            xb[r] = 0;
-            for (int c = 0; c < bw->nB; c++)
-                xb[r] += bw->C[(size_t)c * mb->nb + r] * bw->F[c];
-        }
+        dm_boundary_member_dofs(bw, m, bw->F, xb);
         double *zi = bw->z + ms->interior0[m];
         for (int r = 0; r < mb->ni; r++) { /* u_i = Ui (lambda g) + Psi C x_B */
             double s = 0;

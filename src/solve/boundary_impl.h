@@ -30,6 +30,10 @@ struct dm_boundary {
  * into T (leading dimension ld). */
 void dm_boundary_mass(dm_boundary *bw, double *T, int ld);
 
+/* Member m's boundary displacements x_b = C y from the boundary vector y
+ * (nB); its coupling C is left in bw->C. */
+void dm_boundary_member_dofs(dm_boundary *bw, int m, const double *y, double *xb);
+
 /* Negative eigenvalues of the symmetric n x n D (lower triangle,
  * destroyed; n <= nB) by Sylvester's inertia; -1 if singular. */
 int dm_boundary_negatives(dm_boundary *bw, double *D, int n);

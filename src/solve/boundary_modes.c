@@ -213,12 +213,7 @@ void dm_boundary_mode_shapes(dm_boundary *bw, int k, double *phi)
         for (int m = 0; m < DM_MEMBERS_N; m++) {
             const dm_member_basis *mb = &ms->member[m];
             double xb[9];
-            dm_members_coupling(ms, &bw->mp, m, bw->C);
-            for (int r = 0; r < mb->nb; r++) {
-                xb[r] = 0;
-                for (int c = 0; c < nB; c++)
-                    xb[r] += bw->C[(size_t)c * mb->nb + r] * y[c];
-            }
+            dm_boundary_member_dofs(bw, m, y, xb);
             double *zi = bw->z + ms->interior0[m];
             for (int r = 0; r < mb->ni; r++) { /* Psi C x_B + Phi_keep q + R r */
                 double s = 0;
