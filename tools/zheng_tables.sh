@@ -4,9 +4,11 @@
 # budget by source, coupling index along the path, tolerance distribution
 # (docs/reproductions.md, "Zheng's tables") — then a simulated tracker run
 # of that robot, what `diagnose` recovers from it and what `plan` would add
-# (docs/diagnosis.md §8). Every number those sections state comes from the
+# (docs/diagnosis.md §8), first in the base frame at the platform centre,
+# then recorded as a lab would: in the tracker's own frame, with a
+# reflector off the centre and a clock offset. Every number those sections state comes from the
 # files this writes into docs/runs/, docs/diagnosis/ and docs/img/.
-#   tools/zheng_tables.sh [DELTAMAP]     (about 6 minutes on 2 cores)
+#   tools/zheng_tables.sh [DELTAMAP]     (8.4 minutes on 2 cores)
 set -e
 cd "$(dirname "$0")/.."
 DM=${1:-build/deltamap}
@@ -70,3 +72,88 @@ echo "== the planned run, simulated on the same robot and diagnosed"
     --out docs/diagnosis/zheng2017-tables-planned.csv
 "$DM" diagnose --robot zheng2017 --measured docs/diagnosis/zheng2017-tables-planned.csv \
     --sigma 1e-5 --mesh 2,2 --progress none > docs/diagnosis/zheng2017-tables-planned-diagnose.txt
+
+echo "== the same robot recorded as a lab would: tracker frame, reflector, clock"
+# the run as the robot makes it: the platform centre in the base frame, no
+# noise, every 1 ms; record() below makes the file a lab records from it
+"$DM" synth --robot "$ROBOT" --kind tracker --noise 0 --seed 1 --mesh 2,2 --path zheng2017 \
+    --out "$TMP/tracker-exact.csv"
+# record EXACT OUT SEED EVERY: the lab's file from synth's exact run. A sample
+# stamped t shows the robot at t + 40 us (clock offset: the commanded path by
+# a 3-point Lagrange fit, the model's error linearly, between synth's 1 ms
+# samples); the reflector sits 40/-25/30 um off the nominal offset the
+# header gives (30, -10, 20 mm); 10 um of Gaussian noise per coordinate (a
+# laser tracker at 1-2 m; numpy, SEED); positions in a tracker frame turned
+# (2, -1.5, 3) deg about x, y, z whose base origin is at (1.2, -0.8, 0.35) m:
+# base = R0 m + D0. Keeps every EVERY-th sample, drops the last ones whose
+# t + 40 us is past the run's end.
+record() {
+$PY - "$1" "$2" "$3" "$4" <<'PYEOF'
+import sys
+import numpy as np
+src, out, seed, every = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+TAU = 4e-5                                     # s
+REFL_NOM = np.array([0.030, -0.010, 0.020])    # m, platform axes
+REFL_TRUE = REFL_NOM + np.array([4e-5, -2.5e-5, 3e-5])
+D0 = np.array([1.2, -0.8, 0.35])               # m: the base origin in the tracker frame
+ANG = np.radians([2.0, -1.5, 3.0])
+NOISE = 1e-5
+def rot(axis, a):
+    c, s = np.cos(a), np.sin(a)
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    r = np.eye(3)
+    r[i, i] = r[j, j] = c
+    r[i, j], r[j, i] = -s, s
+    return r
+R0 = rot(2, ANG[2]) @ rot(1, ANG[1]) @ rot(0, ANG[0])
+lines = open(src).read().splitlines()
+head = [l for l in lines if l.startswith("#") and not l.startswith(("# frame:", "# reflector:", "# clock:"))]
+cols = [l for l in lines if not l.startswith("#")][0]
+body = [l for l in lines if not l.startswith("#")]
+d = {c: np.array([float(r.split(",")[k]) for r in body[1:]]) for k, c in enumerate(cols.split(","))}
+t = d["t"]
+cmd = np.column_stack([d["x_cmd"], d["y_cmd"], d["z_cmd"]])
+err = np.column_stack([d["x_meas"], d["y_meas"], d["z_meas"]]) - cmd
+rng = np.random.default_rng(seed)
+def at(ts):
+    k = min(max(int(np.searchsorted(t, ts)) - 1, 1), len(t) - 2)
+    x = t[k - 1:k + 2]
+    w = [np.prod([(ts - x[m]) / (x[l] - x[m]) for m in range(3) if m != l]) for l in range(3)]
+    c = sum(w[l] * cmd[k - 1 + l] for l in range(3))
+    return c + np.array([np.interp(ts, t, err[:, q]) for q in range(3)])
+rows = []
+for i in range(0, len(t), every):
+    if t[i] + TAU > t[-1]:
+        continue
+    p = at(t[i] + TAU) + REFL_TRUE + NOISE * rng.standard_normal(3)
+    m = R0.T @ (p - D0)
+    rows.append("%.9g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g" % (t[i], *cmd[i], *m))
+with open(out, "w") as f:
+    f.write("\n".join(head) + "\n")
+    f.write("# recorded by tools/zheng_tables.sh: tracker frame (2, -1.5, 3) deg and (1.2, -0.8, 0.35) m"
+            " off the base frame, reflector 40/-25/30 um off its nominal offset, clock offset 40 us,"
+            " noise 1e-05 m (seed %d)\n" % seed)
+    f.write("# frame: tracker\n# reflector: %.3f, %.3f, %.3f\n# clock: offset\n" % tuple(REFL_NOM))
+    f.write(cols + "\n" + "\n".join(rows) + "\n")
+PYEOF
+}
+record "$TMP/tracker-exact.csv" docs/diagnosis/zheng2017-tables-lab.csv 1 5
+# the check of the recording: the real robot's file, with the nuisances fitted, leaves the noise
+"$DM" compare --robot "$ROBOT" --measured docs/diagnosis/zheng2017-tables-lab.csv --sigma 1e-5 \
+    --mesh 2,2 --after-nuisances > docs/diagnosis/zheng2017-tables-lab-real.txt
+"$DM" diagnose --robot zheng2017 --measured docs/diagnosis/zheng2017-tables-lab.csv \
+    --sigma 1e-5 --mesh 2,2 --progress none > docs/diagnosis/zheng2017-tables-lab-diagnose.txt
+
+echo "== what plan adds beyond the nuisances: a run in the tracker's frame for his families"
+"$DM" plan --robot zheng2017 --kind tracker --poses 200 --mesh 2,2 --noise 1e-5 --progress none \
+    --frame tracker \
+    --effects "error_arm_length=-3e-5,2e-5,-3e-5,error_rod_length=3e-5,-2e-5,3e-5,error_base_radius=3e-5,3e-5,3e-5,error_alpha0_deg=-0.017188734,0.011459156,0.008594367,clearance=4.5e-5" \
+    --out "$TMP/lab-template.csv" | sed "s|$TMP/||" > docs/diagnosis/zheng2017-tables-lab-plan.txt
+echo "== that planned run, simulated on the same robot, recorded as above and diagnosed"
+"$DM" synth --robot "$ROBOT" --at "$TMP/lab-template.csv" --noise 0 --seed 2 --mesh 2,2 \
+    --out "$TMP/lab-planned-exact.csv"
+record "$TMP/lab-planned-exact.csv" docs/diagnosis/zheng2017-tables-lab-planned.csv 2 1
+"$DM" compare --robot "$ROBOT" --measured docs/diagnosis/zheng2017-tables-lab-planned.csv --sigma 1e-5 \
+    --mesh 2,2 --after-nuisances > docs/diagnosis/zheng2017-tables-lab-planned-real.txt
+"$DM" diagnose --robot zheng2017 --measured docs/diagnosis/zheng2017-tables-lab-planned.csv \
+    --sigma 1e-5 --mesh 2,2 --progress none > docs/diagnosis/zheng2017-tables-lab-planned-diagnose.txt
