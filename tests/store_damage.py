@@ -55,7 +55,10 @@ SCRATCH = "/dev/shm" if os.access("/dev/shm", os.W_OK) else None
 
 
 def run(dm, args):
-    p = subprocess.run([dm] + args, capture_output=True, text=True)
+    # A damaged file's bytes can reach a message (a quoted token, a path), and
+    # they need not be UTF-8: kept as \xNN, so that the checks read the
+    # message instead of the harness failing to decode it.
+    p = subprocess.run([dm] + args, capture_output=True, text=True, errors="backslashreplace")
     return p.returncode, p.stdout + p.stderr
 
 
