@@ -101,7 +101,10 @@ struct dm_move_ws {
     double *stack;                       /* MAX_LEVEL + 2 levels x 4 states of nmax */
     double *blocks[2];                   /* bounds per block of the coarse scan (state_bounds),
                                             per store */
-    double *scan;                        /* 4 x nmax: two states of the coarse scan */
+    double *scan;                        /* 2 x nmax: the coarse scan's state */
+    /* the coarse scan's batches (batch_nodes): powers 1..B of a level's
+     * transitions (4 B a mode), the states (B a mode) and the points' sums (12 B) */
+    double *pw, *Qb, *Vb, *sums;
 };
 
 static size_t carried_len(int kmax) { return (size_t)(kmax + MAXRITZ) * 10; }
@@ -136,12 +139,17 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
             w->blocks[st] = malloc(sizeof(double) * 2 * (nmax + 1) * (MAX_INTERVALS / 16 + 1));
         }
         w->stack = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 2));
-        w->scan = malloc(sizeof(double) * 4 * nmax);
+        w->scan = malloc(sizeof(double) * 2 * nmax);
+        w->pw = malloc(sizeof(double) * 4 * DM_MOVE_BATCH * nmax);
+        w->Qb = malloc(sizeof(double) * DM_MOVE_BATCH * nmax);
+        w->Vb = malloc(sizeof(double) * DM_MOVE_BATCH * nmax);
+        w->sums = malloc(sizeof(double) * 12 * DM_MOVE_BATCH);
     }
     if (!w || !w->G || !w->r || !w->R || !w->MR || !w->KR || !w->MPhi || !w->coef || !w->X ||
         !w->Y || !w->pool || !w->trans[0] || !w->trans[1] || !w->rtrans[0] || !w->rtrans[1] ||
         !w->srcpool || !w->cand[0] || !w->cand[1] || !w->cand_pool[0] || !w->cand_pool[1] ||
-        !w->stack || !w->scan || !w->blocks[0] || !w->blocks[1]) {
+        !w->stack || !w->scan || !w->blocks[0] || !w->blocks[1] || !w->pw || !w->Qb || !w->Vb ||
+        !w->sums) {
         dm_move_free(w);
         dm_fail(err, DM_ENOMEM, "out of memory for the standard move");
         return NULL;
@@ -191,6 +199,10 @@ void dm_move_free(dm_move_ws *w)
     }
     free(w->stack);
     free(w->scan);
+    free(w->pw);
+    free(w->Qb);
+    free(w->Vb);
+    free(w->sums);
     free(w);
 }
 
@@ -533,8 +545,9 @@ static void sort_by_frequency(carried *c)
  *     max |y| <= max(|l(a)|, |l(a) + h l'(a)|, |l(b)|, |l(b) - h l'(b)|)
  *                + sum_slow |p_j| D2_j h^2 / 2 + sum_fast |p_j| D0_j,
  * l being yp plus the slow modes' part. A coarse scan samples y exactly
- * (each mode advanced by its exact transition) on intervals short enough
- * for that bound to be within COARSE_SLACK of the response's size; the
+ * (each mode advanced by its exact transition; BLOCK points at a time from
+ * one state, by the transition's powers) on intervals short enough for
+ * that bound to be within COARSE_SLACK of the response's size; the
  * intervals whose bound exceeds the largest sample are halved, and halved
  * again, until no bound exceeds it by MAX_REL. The maximum found is the
  * true maximum of the continuous response to MAX_REL, from a few samples
@@ -544,8 +557,12 @@ static void sort_by_frequency(carried *c)
  * at which |y| exceeds the band, found by the same bounds to SETTLE_RES. */
 
 #define SQRT2 1.4142135623730951
-/* Bound slack of the coarse scan, relative to the response's size. */
-#define COARSE_SLACK 0.1
+/* Bound slack of the coarse scan, relative to the response's size. The
+ * scan's points cost ~15 ns each in batches, a refinement's ~65: a fine
+ * scan leaves fewer intervals to halve (chen2018's window: 125 candidates
+ * and 418 evaluations a move at 0.1, 56 and 237 at 0.02; 0.01 and 0.005
+ * no faster, docs/model-choices.md "Standard moves"). */
+#define COARSE_SLACK 0.02
 /* Relative accuracy of the maxima; time resolution of the settling time
  * (fraction of the window). */
 #define MAX_REL 1e-9
@@ -602,6 +619,7 @@ typedef struct {
     double L, tL;      /* largest |y| found, and when */
     const double *bounds;  /* those a refinement uses (state_bounds) */
     int store;         /* where its scan keeps candidates and bounds (0, 1) */
+    int undamped;      /* no mode decays: the bounds of its start hold throughout */
 } phase;
 
 /* base / 2^level, exactly (a power of two's product; ldexp's library call
@@ -843,16 +861,130 @@ typedef struct {
     double end_value;               /* |y| at the phase's end */
 } scan_result;
 
-/* Bounds of block b of the coarse scan (BLOCK intervals each). */
-#define BLOCK 16
+/* Bounds of block b of the coarse scan (BLOCK intervals each: one batch). */
+#define BLOCK DM_MOVE_BATCH
 static double *block_bounds(const phase *ph, int b)
 {
+    if (ph->undamped) /* an undamped mode's amplitude is the same from any instant */
+        b = 0;
     return ph->w->blocks[ph->store] + (size_t)2 * (ph->w->nmax + 1) * b;
+}
+
+/* Powers 1..BLOCK of a level's transitions, per mode (batch_nodes's
+ * layout): P_r = T P_(r-1), products of 2 x 2 matrices (their round-off,
+ * ~r eps of the state, is what stepping r times would leave too). */
+static const double *level_powers(const phase *ph, int level)
+{
+    const double *t = level_transitions(ph, level);
+    int nmax = ph->w->nmax;
+    enum { B = BLOCK };
+    for (int j = 0; j < ph->c->nm; j++) {
+        double *a = ph->w->pw + (size_t)j * 4 * B;
+        double t11 = t[j], t12 = t[nmax + j], t21 = t[2 * nmax + j], t22 = t[3 * nmax + j];
+        a[0] = t11, a[B] = t12, a[2 * B] = t21, a[3 * B] = t22;
+        for (int r = 1; r < B; r++) {
+            double p11 = a[r - 1], p12 = a[B + r - 1], p21 = a[2 * B + r - 1];
+            double p22 = a[3 * B + r - 1];
+            a[r] = t11 * p11 + t12 * p21;
+            a[B + r] = t11 * p12 + t12 * p22;
+            a[2 * B + r] = t21 * p11 + t22 * p21;
+            a[3 * B + r] = t21 * p12 + t22 * p22;
+        }
+    }
+    return ph->w->pw;
+}
+
+/* Batch point r's state (column r of Qb, Vb) into (q, v). */
+static void batch_state(const phase *ph, int r, double *q, double *v)
+{
+    const dm_move_ws *w = ph->w;
+    for (int j = 0; j < ph->c->nm; j++) {
+        q[j] = w->Qb[(size_t)j * BLOCK + r];
+        v[j] = w->Vb[(size_t)j * BLOCK + r];
+    }
+}
+
+/* Rows of batch_nodes's output. */
+enum { ROW_L = 0, ROW_DL = 3, ROW_Y = 6, ROW_YY = 9, ROW_START = 10, ROW_END = 11 };
+
+/* Batch point r's node (as eval_node makes it). */
+static void batch_node(const phase *ph, int r, int ns, node *nd)
+{
+    const double *o = ph->w->sums + r;
+    for (int c = 0; c < 3; c++) {
+        nd->l[c] = o[(ROW_L + c) * BLOCK];
+        nd->y[c] = o[(ROW_Y + c) * BLOCK];
+        nd->dl[c] = o[(ROW_DL + c) * BLOCK];
+    }
+    nd->nslow = ns;
+}
+
+/* Keep the scan's interval from node i - 1 (state q, v; ends a, b) for
+ * refinement. */
+static void keep_candidate(phase *ph, scan_result *sr, int i, double bound, const node *a,
+                           const node *b, const double *q, const double *v)
+{
+    candidate *cd = &ph->w->cand[ph->store][sr->ncand++];
+    cd->node = i - 1;
+    cd->bound = bound;
+    cd->a = *a;
+    cd->b = *b;
+    memcpy(cd->q, q, sizeof(double) * ph->c->nm);
+    memcpy(cd->v, v, sizeof(double) * ph->c->nm);
+}
+
+/* Whether sqrt(sq) + x + y (rounded as written) can exceed t, decided
+ * without the root where sq is far enough below: the test is exact, the
+ * root is taken only within 1e-12 of the threshold. */
+static inline int may_exceed(double sq, double x, double y, double t)
+{
+    double r = t - x - y - 1e-12 * (t + x + y);
+    return !(r > 0 && sq < r * r * (1 - 1e-12));
+}
+
+/* The scan's points of one batch (nb of them, the first node i0 + 1; prev
+ * the node before, its squared start ends in *prev_start): samples,
+ * candidates, the last point above the band; prev left at the last. */
+static void scan_batch(phase *ph, scan_result *sr, int i0, int nb, double H, int ns,
+                       const slack *s, const double *qa, const double *va, node *prev,
+                       double *prev_start)
+{
+    const double *o = ph->w->sums;
+    double h = H / 2, x = s->slow2 * h * h / 2, *qp = ph->w->stack, *vp = qp + ph->w->nmax;
+    for (int r = 0; r < nb; r++) {
+        int i = i0 + r + 1, cand = 0;
+        double yy = o[ROW_YY * BLOCK + r], ends = larger(*prev_start, o[ROW_END * BLOCK + r]);
+        *prev_start = o[ROW_START * BLOCK + r];
+        if (may_exceed(yy, 0, 0, ph->L) && sqrt(yy) > ph->L) {
+            ph->L = sqrt(yy);
+            ph->tL = ph->t0 + i * H;
+        }
+        double top = ph->L * (1 + MAX_REL);
+        int settling = ph->tol >= 0 && i - 1 >= sr->last_above;
+        if (may_exceed(ends, x, s->fast0, settling && ph->tol < top ? ph->tol : top)) {
+            double bound = sqrt(ends) + x + s->fast0; /* interval_bound's */
+            cand = bound > top || (settling && bound > ph->tol);
+            if (cand) {
+                node a = *prev, b;
+                if (r > 0) {
+                    batch_node(ph, r - 1, ns, &a);
+                    batch_state(ph, r - 1, qp, vp);
+                }
+                batch_node(ph, r, ns, &b);
+                keep_candidate(ph, sr, i, bound, &a, &b, r ? qp : qa, r ? vp : va);
+            }
+        }
+        if (ph->tol >= 0 && may_exceed(yy, 0, 0, ph->tol) && sqrt(yy) > ph->tol)
+            sr->last_above = i;
+    }
+    batch_node(ph, nb - 1, ns, prev);
 }
 
 /* The coarse scan of a phase from state (q, v), left at the phase's end
  * state (unless the scan stopped early): samples, and the intervals that
- * may hold a larger value or the last excursion beyond the band. */
+ * may hold a larger value or the last excursion beyond the band. The
+ * points are evaluated a block at a time from the block's first state
+ * (batch_nodes), the bounds of the block's intervals from that state. */
 static void scan_phase(phase *ph, double *q, double *v, scan_result *sr)
 {
     dm_move_ws *w = ph->w;
@@ -862,47 +994,32 @@ static void scan_phase(phase *ph, double *q, double *v, scan_result *sr)
     int level = coarse_level(ph, bb), N = 1 << level;
     double H = step_of(ph, level);
     int ns = slow_count(ph->c, SQRT2 / (H / 2));
-    const double *t = level_transitions(ph, level);
-    double *qa = w->scan, *va = qa + nmax, *qb = qa + 2 * nmax, *vb = qa + 3 * nmax;
+    const double *pw = level_powers(ph, level);
+    double *qa = w->scan, *va = qa + nmax;
     memcpy(qa, q, sizeof(double) * nm);
     memcpy(va, v, sizeof(double) * nm);
-    node prev, cur;
-    slack s = {0, 0, 0};
+    node prev;
+    slack s;
     eval_node(ph, qa, va, ns, &prev);
     note_sample(ph, &prev, 0);
+    double prev_start = larger(dm_dot3(prev.l, prev.l), offset_norm2(prev.l, prev.dl, H / 2));
     sr->ncand = 0;
     sr->stopped = 0;
     sr->last_above = ph->tol >= 0 && dm_norm3(prev.y) > ph->tol ? 0 : -1;
-    for (int i = 1; i <= N; i++) {
-        if ((i - 1) % BLOCK == 0) { /* bounds from here on, lowered by damping */
-            bb = block_bounds(ph, (i - 1) / BLOCK);
-            if (i > 1)
-                state_bounds(ph, qa, va, bb);
-            slack_of(ph, bb, ns, &s);
-            if (ph->tol >= 0 && s.env < ph->tol && s.env * (1 + MAX_REL) < ph->L) {
-                sr->stopped = 1; /* y = 0 + what can still move: below both for good */
-                break;
-            }
+    for (int i0 = 0; i0 < N; i0 += BLOCK) {
+        bb = block_bounds(ph, i0 / BLOCK); /* bounds from here on, lowered by damping */
+        if (i0 > 0 && !ph->undamped)
+            state_bounds(ph, qa, va, bb);
+        slack_of(ph, bb, ns, &s);
+        if (ph->tol >= 0 && s.env < ph->tol && s.env * (1 + MAX_REL) < ph->L) {
+            sr->stopped = 1; /* y = 0 + what can still move: below both for good */
+            break;
         }
-        step_modes(ph, t, qa, va, qb, vb);
-        eval_node(ph, qb, vb, ns, &cur);
-        note_sample(ph, &cur, i * H);
-        double bound = interval_bound(&prev, &cur, H / 2, &s);
-        int settle = ph->tol >= 0 && bound > ph->tol && i - 1 >= sr->last_above;
-        if (bound > ph->L * (1 + MAX_REL) || settle) {
-            candidate *cd = &w->cand[ph->store][sr->ncand++];
-            cd->node = i - 1;
-            cd->bound = bound;
-            cd->a = prev;
-            cd->b = cur;
-            memcpy(cd->q, qa, sizeof(double) * nm);
-            memcpy(cd->v, va, sizeof(double) * nm);
-        }
-        if (ph->tol >= 0 && dm_norm3(cur.y) > ph->tol)
-            sr->last_above = i;
-        prev = cur;
-        double *tq = qa, *tv = va;
-        qa = qb, va = vb, qb = tq, vb = tv;
+        kernels()->batch_nodes(nm, ns, pw, qa, va, ph->c->p4, ph->yp, H / 2, w->Qb, w->Vb,
+                               w->sums);
+        int nb = N - i0 < BLOCK ? N - i0 : BLOCK;
+        scan_batch(ph, sr, i0, nb, H, ns, &s, qa, va, &prev, &prev_start);
+        batch_state(ph, nb - 1, qa, va);
     }
     sr->end_value = sr->stopped ? 0 : dm_norm3(prev.y);
     memcpy(q, qa, sizeof(double) * nm);
@@ -1001,7 +1118,7 @@ static void one_move(dm_move_ws *w, carried *c, double alpha, double beta, const
      * second (where the peak usually is: the deceleration adds to the
      * ringing) first: the larger maximum found first prunes the other
      * half's candidates without refining them */
-    phase first = {w, c, 0, 0.5 * o->tau_s, 0, {0, 0, 0}, -1, 0, 0, NULL, 0};
+    phase first = {w, c, 0, 0.5 * o->tau_s, 0, {0, 0, 0}, -1, 0, 0, NULL, 0, !damped};
     phase second = first;
     scan_result s1, s2;
     start_phase(&first, c, 0, A);
@@ -1018,7 +1135,8 @@ static void one_move(dm_move_ws *w, carried *c, double alpha, double beta, const
     refine_maxima(&first, &s1);
     res->peak_m = first.L;
     res->peak_t_s = first.tL;
-    phase win = {w, c, 1, o->window_s, 0, {0, 0, 0}, damped ? o->tol_m : -1, 0, 0, NULL, 0};
+    phase win = {w, c, 1, o->window_s, 0, {0, 0, 0}, damped ? o->tol_m : -1, 0, 0, NULL, 0,
+                 !damped};
     scan_result sw;
     start_phase(&win, c, -A, 0);
     scan_phase(&win, c->q, c->v, &sw);

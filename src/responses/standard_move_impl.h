@@ -7,6 +7,9 @@
 
 #include "dm_isa.h"
 
+/* Points of the coarse scan evaluated in one batch (batch_nodes). */
+#define DM_MOVE_BATCH 16
+
 typedef struct dm_move_kernels {
     /* a'b over n values, in four partial sums */
     double (*dot)(const double *a, const double *b, int n);
@@ -18,6 +21,17 @@ typedef struct dm_move_kernels {
      * p_j q_j over the modes' platform translations p (4 doubles each) */
     void (*node_sums)(const double *p4, const double *q, const double *v, int ns, int nm,
                       double l[4], double d[4], double f[4]);
+    /* DM_MOVE_BATCH points from one state (q, v) of nm modes, ns of them
+     * slow: point r's state is Q[j B + r], V[j B + r] = powers r of the
+     * modes' transitions (pw, per mode a11, a12, a21, a22, B each) times
+     * (q_j, v_j); row s of out (out[s B + r]) holds for s < 3 its node's
+     * l (yp plus the slow modes' part, as eval_node's), 3..5 l', 6..8 y,
+     * 9 |y|^2, 10 and 11 the squared ends interval_bound takes of it as
+     * an interval's start (max |l|^2, |l + h l'|^2) and end (|l - h l'|^2),
+     * each sum over the modes in order */
+    void (*batch_nodes)(int nm, int ns, const double *pw, const double *q, const double *v,
+                        const double *p4, const double yp[3], double h, double *Q, double *V,
+                        double *out);
 } dm_move_kernels;
 
 extern const dm_move_kernels dm_move_kernels_default;
