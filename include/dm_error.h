@@ -7,6 +7,8 @@
 #ifndef DM_ERROR_H
 #define DM_ERROR_H
 
+#include <stddef.h>
+
 enum dm_status {
     DM_OK = 0,
     DM_EINVAL = 2,       /* bad input: file, option or value */
@@ -29,9 +31,20 @@ typedef struct dm_error {
 void dm_error_clear(dm_error *err);
 
 /* Record code and a printf-style message in err (if not NULL); returns code
- * so that `return dm_fail(err, DM_EINVAL, "...")` reads naturally. */
+ * so that `return dm_fail(err, DM_EINVAL, "...")` reads naturally. The
+ * message is made printable (dm_printable): it may quote bytes of a
+ * damaged or foreign file. */
 int dm_fail(dm_error *err, int code, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
+
+/* Copy src into dst (cap bytes, cap >= 1), NUL-terminated, as printable
+ * UTF-8: well-formed UTF-8 characters, tabs and newlines are kept, every
+ * other byte (a control character, a byte of no or of a truncated
+ * UTF-8 sequence) becomes the four characters \xNN. Messages quote input
+ * (a damaged store's bytes, a field of a measured file) and must not put
+ * raw bytes on a terminal or into a reader that decodes UTF-8. Truncates
+ * at a character boundary; returns the length written. */
+size_t dm_printable(char *dst, size_t cap, const char *src);
 
 /* Short name of a status code ("bad input", "unreachable pose", ...). */
 const char *dm_status_name(int code);

@@ -19,6 +19,8 @@ Properties, each round:
     (an incomplete tile, listed as missing) and a store whose recorded
     version was edited (read as that version's, said so, and refused by the
     resume).
+  * everything deltamap prints is UTF-8: a damaged file's bytes that reach
+    a message are quoted as \\xNN (dm_printable).
 
 replay: the nine damages issue 38 found (the resume exited 0 and left a
 store that differs from the undamaged one) and one the fuzz found since,
@@ -54,12 +56,27 @@ KINDS = ["truncate", "flip", "empty", "delete", "json", "append", "digits"]
 SCRATCH = "/dev/shm" if os.access("/dev/shm", os.W_OK) else None
 
 
+NOT_UTF8 = "[not UTF-8: "
+
+
 def run(dm, args):
-    # A damaged file's bytes can reach a message (a quoted token, a path), and
-    # they need not be UTF-8: kept as \xNN, so that the checks read the
-    # message instead of the harness failing to decode it.
-    p = subprocess.run([dm] + args, capture_output=True, text=True, errors="backslashreplace")
-    return p.returncode, p.stdout + p.stderr
+    """(exit code, stdout + stderr). A damaged file's bytes can reach a
+    message (a quoted token, a field name); deltamap writes them as \\xNN,
+    so its output is UTF-8 whatever the damage. Output that is not is read
+    with backslashreplace and marked, for printable() to report."""
+    p = subprocess.run([dm] + args, capture_output=True)
+    raw = p.stdout + p.stderr
+    try:
+        return p.returncode, raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        return p.returncode, raw.decode("utf-8", "backslashreplace") + f"\n{NOT_UTF8}{e}]"
+
+
+def printable(out, what):
+    """A failure when deltamap's output was not UTF-8 (see run)."""
+    if NOT_UTF8 not in out:
+        return []
+    return [f"{what} wrote bytes that are not UTF-8: {out[out.index(NOT_UTF8):][:200]}"]
 
 
 def snapshot(root):
@@ -164,6 +181,7 @@ def check_round(dm, ref, ref_files, work, rel, what):
             fails.append(f"info exits {rc} on an undamaged store")
         return fails
     rc, out = run(dm, ["info", work])
+    fails += printable(out, "info")
     named = os.path.join(os.path.basename(work), rel) in out or f"{work}/{rel}" in out
     deleted_data = rel not in damaged and is_data_chunk(rel)
     if deleted_data:
@@ -176,6 +194,7 @@ def check_round(dm, ref, ref_files, work, rel, what):
     if snapshot(work) != damaged:
         fails.append("info (without --repair) changed the store")
     rc, out = run(dm, SWEEP + ["--out", work])
+    fails += printable(out, "the resumed sweep")
     after = snapshot(work)
     if rc == 0:
         if after != ref_files:
@@ -197,6 +216,7 @@ def check_traj_round(dm, ref_files, work, rel):
     fails = []
     damaged = snapshot(work)
     rc, out = run(dm, ["info", work])
+    fails += printable(out, "info")
     if damaged == ref_files:
         return [f"info exits {rc} on an undamaged trajectory store"] if rc else []
     if rc == 0 and "made by version" in out:
@@ -205,7 +225,8 @@ def check_traj_round(dm, ref_files, work, rel):
         fails.append(f"info exits {rc} without naming {rel}")
     if snapshot(work) != damaged:
         fails.append("info (without --repair) changed the trajectory store")
-    run(dm, ["info", "--repair", work])
+    rc, out = run(dm, ["info", "--repair", work])
+    fails += printable(out, "info --repair")
     if snapshot(work) != ref_files:
         rc, out = run(dm, ["info", work])
         if rc == 0 or f"{work}/{rel}" not in out:

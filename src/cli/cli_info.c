@@ -40,6 +40,15 @@ static void print_damage(void *user, const char *file, const char *problem, int 
     printf("  %s %s: %s\n", repaired ? "repaired:" : "damaged: ", file, problem);
 }
 
+/* A string the store records, as printable text: a store of another
+ * version or a damaged one may hold anything (or nothing) there. */
+static const char *attr_text(json_t *obj, const char *key, char *buf, size_t len)
+{
+    const char *s = json_string_value(json_object_get(obj, key));
+    dm_printable(buf, len, s ? s : "(not recorded)");
+    return buf;
+}
+
 static void print_dims(const dm_array_spec *a)
 {
     printf("(");
@@ -192,13 +201,14 @@ int dm_cli_info(int argc, char **argv)
         return dm_cli_report(&err);
     dm_store st = chk.store;
     json_t *dm = json_object_get(st.group_attributes, "deltamap");
-    printf("robot   %s\n", json_string_value(json_object_get(dm, "robot")));
+    char a1[1024], a2[256];
+    printf("robot   %s\n", attr_text(dm, "robot", a1, sizeof a1));
     if (chk.trajectory)
-        printf("path    %s (a trajectory run)\n", json_string_value(json_object_get(dm, "path")));
+        printf("path    %s (a trajectory run)\n", attr_text(dm, "path", a1, sizeof a1));
     else
-        printf("grid    %s (%s)\n", json_string_value(json_object_get(dm, "grid")),
-               json_string_value(json_object_get(dm, "grid_kind")));
-    printf("tool    %s\n", json_string_value(json_object_get(dm, "tool")));
+        printf("grid    %s (%s)\n", attr_text(dm, "grid", a1, sizeof a1),
+               attr_text(dm, "grid_kind", a2, sizeof a2));
+    printf("tool    %s\n", attr_text(dm, "tool", a1, sizeof a1));
     if (chk.other_version)
         printf("        made by version %s; this is %s: read as its metadata says, not "
                "compared with what this version writes; a sweep does not resume it (--replace "
@@ -208,7 +218,7 @@ int dm_cli_info(int argc, char **argv)
         const dm_array_spec *s = &st.arr[a];
         printf("  %-24s ", s->name);
         print_dims(s);
-        printf("  %s\n", json_string_value(json_object_get(s->attributes, "units")));
+        printf("  %s\n", attr_text(s->attributes, "units", a1, sizeof a1));
     }
     if (chk.trajectory)
         return trajectory_summary(&chk);

@@ -388,12 +388,15 @@ static void metadata_problem(const unsigned char *got, size_t n, const char *wan
     json_error_t je, jw;
     json_t *have = json_loadb((const char *)got, n, 0, &je);
     json_t *exp = json_loadb(want, wantlen, 0, &jw);
-    char field[256] = "";
-    if (!have)
-        snprintf(why, len, "not JSON (line %d: %.80s)", je.line, je.text);
-    else if (exp && !json_equal(exp, have)) {
+    char field[256] = "", raw[400];
+    /* jansson's text quotes the damaged bytes ("invalid token near '...'") */
+    if (!have) {
+        snprintf(raw, sizeof raw, "not JSON (line %d: %.80s)", je.line, je.text);
+        dm_printable(why, len, raw);
+    } else if (exp && !json_equal(exp, have)) {
         first_difference(exp, have, field, sizeof field);
-        snprintf(why, len, "field '%s' is not what deltamap writes for this store", field);
+        snprintf(raw, sizeof raw, "field '%s' is not what deltamap writes for this store", field);
+        dm_printable(why, len, raw);
     } else
         snprintf(why, len, "the same fields as deltamap writes for this store, in other text");
     json_decref(have);
