@@ -260,7 +260,8 @@ static int pair_survey(const measure_args *a, const dm_robot *rb, dm_dataset *d,
     return rc;
 }
 
-/* Fitted nuisances, one a line (diagnose and compare --after-nuisances). */
+/* Fitted nuisances, one a line, then the combinations determined of those
+ * that are not (diagnose and compare --after-nuisances). */
 static void print_nuisance_values(const dm_nuisance_fit *nf)
 {
     for (int k = 0; k < nf->n; k++) {
@@ -269,6 +270,14 @@ static void print_nuisance_values(const dm_nuisance_fit *nf)
             printf("%-9.2g %s\n", nf->sigma[k], dm_nuisance_unit(k));
         else
             printf("%-9s %s (not determined by this path)\n", "inf", dm_nuisance_unit(k));
+    }
+    for (int c = 0; c < nf->ncombination; c++) {
+        const dm_nuisance_combination *cb = &nf->combination[c];
+        printf("          determined: %s", dm_nuisance_name(cb->ref));
+        for (int k = 0; k < nf->n; k++)
+            if (k != cb->ref && cb->coef[k] != 0)
+                printf(" %+.4g %s", cb->coef[k], dm_nuisance_name(k));
+        printf(" = %.4g +- %.2g %s\n", cb->value, cb->sigma, dm_nuisance_unit(cb->ref));
     }
 }
 
@@ -282,6 +291,23 @@ static json_t *nuisance_values_json(const dm_nuisance_fit *nf)
                                                              : json_null(),
                                       "unit", dm_nuisance_unit(k)));
     return par;
+}
+
+/* The determined combinations: [{"of": {name: coefficient}, value, sigma, unit}]. */
+static json_t *nuisance_combinations_json(const dm_nuisance_fit *nf)
+{
+    json_t *list = json_array();
+    for (int c = 0; c < nf->ncombination; c++) {
+        const dm_nuisance_combination *cb = &nf->combination[c];
+        json_t *of = json_object();
+        for (int k = 0; k < nf->n; k++)
+            if (cb->coef[k] != 0)
+                json_object_set_new(of, dm_nuisance_name(k), json_real(cb->coef[k]));
+        json_array_append_new(list, json_pack("{s:o, s:f, s:f, s:s}", "of", of, "value",
+                                              cb->value, "sigma", cb->sigma, "unit",
+                                              dm_nuisance_unit(cb->ref)));
+    }
+    return list;
 }
 
 int dm_cli_compare(int argc, char **argv)
@@ -352,8 +378,10 @@ int dm_cli_compare(int argc, char **argv)
         json_object_set_new(o, "groups", g);
         if (pg.pair) /* modal surveys with shapes or directions only */
             json_object_set_new(o, "pairing", pairing_json(&pg));
-        if (nf.n) /* --after-nuisances: the residuals above are after them */
+        if (nf.n) { /* --after-nuisances: the residuals above are after them */
             json_object_set_new(o, "nuisances_fitted", nuisance_values_json(&nf));
+            json_object_set_new(o, "nuisance_combinations", nuisance_combinations_json(&nf));
+        }
         json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));
         putchar('\n');
         json_decref(o);
@@ -704,8 +732,9 @@ static void print_nuisances(const dm_dataset *d, const dm_diagnosis *dg)
     if (d->nuisance.tracker_frame)
         printf("          tracker frame placed on reading, RMS %.3g m\n", d->nuisance.align_rms);
     printf("          baseline held-out RMS without them %.4g m -> %.4g m with them (gain %.1f "
-           "%%, apart from any effect's)", dg->raw_held_rms, dg->base_held_rms,
-           dg->nuisance_gain_percent);
+           "%%, apart from any effect's%s)", dg->raw_held_rms, dg->base_held_rms,
+           dg->nuisance_gain_percent,
+           d->nuisance.tracker_frame ? "; without them: the frame placed on the training part" : "");
 }
 
 static json_t *nuisance_json(const dm_dataset *d, const dm_diagnosis *dg)
@@ -717,6 +746,7 @@ static json_t *nuisance_json(const dm_dataset *d, const dm_diagnosis *dg)
                           "baseline_without_nuisances_held_out_rms", dg->raw_held_rms,
                           "baseline_without_nuisances_held_out_chi2", dg->raw_held_chi2,
                           "gain_percent", dg->nuisance_gain_percent);
+    json_object_set_new(o, "determined_combinations", nuisance_combinations_json(&dg->nuisance));
     if (d->nuisance.tracker_frame)
         json_object_set_new(o, "tracker_frame",
                             json_pack("{s:o, s:o, s:f}", "R", list_json(d->nuisance.R, 9), "d",

@@ -1025,6 +1025,9 @@ static int linearise_nuisances(const shared *s, const double *pred, linearisatio
         L->lam[e] = lam[q - 1 - e];
         memcpy(&L->UN[e * q], &A[(q - 1 - e) * q], sizeof(double) * q);
     }
+    /* every combination the training rows see at all, those the fit leaves
+     * at zero (dm_nuisance_seen) too: the check allows for more than was
+     * fitted, the lenient side */
     while (L->qn < q && L->lam[L->qn] > 1e-12 * L->lam[0])
         L->qn++;
     return DM_OK;
@@ -1301,16 +1304,29 @@ int dm_fit_effects(const dm_robot *rb, const dm_dataset *d, const char *const *n
 }
 
 /* The baseline's held-out misfit before the nuisances: what they alone
- * gain is reported apart from any effect's gain. */
-static void baseline_without_nuisances(const shared *s, dm_diagnosis *dg, const double *pred)
+ * gain is reported apart from any effect's gain. Held-out samples are
+ * fitted by nothing, the frame's placement included: a '# frame: tracker'
+ * run is placed again on the training samples (the reader placed it on
+ * all of them), so that the figure without nuisances and the one with
+ * them (fitted on the training samples, applied unchanged to the held-out
+ * ones) are judged alike. DM_ENOMEM or DM_OK. */
+static int baseline_without_nuisances(const shared *s, dm_diagnosis *dg, const double *pred)
 {
     const dm_dataset *d = s->d;
     dg->nnuisance = dm_nuisance_count(d);
-    double hs = 0;
-    for (int i = 0; i < d->n; i++)
-        hs += s->held[i] ? (d->s[i].value - pred[i]) * (d->s[i].value - pred[i]) : 0;
-    dg->raw_held_chi2 = chi2(s, pred, 1);
+    double *value = malloc(sizeof(double) * d->n), hs = 0, hc = 0;
+    if (!value)
+        return DM_ENOMEM;
+    dm_nuisance_place_on(d, s->held, value);
+    for (int i = 0; i < d->n; i++) {
+        double r = value[i] - pred[i];
+        hs += s->held[i] ? r * r : 0;
+        hc += s->held[i] ? r * r * s->w[i] * s->w[i] : 0;
+    }
+    dg->raw_held_chi2 = hc;
     dg->raw_held_rms = sqrt(hs / dg->n_held);
+    free(value);
+    return DM_OK;
 }
 
 /* The nuisances of the verdict's model (the baseline's when no effect is
@@ -1331,8 +1347,7 @@ static int report_nuisances(const shared *s, dm_diagnosis *dg, dm_error *err)
     if (!rc) {
         int m = dg->n_train, p = dg->nnuisance + (dg->found ? dg->best.nfree : 0);
         double scale = sqrt(misfit_scale(s, chi2(s, pred, 0), m, p));
-        for (int k = 0; k < dg->nuisance.n; k++)
-            dg->nuisance.sigma[k] *= scale;
+        dm_nuisance_fit_scale(&dg->nuisance, scale);
         dg->nuisance_gain_percent = gain_against(dg, dg->raw_held_chi2, dg->base_held_chi2);
     }
     free(pred);
@@ -1369,8 +1384,11 @@ static int diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_o
         rc = dm_predict(rb, d, o->na, o->nb, pred, err);
     if (!rc) {
         dg->sigma_known = s.sigma_known = weights(d, pred, w);
-        baseline_without_nuisances(&s, dg, pred);
-        rc = dm_nuisance_apply(d, d->n, held, w, pred, 1.0, NULL);
+        rc = baseline_without_nuisances(&s, dg, pred);
+        if (rc)
+            rc = dm_fail(err, rc, "out of memory");
+        else
+            rc = dm_nuisance_apply(d, d->n, held, w, pred, 1.0, NULL);
     }
     if (!rc) {
         double hs = 0;
