@@ -64,30 +64,34 @@ int dm_boundary_reduced_modes(dm_boundary *bw, int k, double *lambda, dm_error *
  * reduced coordinates K = diag(S, d) is block diagonal (d: the kept
  * fixed-interface eigenvalues and, once per robot diagonalised, the
  * residual vectors' stiffness) and M = [M_BB, B'; B, I] couples only
- * through the boundary, so K^-1 is S's Cholesky factor (the statics') and
- * a division, and M costs two nv x nB products. Block Rayleigh-Ritz on the
- * current Ritz vectors X and their preconditioned residuals K^-1 (K X -
- * M X Theta) (steepest descent with the exact K^-1), started from the
+ * through the boundary, so A = K^-1 M is S^-1 and a division after two
+ * nv x nB products. Chebyshev-filtered subspace iteration: the block
+ * (k + guard vectors) is multiplied by a Chebyshev polynomial in A that
+ * stays within 1 on the unwanted part of the spectrum (up to the block's
+ * top Ritz value) and grows on the wanted one, with a Cholesky QR when its
+ * columns drift apart, then projected once (Rayleigh-Ritz). Warm from the
  * previous solve's Ritz vectors (the neighbour pose: the coordinates are
  * the members' own and the boundary's global ones, continuous in the
- * pose), cold from random vectors. Stopped when for every wanted Ritz
- * value theta_j the quadratic residual bound in the standard form
- * mu = 1/lambda (Kato-Temple, for a cluster of Ritz values its block form
- * |mu_i - rho_i| <= ||R||^2 / delta),
+ * pose) with the degree the previous solves needed, cold from random
+ * vectors (projected first, the degree chosen from their residuals).
+ * Stopped when for every wanted Ritz value theta_j the quadratic residual
+ * bound in the standard form mu = 1/lambda (Kato-Temple, for a cluster of
+ * Ritz values its block form |mu_i - rho_i| <= ||R||^2 / delta),
  *   |lambda_j - theta_j| / theta_j <= e / (rho_j - e),
  *   e = sum_{i in cluster} r_i' K^-1 r_i / theta_i^3 / delta,
  * with delta the gap in mu from the cluster to the other Ritz values, is
- * below DM_BOUNDARY_EIG_TOL. Then a Wittrick-Williams count of the
- * reduced problem at 1e-9 above the k-th mode's cluster must equal the
- * Ritz values below it (each is an upper bound of its eigenvalue), else a
- * mode was missed: the guard vectors are
+ * below DM_BOUNDARY_EIG_TOL, judged on products made afresh. Then a
+ * Wittrick-Williams count of the reduced problem at 1e-9 above the k-th
+ * mode's cluster must equal the Ritz values below it (each is an upper
+ * bound of its eigenvalue), else a mode was missed: the guard vectors are
  * replaced by random ones and the iteration resumed. The modes then
  * serve dm_boundary_mode_shapes like dm_boundary_reduced_modes'. */
 #define DM_BOUNDARY_EIG_TOL 1e-12
 typedef struct dm_boundary_eig dm_boundary_eig;
 
 typedef struct dm_boundary_eig_info {
-    int iterations; /* Rayleigh-Ritz steps after the start's */
+    int iterations;   /* Rayleigh-Ritz projections after the start's */
+    int applications; /* of K^-1 M, in the filters */
     int restarts;   /* modes found missing by the count, and recovered */
     int cold;       /* 1: started from random vectors */
 } dm_boundary_eig_info;

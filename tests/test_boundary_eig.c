@@ -17,7 +17,7 @@ enum { K14 = 14, STEPS = 6 };
 
 typedef struct tally {
     double iter, dense, sens, bound_ratio, ref, ref_dense;
-    int iters_cold, iters_warm, warm_solves, restarts;
+    int iters_cold, iters_warm, apps_warm, warm_solves, restarts;
 } tally;
 
 /* The long-double eigenvalues of the pair (K, M) (n), LAPACK's rounding
@@ -89,27 +89,37 @@ static void against_reference(dm_boundary *bw, const dm_model *md, const double 
 
 /* A start that misses mode 3: the dense vectors of modes 1..p except the
  * third, replaced by the dense vector of mode p + 4 (an exact eigenvector
- * too, so every residual is tiny and only the count can tell). */
-static void missed_mode_is_recovered(dm_boundary *bw, dm_boundary_eig *e, tally *ty)
+ * too, so every residual is tiny and only the count can tell). A fresh
+ * solver projects such a start before filtering it (no degree planned
+ * yet), finds it converged, and must be caught by the count; the solver
+ * that walked the path filters it at once with its planned degree, which
+ * may bring mode 3 back from its rounding-level parts before the count
+ * (either way the values must be right). */
+static void missed_mode_is_recovered(dm_boundary *bw, dm_boundary_eig *walked, tally *ty)
 {
     int nr = dm_boundary_reduced_size(bw), p = K14 + 6;
     double dense[K14], lam[K14], est[K14];
     double *Y = malloc(sizeof(double) * nr * (p + 4));
-    assert_int_equal(dm_boundary_reduced_modes(bw, K14, dense, NULL), 0);
-    dm_boundary_reduced_vectors(bw, p + 4, Y);
-    memcpy(Y + 2 * (size_t)nr, Y + (size_t)(p + 3) * nr, sizeof(double) * nr);
-    dm_boundary_eig_start(e, Y, p);
-    dm_boundary_eig_info info;
-    dm_error err;
-    int rc = dm_boundary_eig_solve(e, bw, lam, est, &info, &err);
-    if (rc)
-        print_error("missed mode: %s\n", err.msg);
-    assert_int_equal(rc, 0);
-    if (info.restarts < 1)
-        print_error("missed mode not caught (%d steps)\n", info.iterations);
-    assert_true(info.restarts >= 1);
-    ty->restarts += info.restarts;
-    against_dense(bw, lam, est, ty);
+    dm_boundary_eig *fresh = dm_boundary_eig_alloc(bw, K14, NULL), *e[2] = {fresh, walked};
+    assert_non_null(fresh);
+    for (int t = 0; t < 2; t++) {
+        assert_int_equal(dm_boundary_reduced_modes(bw, K14, dense, NULL), 0);
+        dm_boundary_reduced_vectors(bw, p + 4, Y);
+        memcpy(Y + 2 * (size_t)nr, Y + (size_t)(p + 3) * nr, sizeof(double) * nr);
+        dm_boundary_eig_start(e[t], Y, p);
+        dm_boundary_eig_info info;
+        dm_error err;
+        int rc = dm_boundary_eig_solve(e[t], bw, lam, est, &info, &err);
+        if (rc)
+            print_error("missed mode: %s\n", err.msg);
+        assert_int_equal(rc, 0);
+        if (t == 0 && info.restarts < 1)
+            print_error("missed mode not caught (%d projections)\n", info.iterations);
+        assert_true(t == 1 || info.restarts >= 1);
+        ty->restarts += info.restarts;
+        against_dense(bw, lam, est, ty);
+    }
+    dm_boundary_eig_free(fresh);
     free(Y);
 }
 
@@ -147,7 +157,8 @@ static void one_robot(const char *preset, int mesh, int effects, tally *ty)
         }
         against_dense(bw, lam, est, ty);
         if (s)
-            ty->iters_warm += info.iterations, ty->warm_solves++;
+            ty->iters_warm += info.iterations, ty->apps_warm += info.applications,
+                ty->warm_solves++;
         else
             ty->iters_cold = (int)fmax(ty->iters_cold, info.iterations);
     }
@@ -170,10 +181,12 @@ static void iteration_matches_dense_and_reference(void **state)
                 one_robot(presets[r], meshes[me], fx, &ty);
     print_message("reduced modes, against the same pair in long double: iteration %.2e, dsygvd "
                   "%.2e (rounding bound %.2e); worst estimate %.2f x tol; iteration against the "
-                  "full model's reference %.2e (dsygvd of the reduced pair %.2e); steps cold <= %d, warm mean %.2f; %d missed "
-                  "modes caught and recovered\n",
+                  "full model's reference %.2e (dsygvd of the reduced pair %.2e); projections "
+                  "cold <= %d, warm mean %.2f (applications of K^-1 M %.2f); %d missed modes "
+                  "caught by the count and recovered\n",
                   ty.iter, ty.dense, ty.sens, ty.bound_ratio, ty.ref, ty.ref_dense, ty.iters_cold,
-                  (double)ty.iters_warm / ty.warm_solves, ty.restarts);
+                  (double)ty.iters_warm / ty.warm_solves, (double)ty.apps_warm / ty.warm_solves,
+                  ty.restarts);
 }
 
 int main(void)
