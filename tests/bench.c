@@ -696,6 +696,7 @@ static void members_row(const char *preset, int mesh)
     int nred = dm_boundary_reduced_size(be), steps = 0, apps = 0;
     double *Y = malloc(sizeof(double) * nred * BLOCK), est[14];
     const dm_modes *modes;
+    void *seed = malloc(dm_modal_seed_size(mo));
     for (int j = 0; j < NPOSE; j++) {
         double P[3], u6[6], C[36], best[4] = {INFINITY, INFINITY, INFINITY, INFINITY};
         dm_boundary_statics bs;
@@ -720,12 +721,21 @@ static void members_row(const char *preset, int mesh)
         }
         for (int r = 0; r < REPS; r++)
             best[3] = fmin(best[3], bare_dsygvx(md, A, B, w, Z, ifail));
-        /* today's eigen solve, once per pose, warm from the previous pose */
+        /* today's eigen solve, warm from the previous pose's seed (loaded
+         * again before each timing, as the sweep loads an anchor's; the
+         * first pose cold), min of REPS like the members' parts */
         dm_model_build(md, &pose, NULL);
         dm_static_factor(st, md, NULL);
-        double e0 = now_s();
-        dm_modal_solve(mo, md, st, 14, &modes, NULL);
-        t[4] += (now_s() - e0) / NPOSE;
+        double best4 = INFINITY;
+        for (int r = 0; r < REPS; r++) {
+            if (j)
+                dm_modal_seed_load(mo, seed);
+            double e0 = now_s();
+            dm_modal_solve(mo, md, st, 14, &modes, NULL);
+            best4 = fmin(best4, now_s() - e0);
+        }
+        dm_modal_seed_save(mo, seed);
+        t[4] += best4 / NPOSE;
         double best2[3] = {INFINITY, INFINITY, INFINITY};
         for (int r = 0; r < REPS; r++) {
             double a = now_s();
@@ -766,7 +776,7 @@ static void members_row(const char *preset, int mesh)
            preset, mesh, mesh, n, ms->nbound, tbuild * 1e3, t[0] * us, t[1] * us, t[1] / t[3],
            t[2] * us, t[2] / t[3], t[1] / t[2], t[3] * us);
     printf("          modes (14): rule's bases %d reduced DOFs, cache %.1f ms once | today's "
-           "eigen solve (once per pose, warm) %7.1f us = %6.4f x dsygvx(10) | members: reduced "
+           "eigen solve (warm from the last pose's seed) %7.1f us = %6.4f x dsygvx(10) | members: reduced "
            "eigenproblem %6.1f us = %6.4f x, certified bounds %6.1f us = %6.4f x dsygvx(10)\n",
            dm_boundary_reduced_size(br), trule * 1e3, t[4] * us, t[4] / t[3], t[6] * us,
            t[6] / t[3], t[7] * us, t[7] / t[3]);
@@ -776,6 +786,7 @@ static void members_row(const char *preset, int mesh)
            DM_BOUNDARY_EIG_TOL, t[8] * us, t[8] / t[3], (double)steps / NPOSE,
            (double)apps / NPOSE);
     free(Y);
+    free(seed);
     dm_boundary_eig_free(eig);
     dm_boundary_free(be);
     free(A), free(B), free(w), free(Z), free(ifail);
