@@ -113,6 +113,16 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
  * (ncol 0); more than k columns (up to k + 24) become the block. */
 void dm_boundary_eig_start(dm_boundary_eig *e, const double *Y, int ncol);
 
+/* Seeds, as dm_modal's: after a successful solve, save what the next warm
+ * solve would start from (returns 0 when there is nothing: no solve yet,
+ * or the last one failed); load one before a solve to start from it. A
+ * solve from a seed gives the same bits whatever the solver did before
+ * (a sweep starts each point from its anchor's seed, so results do not
+ * depend on threads or tiles). seed_size bytes, fixed per solver. */
+size_t dm_boundary_eig_seed_size(const dm_boundary_eig *e);
+int dm_boundary_eig_seed_save(const dm_boundary_eig *e, void *seed);
+void dm_boundary_eig_seed_load(dm_boundary_eig *e, const void *seed);
+
 /* The last dm_boundary_reduced_modes' or dm_boundary_eig_solve's first k
  * reduced eigenvectors (nred x k, column-major, M-normalised). */
 void dm_boundary_reduced_vectors(const dm_boundary *bw, int k, double *Y);

@@ -189,10 +189,79 @@ static void iteration_matches_dense_and_reference(void **state)
                   ty.restarts);
 }
 
+/* Solves P from `seed` after whatever `e` did before: out = the values,
+ * their estimates and the vectors. */
+static void solve_from(dm_boundary_eig *e, dm_boundary *bw, const dm_robot *rb, const double *P,
+                       const void *seed, double *out)
+{
+    dm_pose pose;
+    dm_boundary_statics st;
+    assert_int_equal(dm_kin_pose(rb, P, &pose, NULL), 0);
+    assert_int_equal(dm_boundary_solve(bw, &pose, &st, NULL), 0);
+    dm_boundary_eig_seed_load(e, seed);
+    assert_int_equal(dm_boundary_eig_solve(e, bw, out, out + K14, NULL, NULL), 0);
+    dm_boundary_reduced_vectors(bw, K14, out + 2 * K14);
+}
+
+/* A solve from a seed gives the same bits whoever solved what before:
+ * one solver walks home -> A (saving A's seed) -> B; a second solves a
+ * far pose C first, a third nothing, then both start B from A's seed.
+ * (What lets a sweep's stores not depend on threads or tiles.) */
+static void seed_decides_the_bits(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    dm_pose pose;
+    dm_boundary_statics st;
+    double lam[K14], est[K14];
+    load(&rb, "zheng2017", NULL);
+    dm_model *md = dm_model_alloc(&rb, 2, 2, NULL);
+    assert_non_null(md);
+    assert_int_equal(dm_kin_pose(&rb, rb.home_m, &pose, NULL), 0);
+    assert_int_equal(dm_model_build(md, &pose, NULL), 0);
+    dm_members *ms = dm_boundary_members_for_modes(md, &pose, K14, NULL);
+    assert_non_null(ms);
+    dm_boundary *bw = dm_boundary_alloc(ms, NULL);
+    dm_boundary_eig *e[3];
+    for (int i = 0; i < 3; i++)
+        assert_non_null(e[i] = dm_boundary_eig_alloc(bw, K14, NULL));
+    int nr = dm_boundary_reduced_size(bw);
+    size_t len = dm_boundary_eig_seed_size(e[0]), nout = 2 * K14 + (size_t)nr * K14;
+    void *seed = malloc(len), *none = calloc(1, len);
+    double *out[3];
+    for (int i = 0; i < 3; i++)
+        out[i] = malloc(sizeof(double) * nout);
+    assert_int_equal(dm_boundary_eig_seed_save(e[0], none), 0); /* nothing solved yet */
+    double home[3] = {rb.home_m[0], rb.home_m[1], rb.home_m[2]};
+    double A[3] = {home[0] + 0.01, home[1], home[2]}, B[3] = {home[0] + 0.02, home[1] + 0.005, home[2]};
+    double C[3] = {home[0] - 0.08, home[1] + 0.06, home[2] + 0.05};
+    const double *walk[2] = {home, A};
+    for (int s = 0; s < 2; s++) {
+        assert_int_equal(dm_kin_pose(&rb, walk[s], &pose, NULL), 0);
+        assert_int_equal(dm_boundary_solve(bw, &pose, &st, NULL), 0);
+        assert_int_equal(dm_boundary_eig_solve(e[0], bw, lam, est, NULL, NULL), 0);
+    }
+    assert_int_equal(dm_boundary_eig_seed_save(e[0], seed), 1);
+    assert_int_equal(dm_kin_pose(&rb, C, &pose, NULL), 0);
+    assert_int_equal(dm_boundary_solve(bw, &pose, &st, NULL), 0);
+    assert_int_equal(dm_boundary_eig_solve(e[1], bw, lam, est, NULL, NULL), 0);
+    for (int i = 0; i < 3; i++)
+        solve_from(e[i], bw, &rb, B, seed, out[i]);
+    for (int i = 1; i < 3; i++)
+        assert_memory_equal(out[0], out[i], sizeof(double) * nout);
+    for (int i = 0; i < 3; i++)
+        dm_boundary_eig_free(e[i]), free(out[i]);
+    free(seed), free(none);
+    dm_boundary_free(bw);
+    dm_members_free(ms);
+    dm_model_free(md);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(iteration_matches_dense_and_reference),
+        cmocka_unit_test(seed_decides_the_bits),
     };
     return cmocka_run_group_tests_name("boundary_eig", tests, NULL, NULL);
 }

@@ -421,6 +421,41 @@ void dm_boundary_eig_start(dm_boundary_eig *e, const double *Y, int ncol)
     e->nstart = ncol;
 }
 
+/* A seed: everything a warm solve reads of the solves before it — the
+ * block and its size, the planned filter (degree, interval, the lowest
+ * Ritz value it is scaled by) and the generator of guard vectors — so a
+ * solve from a seed does not depend on what the solver did before. */
+typedef struct eig_seed {
+    int p, nstart, plan, easy;
+    double b, w0;
+    dm_rng rng;
+} eig_seed;
+
+size_t dm_boundary_eig_seed_size(const dm_boundary_eig *e)
+{
+    return sizeof(eig_seed) + sizeof(double) * (size_t)e->nr * e->pmax;
+}
+
+int dm_boundary_eig_seed_save(const dm_boundary_eig *e, void *seed)
+{
+    if (!e->nstart)
+        return 0;
+    eig_seed h = {e->p, e->nstart, e->plan, e->easy, e->b, e->w[0], e->rng};
+    memcpy(seed, &h, sizeof h);
+    memcpy((char *)seed + sizeof h, e->X, sizeof(double) * (size_t)e->nr * e->nstart);
+    return 1;
+}
+
+void dm_boundary_eig_seed_load(dm_boundary_eig *e, const void *seed)
+{
+    eig_seed h;
+    memcpy(&h, seed, sizeof h);
+    assert(h.p >= 1 && h.p <= e->pmax && h.nstart >= 1 && h.nstart <= h.p);
+    e->p = h.p, e->nstart = h.nstart, e->plan = h.plan, e->easy = h.easy;
+    e->b = h.b, e->w[0] = h.w0, e->rng = h.rng;
+    memcpy(e->X, (const char *)seed + sizeof h, sizeof(double) * (size_t)e->nr * h.nstart);
+}
+
 void dm_boundary_reduced_vectors(const dm_boundary *bw, int k, double *Y)
 {
     memcpy(Y, bw->Kr, sizeof(double) * bw->nred * k);
