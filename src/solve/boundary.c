@@ -20,12 +20,15 @@ dm_boundary *dm_boundary_alloc(const dm_members *ms, dm_error *err)
         for (int m = 0; m < DM_MEMBERS_N; m++)
             bw->nred += ms->member[m].nkeep + ms->member[m].nres;
         nr = (size_t)bw->nred;
+        size_t nimax = 1;
+        for (int m = 0; m < DM_MEMBERS_N; m++)
+            nimax = (size_t)ms->member[m].ni > nimax ? (size_t)ms->member[m].ni : nimax;
         bw->lwork = 1 + 6 * bw->nred + 2 * bw->nred * bw->nred;
         bw->liwork = 3 + 5 * bw->nred;
         double **arrays[] = {&bw->S, &bw->Sk, &bw->D,  &bw->F,  &bw->X6, &bw->C,
-                             &bw->z, &bw->Kr, &bw->Mr, &bw->wr, &bw->work, &bw->wsy};
+                             &bw->z, &bw->Kr, &bw->Mr, &bw->wr, &bw->work, &bw->wsy, &bw->wcount};
         size_t sizes[] = {nB * nB, nB * nB, nB * nB, nB, nB * 6, nB * 9,
-                          (size_t)ms->n, nr * nr, nr * nr, nr, (size_t)bw->lwork, nB * 64};
+                          (size_t)ms->n, nr * nr, nr * nr, nr, (size_t)bw->lwork, nB * 64, nimax};
         for (size_t k = 0; k < sizeof sizes / sizeof *sizes; k++)
             fail |= !(*arrays[k] = malloc(sizeof(double) * sizes[k]));
         bw->ipiv = malloc(sizeof(lapack_int) * (nB + (size_t)bw->liwork));
@@ -44,7 +47,7 @@ void dm_boundary_free(dm_boundary *bw)
     if (!bw)
         return;
     double *arrays[] = {bw->S, bw->Sk, bw->D,  bw->F,  bw->X6,   bw->C,
-                        bw->z, bw->Kr, bw->Mr, bw->wr, bw->work, bw->wsy};
+                        bw->z, bw->Kr, bw->Mr, bw->wr, bw->work, bw->wsy, bw->wcount};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; k++)
         free(arrays[k]);
     free(bw->ipiv);

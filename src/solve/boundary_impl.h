@@ -22,6 +22,7 @@ struct dm_boundary {
     int nred;       /* reduced DOFs: boundary + each member's kept modes and residual vectors */
     double *Kr, *Mr, *wr; /* the reduced problem, then its eigenvectors (Kr) and values */
     double *work, *wsy;   /* dsygvd's and dsytrf's workspaces */
+    double *wcount;       /* the largest member interior: a count's 1 / (lambda_j - sigma) */
     int lwork, liwork;
     lapack_int *ipiv;     /* nB, then dsygvd's liwork */
 };
