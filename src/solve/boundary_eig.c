@@ -154,16 +154,25 @@ static void apply_M(const dm_boundary_eig *e, const double *X, int ncol, double 
                 Y + nB, nr);
 }
 
+/* Y = diag(A, v) X: A (nB x nB, both triangles) on the boundary rows, v
+ * (nv) on the interior ones; ncol columns, leading dimension nr. K is
+ * diag(S, d), and the filter's K^-1 diag(S^-1, 1/d). */
+static void block_diag_times(const dm_boundary_eig *e, const double *A, const double *v,
+                             const double *X, int ncol, double *Y)
+{
+    int nr = e->nr, nB = e->nB;
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nB, ncol, nB, 1, A, nB, X, nr, 0, Y,
+                nr);
+    for (int c = 0; c < ncol; c++)
+        for (int i = 0; i < e->nv; i++)
+            Y[(size_t)c * nr + nB + i] = v[i] * X[(size_t)c * nr + nB + i];
+}
+
 /* Y = K X; and X = K^-1 X in place (S's Cholesky factor from the statics). */
 static void apply_K(const dm_boundary_eig *e, const dm_boundary *bw, const double *X, int ncol,
                     double *Y)
 {
-    int nr = e->nr, nB = e->nB;
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nB, ncol, nB, 1, bw->Sk, nB, X, nr, 0,
-                Y, nr);
-    for (int c = 0; c < ncol; c++)
-        for (int i = 0; i < e->nv; i++)
-            Y[(size_t)c * nr + nB + i] = e->d[i] * X[(size_t)c * nr + nB + i];
+    block_diag_times(e, bw->Sk, e->d, X, ncol, Y);
 }
 
 static void solve_K(const dm_boundary_eig *e, const dm_boundary *bw, double *X, int ncol)
@@ -198,12 +207,7 @@ static int inverse_K(dm_boundary_eig *e, const dm_boundary *bw)
 /* Y = K^-1 X through Sinv and dinv (ncol columns, leading dimension nr). */
 static void inverse_K_times(const dm_boundary_eig *e, const double *X, int ncol, double *Y)
 {
-    int nr = e->nr, nB = e->nB;
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nB, ncol, nB, 1, e->Sinv, nB, X, nr, 0,
-                Y, nr);
-    for (int c = 0; c < ncol; c++)
-        for (int i = 0; i < e->nv; i++)
-            Y[(size_t)c * nr + nB + i] = e->dinv[i] * X[(size_t)c * nr + nB + i];
+    block_diag_times(e, e->Sinv, e->dinv, X, ncol, Y);
 }
 
 /* A = A Q for A nr x p, Q p x p (ld q), through T. */
