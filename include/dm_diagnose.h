@@ -23,7 +23,11 @@
  * Gain (%) = 100 (1 - sqrt(e_after / e_before)) on the held-out samples, with
  * e = max(chi2/N - 1, 0) the misfit beyond the noise: the share of the
  * model's error amplitude that the effect removes (without sigma: 100 (1 -
- * RMS_after / RMS_before)). */
+ * RMS_after / RMS_before)).
+ *
+ * Nor is compensated explained: on a tracker run with nuisances, a model
+ * that fits only because its nuisances moved far from the baseline's is
+ * never the verdict (dm_nuisance_shift); the verdict reports it set aside. */
 #ifndef DM_DIAGNOSE_H
 #define DM_DIAGNOSE_H
 
@@ -47,6 +51,37 @@
 #define DM_DIAG_DETERMINED 0.1 /* a combination is determined when its 1-sigma is at most
                                   this (relative, or in units of the candidate's scale) */
 
+/* How far a model's tracker nuisances (dm_nuisance.h) moved from where
+ * the baseline put them, both fitted on the training samples, and
+ * whether the model therefore compensates rather than explains. The move
+ * delta shifts the fitted positions by N delta (N: the nuisances'
+ * design); rms_m is that over the training samples, and `sigmas` the
+ * move's Mahalanobis distance in the baseline's nuisance covariance (its
+ * reported 1-sigma, scaled by its misfit). The statistical distance
+ * cannot decide: a genuine effect with a rigid part (a clearance's
+ * steady offset, the common part of arm-length errors) moves the
+ * nuisances by hundreds of these sigma, because the baseline's nuisances
+ * took that part. A model compensates when rms_m exceeds
+ * dm_diagnosis.compensating_m (DM_DIAG_NUISANCE_MOVE_M, or the baseline's
+ * whole misfit before any nuisance if larger) and, with its nuisances
+ * held where the baseline put them, it fits the training samples no
+ * better than the baseline (at_baseline_chi2 = |r + N delta|^2 >= the
+ * baseline's, r its weighted residual): its effect is better only
+ * because the frame, reflector or clock moved. Such a model is never the
+ * verdict. */
+#define DM_DIAG_NUISANCE_MOVE_M 5e-4 /* five times the geometry errors' scale (0.1 mm,
+                                        dm_effects_param_scale): beyond the rigid offsets
+                                        that errors at assembly tolerance give a Delta
+                                        (docs/diagnosis.md, "How the diagnosis decides") */
+typedef struct dm_nuisance_shift {
+    int n;                       /* nuisances compared (0: none fitted) */
+    double delta[DM_NUISANCE_MAX]; /* the model's nuisances minus the baseline's */
+    double sigmas;               /* the move in the baseline's 1-sigma (Mahalanobis) */
+    double rms_m;                /* |N delta|, RMS over the training samples (m) */
+    double at_baseline_chi2;     /* training chi2 with the nuisances held at the baseline's */
+    int compensating;
+} dm_nuisance_shift;
+
 typedef struct dm_fit {
     int ncand;                   /* 1 or 2 effects */
     const dm_effect *cand[2];
@@ -54,6 +89,7 @@ typedef struct dm_fit {
     double train_chi2, held_chi2, held_rms, gain_percent, score;
     int nfree;                   /* parameters fitted (geometry_errors: combinations seen) */
     int ok;                      /* 0 when the fit failed (reported, never fatal) */
+    dm_nuisance_shift shift;     /* a tracker run with nuisances, in dm_diagnose (n 0 otherwise) */
 } dm_fit;
 
 /* Is the held-out residual of a fit consistent with the noise? A held-out
@@ -119,6 +155,10 @@ typedef struct dm_diagnosis {
     int nnuisance;               /* 0: none fitted */
     dm_nuisance_fit nuisance;    /* of best when found, else of the baseline */
     double raw_held_chi2, raw_held_rms; /* the baseline without nuisances, held out */
+    double raw_train_rms;        /* the same on the training samples (m) */
+    double compensating_m;       /* a nuisance move beyond this compensates (dm_nuisance_shift) */
+    int nset_aside;              /* models that would have been the verdict but compensate: */
+    dm_fit set_aside[2];         /* a single effect, then a pair, as the search met them */
     double nuisance_gain_percent; /* the nuisances' gain against that baseline */
     /* a modal survey with shapes or directions (dm_pairing.h): its modes
      * paired with the given robot's, then diagnosed as a plain survey of

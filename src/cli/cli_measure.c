@@ -494,14 +494,28 @@ static json_t *params_json(const dm_fit *f)
     return params;
 }
 
+/* How far a fit's tracker nuisances moved from the baseline's (dm_nuisance_shift). */
+static json_t *shift_json(const dm_nuisance_shift *sh)
+{
+    json_t *delta = json_object();
+    for (int k = 0; k < sh->n; k++)
+        json_object_set_new(delta, dm_nuisance_name(k), json_real(sh->delta[k]));
+    return json_pack("{s:o, s:f, s:f, s:f, s:b}", "delta", delta, "sigmas", sh->sigmas,
+                     "rms_m", sh->rms_m, "at_baseline_train_chi2", sh->at_baseline_chi2,
+                     "compensating", sh->compensating);
+}
+
 static json_t *fit_json(const dm_fit *f)
 {
     char name[128];
     fit_name(f, name, sizeof name);
-    return json_pack("{s:s, s:o, s:b, s:f, s:f, s:f, s:f, s:i}", "effect", name, "parameters",
-                     params_json(f), "ok", f->ok, "held_out_chi2", f->held_chi2, "held_out_rms",
-                     f->held_rms, "gain_percent", f->gain_percent, "score", f->score,
-                     "parameters_fitted", f->nfree);
+    json_t *o = json_pack("{s:s, s:o, s:b, s:f, s:f, s:f, s:f, s:i}", "effect", name,
+                          "parameters", params_json(f), "ok", f->ok, "held_out_chi2",
+                          f->held_chi2, "held_out_rms", f->held_rms, "gain_percent",
+                          f->gain_percent, "score", f->score, "parameters_fitted", f->nfree);
+    if (f->shift.n) /* absent without nuisances: files without them give what they gave */
+        json_object_set_new(o, "nuisance_shift", shift_json(&f->shift));
+    return o;
 }
 
 static void print_triple(const double *v, const double *sg, const char *unit)
@@ -533,14 +547,15 @@ static void print_values(const dm_fit *f)
     }
 }
 
-/* The best single effect that is not part of the verdict. */
+/* The best single effect that is not part of the verdict and explains
+ * rather than compensates. */
 static const dm_fit *runner_up(const dm_diagnosis *dg)
 {
     for (int r = 0; r < dg->nrank; r++) {
         int in_verdict = 0;
         for (int i = 0; i < dg->best.ncand; i++)
             in_verdict |= dg->rank[r].cand[0] == dg->best.cand[i];
-        if (!in_verdict && dg->rank[r].ok)
+        if (!in_verdict && dg->rank[r].ok && !dg->rank[r].shift.compensating)
             return &dg->rank[r];
     }
     return NULL;
@@ -667,6 +682,24 @@ static void print_ties(const dm_diagnosis *dg)
     }
 }
 
+/* A model set aside as compensating: how far its nuisances moved from the
+ * baseline's, statistically and physically, and against what. */
+static void print_set_aside(const dm_diagnosis *dg, const dm_fit *f)
+{
+    const dm_nuisance_shift *sh = &f->shift;
+    char name[128];
+    fit_name(f, name, sizeof name);
+    printf("          Set aside: %s (gain %.1f %%) compensates, it does not\n"
+           "          explain: its nuisances moved %.3g mm RMS at the samples from the baseline's\n"
+           "          (%.3g sigma of theirs; frame translation %+.3g, %+.3g, %+.3g mm, rotation %+.3g,\n"
+           "          %+.3g, %+.3g mrad, clock %+.3g us), beyond %.3g mm, and held where the baseline\n"
+           "          put them they leave it worse than the baseline (training chi2 x%.3g).\n",
+           name, f->gain_percent, 1e3 * sh->rms_m, sh->sigmas, 1e3 * sh->delta[0],
+           1e3 * sh->delta[1], 1e3 * sh->delta[2], 1e3 * sh->delta[3], 1e3 * sh->delta[4],
+           1e3 * sh->delta[5], 1e6 * sh->delta[6], 1e3 * dg->compensating_m,
+           sh->at_baseline_chi2 / dg->base_train_chi2);
+}
+
 static void print_verdict(const dm_dataset *d, const dm_robot *rb, const dm_diagnosis *dg)
 {
     const char *unit = d->kind == DM_DATA_MODAL ? "Hz" : "m";
@@ -719,6 +752,8 @@ static void print_verdict(const dm_dataset *d, const dm_robot *rb, const dm_diag
         print_ties(dg);
         print_ident(d, rb, dg);
     }
+    for (int k = 0; dg->significant && k < dg->nset_aside; k++)
+        print_set_aside(dg, &dg->set_aside[k]);
 }
 
 /* A tracker run's nuisances: fitted with every model, never a cause. */
@@ -740,12 +775,13 @@ static void print_nuisances(const dm_dataset *d, const dm_diagnosis *dg)
 static json_t *nuisance_json(const dm_dataset *d, const dm_diagnosis *dg)
 {
     json_t *par = nuisance_values_json(&dg->nuisance);
-    json_t *o = json_pack("{s:s, s:o, s:b, s:f, s:f, s:f}", "of",
+    json_t *o = json_pack("{s:s, s:o, s:b, s:f, s:f, s:f, s:f}", "of",
                           dg->found ? "verdict" : "baseline", "parameters", par,
                           "translation_includes_reflector_offset", 1,
                           "baseline_without_nuisances_held_out_rms", dg->raw_held_rms,
                           "baseline_without_nuisances_held_out_chi2", dg->raw_held_chi2,
-                          "gain_percent", dg->nuisance_gain_percent);
+                          "gain_percent", dg->nuisance_gain_percent, "compensating_above_m",
+                          dg->compensating_m);
     json_object_set_new(o, "determined_combinations", nuisance_combinations_json(&dg->nuisance));
     if (d->nuisance.tracker_frame)
         json_object_set_new(o, "tracker_frame",
@@ -782,6 +818,8 @@ static void print_diagnosis(const dm_dataset *d, const dm_robot *rb, const dm_di
             printf("%d of %d combinations fitted", f->nfree, f->cand[0]->nparam);
         else
             print_values(f);
+        if (f->shift.compensating)
+            printf("  [compensating: nuisances moved %.3g mm]", 1e3 * f->shift.rms_m);
         printf("\n");
     }
     print_verdict(d, rb, dg);
@@ -875,8 +913,13 @@ static void print_diagnosis_json(const dm_dataset *d, const dm_robot *rb, const 
                         dg->found && dg->has_simpler_choice ? fit_json(&dg->passed_over)
                                                             : json_null());
     json_object_set_new(o, "ranking", rank);
-    if (dg->nnuisance) /* absent without: files without nuisances give what they gave */
+    if (dg->nnuisance) { /* absent without: files without nuisances give what they gave */
+        json_t *aside = json_array();
+        for (int k = 0; dg->significant && k < dg->nset_aside; k++)
+            json_array_append_new(aside, fit_json(&dg->set_aside[k]));
         json_object_set_new(o, "nuisances", nuisance_json(d, dg));
+        json_object_set_new(o, "set_aside", aside);
+    }
     if (dg->pairing.pair) /* likewise: only for surveys with shapes or directions */
         json_object_set_new(o, "pairing", pairing_json(&dg->pairing));
     json_dumpf(o, stdout, JSON_INDENT(2) | JSON_REAL_PRECISION(12));

@@ -59,6 +59,11 @@ typedef struct {
     int *nomem;              /* set when a fit ran out of memory (the result is void) */
     struct memo *memo;       /* predictions made so far (NULL: none kept) */
     dm_progress_meter *pm;   /* the diagnosis's progress (fn NULL: none) */
+    /* a tracker run's nuisances (NULL: none, or not compared): the
+     * baseline's fit and their design about its prediction, d->n x q
+     * column-major, against which each model's are measured (dm_nuisance_shift) */
+    const dm_nuisance_fit *base_nuisance;
+    const double *nuisance_design;
 } shared;
 
 /* ---- predictions made once ---------------------------------------------------
@@ -178,8 +183,10 @@ static void split_samples(const dm_dataset *d, char *held)
         held[i] = d->kind == DM_DATA_TRACKER ? d->s[i].t > 2.0 * T / 3.0 : d->s[i].pose_id % 3 == 2;
 }
 
-/* Predictions with the given effect values (physical units). */
-static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_error *err)
+/* Predictions with the given effect values (physical units), a tracker
+ * run's nuisances fitted with them (into nf unless NULL). */
+static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_nuisance_fit *nf,
+                        dm_error *err)
 {
     dm_robot rb = *p->s->rb;
     int rc = DM_OK;
@@ -194,7 +201,7 @@ static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_error *err
     }
     /* a tracker run's nuisances, fitted with every model (dm_nuisance.h) */
     if (!rc)
-        rc = dm_nuisance_apply(p->s->d, p->view.n, p->s->held, p->s->w, p->pred, 1.0, NULL);
+        rc = dm_nuisance_apply(p->s->d, p->view.n, p->s->held, p->s->w, p->pred, 1.0, nf);
     return rc;
 }
 
@@ -263,7 +270,7 @@ static int residuals(void *user, int m, int n, const double *x, double *fvec, in
     const shared *s = p->s;
     double value[2][DM_DIAG_MAXV];
     to_values(p, x, value);
-    int rc = predict_with(p, value, NULL);
+    int rc = predict_with(p, value, NULL, NULL);
     if (rc == DM_ENOMEM)
         out_of_memory(s);
     if (rc) {
@@ -513,6 +520,43 @@ static void score_fit(const problem *p, const dm_diagnosis *dg, dm_fit *f)
     f->score = held_score(dg, f->held_chi2) + f->nfree * log((double)dg->n_held);
 }
 
+/* How far the nuisances nf fitted with a model (prediction pred, with
+ * them) moved from the baseline's, and whether the model compensates
+ * (dm_nuisance_shift): with them held at the baseline's, its training
+ * chi-square is |r + N delta|^2, r its weighted residual. */
+static void measure_shift(const shared *s, const dm_diagnosis *dg, const double *pred,
+                          const dm_nuisance_fit *nf, dm_fit *f)
+{
+    const dm_dataset *d = s->d;
+    const dm_nuisance_fit *b = s->base_nuisance;
+    dm_nuisance_shift *sh = &f->shift;
+    memset(sh, 0, sizeof *sh);
+    if (!b || !s->nuisance_design || !nf->n)
+        return;
+    assert(nf->n == b->n && nf->n <= DM_NUISANCE_MAX);
+    sh->n = nf->n;
+    for (int k = 0; k < nf->n; k++)
+        sh->delta[k] = nf->value[k] - b->value[k];
+    double ww = 0, uu = 0;
+    int m = 0;
+    for (int i = 0; i < d->n; i++) {
+        if (s->held[i])
+            continue;
+        double move = 0; /* what the move does to sample i's fitted position */
+        for (int k = 0; k < nf->n; k++)
+            move += s->nuisance_design[(size_t)k * d->n + i] * sh->delta[k];
+        double r = (d->s[i].value - pred[i]) * s->w[i];
+        ww += move * move * s->w[i] * s->w[i];
+        uu += move * move;
+        sh->at_baseline_chi2 += (r + move * s->w[i]) * (r + move * s->w[i]);
+        m++;
+    }
+    sh->rms_m = sqrt(uu / (m ? m : 1));
+    sh->sigmas = sqrt(ww / misfit_scale(s, dg->base_train_chi2, m, b->nseen));
+    sh->compensating = sh->rms_m > dg->compensating_m &&
+                       sh->at_baseline_chi2 >= dg->base_train_chi2;
+}
+
 static int count_train(const problem *p)
 {
     int m = 0;
@@ -598,14 +642,17 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][DM_DIAG_MAXV
             f->sigma[i][k] = p->cand[i]->linear ? sig[j] : value[i][k] * log(10.0) * sig[j];
     memcpy(f->value, value, sizeof value);
     f->nfree = linear && n > 0 ? ntotal - n + nseen : ntotal;
-    int rc = predict_with(p, value, NULL);
+    dm_nuisance_fit nf;
+    int rc = predict_with(p, value, &nf, NULL);
     if (rc == DM_ENOMEM)
         out_of_memory(p->s);
     f->ok = rc == DM_OK;
-    if (f->ok)
+    if (f->ok) {
         score_fit(p, dg, f);
-    else
+        measure_shift(p->s, dg, p->pred, &nf, f);
+    } else {
         f->held_chi2 = f->score = INFINITY;
+    }
     free(fvec);
     free(p->pred);
     p->pred = NULL;
@@ -689,43 +736,78 @@ static int nested(const dm_effect *a, const dm_effect *b)
     return (a == UNION && is_family(b)) || (b == UNION && is_family(a));
 }
 
-/* The rank of the best single fit of a candidate accepted by `want`, or -1. */
-static int rank_where(const dm_diagnosis *dg, int (*want)(const dm_effect *, const void *),
-                      const void *arg)
+/* A fit that may be the verdict: it did not fail, and it explains rather
+ * than compensates (dm_nuisance_shift). */
+static int usable(const dm_fit *f) { return f->ok && !f->shift.compensating; }
+static int fitted(const dm_fit *f) { return f->ok; }
+
+/* Keep f, which would have been the verdict but compensates, to report. */
+static void set_aside(dm_diagnosis *dg, const dm_fit *f)
+{
+    assert(f->shift.compensating && dg->nset_aside < 2);
+    dg->set_aside[dg->nset_aside++] = *f;
+}
+
+/* The rank of the best single fit that `may` accepts of a candidate that
+ * `want` accepts, or -1. */
+static int rank_where(const dm_diagnosis *dg, int (*may)(const dm_fit *),
+                      int (*want)(const dm_effect *, const void *), const void *arg)
 {
     for (int r = 0; r < dg->nrank; r++)
-        if (dg->rank[r].ok && want(dg->rank[r].cand[0], arg))
+        if (may(&dg->rank[r]) && want(dg->rank[r].cand[0], arg))
             return r;
     return -1;
 }
 
 static int named(const dm_effect *c, const void *name) { return !strcmp(c->name, name); }
 static int family(const dm_effect *c, const void *arg) { return (void)arg, is_family(c); }
+static int any(const dm_effect *c, const void *arg) { return (void)c, (void)arg, 1; }
 
-/* The single effect of the verdict: the best scoring, unless a simpler one
- * is close enough. A per-chain variant must beat its global effect by
+/* The rank of the single effect of the verdict among the fits that `may`
+ * accepts (-1: none): the best scoring, unless a simpler one is close
+ * enough. A per-chain variant must beat its global effect by
  * DM_DIAG_CLEAR (one symmetric effect is the simpler hypothesis: the
  * variant also picks one chain of three); the union of the geometry
  * families must beat the best single family by `need`, as a second effect
- * must. */
-static void choose_single(dm_diagnosis *dg, double need)
+ * must. *passed: the rank it was preferred to, or -1. */
+static int pick_single(const dm_diagnosis *dg, double need, int (*may)(const dm_fit *),
+                       int *passed)
 {
-    const dm_fit *top = &dg->rank[0];
-    int r = -1;
+    int t = rank_where(dg, may, any, NULL), r = -1;
     double margin = 0;
-    dg->best = *top;
+    *passed = -1;
+    if (t < 0)
+        return -1;
+    const dm_fit *top = &dg->rank[t];
     if (top->cand[0]->global) {
-        r = rank_where(dg, named, top->cand[0]->global);
+        r = rank_where(dg, may, named, top->cand[0]->global);
         margin = DM_DIAG_CLEAR;
     } else if (top->cand[0] == UNION) {
-        r = rank_where(dg, family, NULL);
+        r = rank_where(dg, may, family, NULL);
         margin = need;
     }
-    if (r > 0 && dg->rank[r].score < top->score + margin) {
-        dg->passed_over = *top;
-        dg->has_simpler_choice = 1;
-        dg->best = dg->rank[r];
+    if (r > t && dg->rank[r].score < top->score + margin) {
+        *passed = t;
+        return r;
     }
+    return t;
+}
+
+/* The single effect of the verdict (pick_single) among the fits that
+ * explain; the one chosen among all fits is set aside when it
+ * compensates and would have been found. With none that explains, the
+ * best fit stands in, not found (usable() fails). */
+static void choose_single(dm_diagnosis *dg, double need)
+{
+    int passed, ignored, r = pick_single(dg, need, usable, &passed);
+    int first = pick_single(dg, need, fitted, &ignored); /* as if none compensated */
+    if (first >= 0 && dg->rank[first].shift.compensating && dg->significant &&
+        dg->base_score - dg->rank[first].score > need)
+        set_aside(dg, &dg->rank[first]);
+    dg->best = dg->rank[r >= 0 ? r : 0];
+    dg->has_simpler_choice = passed >= 0;
+    if (passed >= 0)
+        dg->passed_over = dg->rank[passed];
 }
 
 /* Candidates whose single-effect score is within DM_DIAG_TIE of the
@@ -737,7 +819,7 @@ static void find_ties(dm_diagnosis *dg)
     dg->ntie = 0;
     for (int r = 0; r < dg->nrank; r++) {
         const dm_fit *f = &dg->rank[r];
-        if (f->ok && f->cand[0] != b && !nested(f->cand[0], b) &&
+        if (usable(f) && f->cand[0] != b && !nested(f->cand[0], b) &&
             f->score - dg->best.score < DM_DIAG_TIE)
             dg->tie[dg->ntie++] = r;
     }
@@ -761,7 +843,7 @@ static int global_twin(const dm_fit *f, const dm_effect *cand[2])
 
 static const dm_fit *single_fit(const dm_diagnosis *dg, const dm_effect *c)
 {
-    int r = rank_where(dg, named, c->name);
+    int r = rank_where(dg, fitted, named, c->name);
     return r < 0 ? NULL : &dg->rank[r];
 }
 
@@ -854,10 +936,17 @@ static void add_second_effect(const shared *s, dm_diagnosis *dg, double need)
         dm_progress_add(s->pm, 1);
     }
     dm_progress_end(s->pm);
-    int pick = -1;
-    for (int j = 0; j < nj; j++)
-        if (joint[j].ok && (pick < 0 || by_score(&joint[j], &joint[pick]) < 0))
-            pick = j;
+    int pick = -1, aside = -1; /* the best usable pair, and the best compensating one */
+    for (int j = 0; j < nj; j++) {
+        int *to = usable(&joint[j])                          ? &pick
+                  : joint[j].ok && joint[j].shift.compensating ? &aside
+                                                               : NULL;
+        if (to && (*to < 0 || by_score(&joint[j], &joint[*to]) < 0))
+            *to = j;
+    }
+    if (aside >= 0 && joint[aside].score < one.score - need &&
+        (pick < 0 || joint[aside].score < joint[pick].score))
+        set_aside(dg, &joint[aside]); /* it would have replaced the single effect */
     const dm_effect *c[2];
     int passed = -1;
     if (pick >= 0 && global_twin(&joint[pick], c)) {
@@ -873,7 +962,7 @@ static void add_second_effect(const shared *s, dm_diagnosis *dg, double need)
             fit(&pj[t], dg, start[t], &joint[t]);
             dm_progress_end(s->pm);
         }
-        if (t >= 0 && joint[t].ok && joint[t].score < joint[pick].score + DM_DIAG_CLEAR) {
+        if (t >= 0 && usable(&joint[t]) && joint[t].score < joint[pick].score + DM_DIAG_CLEAR) {
             passed = pick;
             pick = t;
         }
@@ -998,7 +1087,7 @@ static int predict_scaled(problem *p, const double *x, int n, const double *sc, 
         xx[j] += h * sc[j];
     to_values(p, xx, value);
     p->pred = pred;
-    return predict_with(p, value, NULL);
+    return predict_with(p, value, NULL, NULL);
 }
 
 /* The nuisances' part of the linearisation about the prediction pred. */
@@ -1314,7 +1403,7 @@ static int baseline_without_nuisances(const shared *s, dm_diagnosis *dg, const d
 {
     const dm_dataset *d = s->d;
     dg->nnuisance = dm_nuisance_count(d);
-    double *value = malloc(sizeof(double) * d->n), hs = 0, hc = 0;
+    double *value = malloc(sizeof(double) * d->n), hs = 0, hc = 0, ts = 0;
     if (!value)
         return DM_ENOMEM;
     dm_nuisance_place_on(d, s->held, value);
@@ -1322,9 +1411,16 @@ static int baseline_without_nuisances(const shared *s, dm_diagnosis *dg, const d
         double r = value[i] - pred[i];
         hs += s->held[i] ? r * r : 0;
         hc += s->held[i] ? r * r * s->w[i] * s->w[i] : 0;
+        ts += s->held[i] ? 0 : r * r;
     }
     dg->raw_held_chi2 = hc;
     dg->raw_held_rms = sqrt(hs / dg->n_held);
+    dg->raw_train_rms = sqrt(ts / dg->n_train);
+    /* the nuisance move beyond which a model compensates (dm_nuisance_shift):
+     * where the data show an effect's rigid part (a base-frame run) their
+     * misfit before the nuisances bounds what a genuine effect needs; where
+     * the reader's placement took that part, DM_DIAG_NUISANCE_MOVE_M does */
+    dg->compensating_m = fmax(DM_DIAG_NUISANCE_MOVE_M, dg->raw_train_rms);
     free(value);
     return DM_OK;
 }
@@ -1382,13 +1478,21 @@ static int diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_o
                  : check_work(rb, d, o, err);
     if (!rc)
         rc = dm_predict(rb, d, o->na, o->nb, pred, err);
+    dm_nuisance_fit base_nuisance;
+    double *design = NULL;
     if (!rc) {
         dg->sigma_known = s.sigma_known = weights(d, pred, w);
         rc = baseline_without_nuisances(&s, dg, pred);
+        if (!rc && dg->nnuisance && !(design = malloc(sizeof(double) * d->n * dg->nnuisance)))
+            rc = DM_ENOMEM;
+        if (design)
+            dm_nuisance_design(d, d->n, pred, design);
+        if (!rc)
+            rc = dm_nuisance_apply(d, d->n, held, w, pred, 1.0, &base_nuisance);
         if (rc)
             rc = dm_fail(err, rc, "out of memory");
-        else
-            rc = dm_nuisance_apply(d, d->n, held, w, pred, 1.0, NULL);
+        s.base_nuisance = design ? &base_nuisance : NULL;
+        s.nuisance_design = design;
     }
     if (!rc) {
         double hs = 0;
@@ -1404,7 +1508,7 @@ static int diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_o
         dg->base_score = held_score(dg, dg->base_held_chi2); /* no parameters */
         rank_singles(&s, dg, need);
         choose_single(dg, need);
-        dg->found = dg->significant && dg->best.ok && dg->base_score - dg->best.score > need;
+        dg->found = dg->significant && usable(&dg->best) && dg->base_score - dg->best.score > need;
         if (dg->found) {
             find_ties(dg);
             if (o->pairs)
@@ -1420,6 +1524,7 @@ static int diagnose(const dm_robot *rb, const dm_dataset *d, const dm_diagnose_o
                          d->source);
     }
     memo_free(&made);
+    free(design);
     free(held);
     free(pred);
     free(w);
