@@ -224,7 +224,7 @@ static void choose_fitted(int q, const double *V, const double *eig, const doubl
         double vb = 0;
         for (int k = 0; k < q; k++)
             vb += V[e * q + k] * b[k];
-        int roundoff = !(eig[e] > 1e-12 * eig[q - 1]);
+        int roundoff = !(eig[e] > ROUNDOFF_EIG * eig[q - 1]);
         red[e] = roundoff ? 0 : vb * vb / eig[e];
         left -= red[e];
         k_all += !roundoff;
