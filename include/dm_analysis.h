@@ -7,11 +7,18 @@
 #ifndef DM_ANALYSIS_H
 #define DM_ANALYSIS_H
 
+#include "dm_boundary.h"
 #include "dm_model.h"
 #include "dm_kinematics.h"
 #include "dm_modal.h"
 #include "dm_robot.h"
 #include "dm_static.h"
+
+/* Which model serves a pose: the full FE model (dm_modal, dm_static), or
+ * the member bases (dm_members, dm_boundary: statics exact through the
+ * boundary, the modes of the reduced problem, proven complete by a count
+ * of the whole model; docs/model-choices.md "Member bases"). */
+typedef enum dm_engine { DM_ENGINE_FULL = 0, DM_ENGINE_MEMBERS = 1 } dm_engine;
 
 typedef struct dm_analysis {
     const dm_robot *robot;
@@ -19,6 +26,18 @@ typedef struct dm_analysis {
     dm_model *model;
     dm_modal *modal;
     dm_static *statics;
+    /* the member engine (dm_analysis_use_members; members NULL: none) */
+    const dm_members *members; /* shared, read-only */
+    dm_boundary *boundary;
+    dm_boundary_eig *eig;
+    dm_modes member_modes;    /* the member engine's modes (its buffers) */
+    double *reduced;          /* nred x kmax: their reduced vectors */
+    double *lambda, *shapes;  /* kmax: their eigenvalues; n x kmax: their shapes */
+    int last_members;         /* the members served the last run */
+    int want_model;           /* the member engine also builds and factors the
+                                 full model (the standard moves read it) */
+    int want_shapes;          /* and recovers the shapes in the model's DOFs
+                                 (default 1; 0: member_modes.phi is NULL) */
 } dm_analysis;
 
 typedef struct dm_pose_result {
@@ -31,6 +50,8 @@ typedef struct dm_pose_result {
     double stiffness_min_n_per_m;/* 1 / compliance_max */
     int near_singular;           /* pose.cond > robot->singular_cond */
     double coupling_index_log10; /* log10 det K, Zheng eq. 33 (dm_coupling.h) */
+    dm_engine engine;            /* which served the pose (the full model where
+                                    the members could not) */
 } dm_pose_result;
 
 dm_analysis *dm_analysis_alloc(const dm_robot *robot, int na, int nb, int kmax,
@@ -42,5 +63,34 @@ void dm_analysis_free(dm_analysis *an);
  * structure is singular there. */
 int dm_analysis_run(dm_analysis *an, const double P[3], int k, dm_pose_result *res,
                     dm_error *err);
+
+/* Member bases for analyses of `robot` at mesh (na, nb) with up to kmax
+ * modes (the rule of dm_boundary_members_for_modes, at the robot's home):
+ * built once, shared read-only by every thread's dm_analysis. NULL, err
+ * saying why, when the members cannot serve the robot (geometric
+ * stiffness, joint clearance: dm_members_serves); callers keep the full
+ * model. */
+dm_members *dm_analysis_members(const dm_robot *robot, int na, int nb, int kmax,
+                                dm_error *err);
+
+/* Serve the poses from `members` (built for this robot, mesh and at least
+ * this kmax) from now on; a pose they cannot serve (a member solve that
+ * fails, a count of the whole model that finds a mode the bases miss)
+ * falls back to the full model, cold, and says so in res->engine. */
+int dm_analysis_use_members(dm_analysis *an, const dm_members *members, dm_error *err);
+
+/* Warm starts, as dm_modal's seeds, for whichever engine is in use: a run
+ * after seed_load gives the same bits whatever ran before; forget makes
+ * the next run cold. */
+size_t dm_analysis_seed_size(const dm_analysis *an);
+int dm_analysis_seed_save(const dm_analysis *an, void *seed);
+void dm_analysis_seed_load(dm_analysis *an, const void *seed);
+void dm_analysis_forget(dm_analysis *an);
+
+/* Certified error bounds (rad^2/s^2) of the k lowest eigenvalues of the
+ * last run, which the members served (dm_boundary_bounds: the whole
+ * model's eigenvalue within bound[j] of omega_j^2). DM_EINVAL when the
+ * full model served it (its accuracy is dense LAPACK's, dm_modal.h). */
+int dm_analysis_bounds(dm_analysis *an, int k, double *bound, dm_error *err);
 
 #endif

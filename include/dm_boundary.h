@@ -123,6 +123,24 @@ size_t dm_boundary_eig_seed_size(const dm_boundary_eig *e);
 int dm_boundary_eig_seed_save(const dm_boundary_eig *e, void *seed);
 void dm_boundary_eig_seed_load(dm_boundary_eig *e, const void *seed);
 
+/* Forget what the solves before taught (block, filter plan, guard
+ * generator): the next solve is cold and its bits depend on the pose
+ * alone, as after dm_boundary_eig_alloc. */
+void dm_boundary_eig_forget(dm_boundary_eig *e);
+
+/* The last successful solve's completeness count: its shift sigma (just
+ * above the k-th mode's cluster) and the reduced problem's eigenvalues
+ * below it. A count of the whole model at sigma (dm_boundary_count)
+ * larger than this one means the member bases miss a mode there. */
+void dm_boundary_eig_count_point(const dm_boundary_eig *e, double *sigma, int *count);
+
+/* MY = M_red Y for ncol <= k reduced vectors (nred each, the coordinates
+ * of dm_boundary_reduced_vectors) with the reduced mass at the last
+ * solve's pose: M-products of the model's shapes in reduced coordinates
+ * (phi_a' M phi_b = y_a' M_red y_b exactly, the reduction being a
+ * projection). */
+void dm_boundary_eig_mult_M(dm_boundary_eig *e, const double *Y, int ncol, double *MY);
+
 /* The last dm_boundary_reduced_modes' or dm_boundary_eig_solve's first k
  * reduced eigenvectors (nred x k, column-major, M-normalised). */
 void dm_boundary_reduced_vectors(const dm_boundary *bw, int k, double *Y);

@@ -54,6 +54,23 @@ json_true "d['frequencies_hz'] == sorted(d['frequencies_hz']) and len(d['frequen
 expect 0 "default pose is the robot's home" "$DM" modes --robot han2011 --json --modes 3
 json_true "d['pose_m'] == [0, 0, 0.96] and d['dof'] == 210"
 
+# the member engine: the same pose as the full model's, each frequency with
+# its certified bound; the full model where the members cannot serve, said
+expect 0 "modes full for members" "$DM" modes --robot zheng2017 --at 0.03,-0.02,-0.42 --modes 8 --set effects.payload_mass=1.5 --json
+cp "$TMP/out" "$TMP/full.json"
+expect 0 "modes members" "$DM" modes --robot zheng2017 --at 0.03,-0.02,-0.42 --modes 8 --set effects.payload_mass=1.5 --method members --json
+json_true "d['engine'] == 'members' and all(m['freq_bound_rel'] <= 1e-8 for m in d['modes'])"
+json_true "(lambda f: all(abs(a - b) <= 1e-9 * b for a, b in zip(d['frequencies_hz'], f['frequencies_hz'])) and abs(d['static_error'][2] - f['static_error'][2]) <= 1e-10 * abs(f['static_error'][2]) and abs(d['coupling_index_change_log10'] - f['coupling_index_change_log10']) < 1e-9)(json.load(open('$TMP/full.json')))"
+expect 0 "modes members table" "$DM" modes --robot han2011 --method members --modes 3
+contains out "engine  member bases"
+contains out "bound (rel.)"
+expect 0 "modes members, geometric stiffness" "$DM" modes --robot chen2018 --method members --modes 3 --set effects.geometric_stiffness=on
+contains out "engine  the full model (the member bases cannot serve: member bases: geometric stiffness"
+expect 0 "modes members, geometric stiffness, json" "$DM" modes --robot chen2018 --method members --modes 3 --set effects.geometric_stiffness=on --json
+json_true "d['engine'] == 'full' and 'geometric' in d['engine_reason'] and 'freq_bound_rel' not in d['modes'][0]"
+expect 1 "bad --method" "$DM" modes --robot chen2018 --method fast
+contains err "partial, dense, all or members"
+
 expect 3 "unreachable pose" "$DM" modes --robot chen2018 --at 0,0,-2
 contains err "unreachable"
 contains err "(0, 0, -2)"

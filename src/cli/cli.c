@@ -54,7 +54,8 @@ static const char MAIN_HELP[] =
 
 static const char MODES_HELP[] =
     "usage: deltamap modes --robot R [--at X,Y,Z] [--modes K] [--mesh NA,NB]\n"
-    "                      [--method partial|dense|all] [--set SECTION.KEY=V]... [--json]\n"
+    "                      [--method partial|dense|all|members] [--set SECTION.KEY=V]...\n"
+    "                      [--json]\n"
     "                      [--vtk FILE.vtu]\n"
     "\n"
     "Frozen-configuration modal analysis at one platform pose (docs/model.md §2-5).\n"
@@ -67,7 +68,12 @@ static const char MODES_HELP[] =
     "  --method M      eigen solver: partial (default: the k lowest modes by\n"
     "                  subspace iteration on the factor of K, proven complete\n"
     "                  by a Sturm count), dense (the k lowest by LAPACK on the\n"
-    "                  dense matrices) or all (every mode, dsygvd)\n"
+    "                  dense matrices), all (every mode, dsygvd) or members (the\n"
+    "                  member bases, component modes once per robot: statics\n"
+    "                  exact through the joints, each frequency with a certified\n"
+    "                  bound by Wittrick-Williams counts of the whole model; the\n"
+    "                  full model where the members cannot serve, said in the\n"
+    "                  output; docs/model-choices.md \"Member bases\")\n"
     "  --set K=V       override a robot-file key, e.g. arm.side=0.025 (repeatable)\n"
     "  --json          one JSON object on stdout instead of the table\n"
     "  --vtk FILE.vtu  also write the robot, its mode shapes and static deflection\n"
@@ -86,6 +92,7 @@ typedef struct {
     const char *vtk;
     int k;
     dm_eigen_method method;
+    int members; /* --method members */
     dm_robot rb; /* loaded by parse_modes_opts */
 } modes_opts;
 
@@ -113,8 +120,11 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
                 o->method = DM_EIGEN_ALL;
             else if (!strcmp(optarg, "dense"))
                 o->method = DM_EIGEN_DENSE;
+            else if (!strcmp(optarg, "members"))
+                o->members = 1, o->method = DM_EIGEN_PARTIAL;
             else
-                return dm_cli_usage("modes", "--method is partial, dense or all", optarg);
+                return dm_cli_usage("modes", "--method is partial, dense, all or members",
+                                    optarg);
             break;
         case 'V': o->vtk = optarg; break;
         default: assert(0);
@@ -127,8 +137,17 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
     return dm_cli_start(&o->sh, NULL, &o->rb);
 }
 
+/* What served the pose, for --method members: the member bases with each
+ * frequency's certified relative bound, or the full model and why. */
+typedef struct {
+    int asked;              /* --method members */
+    const double *freq_rel; /* per mode (NULL: the full model served) */
+    char why[256];          /* why the full model served */
+} engine_note;
+
 static void print_modes_table(const dm_robot *rb, const dm_analysis *an,
-                              const dm_pose_result *res, double nominal_log10)
+                              const dm_pose_result *res, double nominal_log10,
+                              const engine_note *en)
 {
     const dm_pose *p = &res->pose;
     const dm_modes *mo = res->modes;
@@ -140,11 +159,22 @@ static void print_modes_table(const dm_robot *rb, const dm_analysis *an,
         printf("real    geometry errors/clearance put the platform at commanded + (%.4g, %.4g, "
                "%.4g) m\n",
                p->offset[0], p->offset[1], p->offset[2]);
-    printf("model   mesh %d,%d: %d DOF\n\n", an->model->na, an->model->nb, an->model->n);
-    printf(" mode   freq (Hz)   platform share   direction\n");
-    for (int j = 0; j < mo->k; j++)
-        printf(" %4d %11.4f %14.1f %%   %s\n", j + 1, mo->freq_hz[j],
+    printf("model   mesh %d,%d: %d DOF\n", an->model->na, an->model->nb, an->model->n);
+    if (en->asked && en->freq_rel)
+        printf("engine  member bases: %d reduced DOF, completeness proven by a count of the "
+               "whole model\n", dm_boundary_reduced_size(an->boundary));
+    else if (en->asked)
+        printf("engine  the full model (%s)\n", en->why);
+    printf("\n mode   freq (Hz)   platform share   direction%s\n",
+           en->freq_rel ? "   bound (rel.)" : "");
+    for (int j = 0; j < mo->k; j++) {
+        printf(" %4d %11.4f %14.1f %%   %s", j + 1, mo->freq_hz[j],
                100.0 * mo->platform_share[j], dm_direction_name(mo->direction[j]));
+        if (en->freq_rel)
+            printf("%*s%.1e", 12 - (int)strlen(dm_direction_name(mo->direction[j])), "",
+                   en->freq_rel[j]);
+        putchar('\n');
+    }
     const double *u = res->static_error;
     printf("\nstatic elastic error under gravity (platform centre)\n");
     printf("  dx %+.5e m   dy %+.5e m   dz %+.5e m\n", u[0], u[1], u[2]);
@@ -171,7 +201,7 @@ static json_t *json_array_of(const double *v, int n)
 
 static int print_modes_json(const dm_robot *rb, const dm_analysis *an,
                             const dm_pose_result *res, double nominal_log10,
-                            const dm_shape_set *shapes)
+                            const dm_shape_set *shapes, const engine_note *en)
 {
     const dm_modes *mo = res->modes;
     json_t *o = json_object(), *modes = json_array(), *C = json_array();
@@ -187,11 +217,18 @@ static int print_modes_json(const dm_robot *rb, const dm_analysis *an,
     json_object_set_new(o, "mesh", json_pack("[ii]", an->model->na, an->model->nb));
     json_object_set_new(o, "dof", json_integer(an->model->n));
     json_object_set_new(o, "frequencies_hz", json_array_of(mo->freq_hz, mo->k));
-    for (int j = 0; j < mo->k; j++)
-        json_array_append_new(modes, json_pack("{s:i, s:f, s:f, s:s}", "mode", j + 1,
-                                               "freq_hz", mo->freq_hz[j], "platform_share",
-                                               mo->platform_share[j], "direction",
-                                               dm_direction_name(mo->direction[j])));
+    json_object_set_new(o, "engine", json_string(res->engine == DM_ENGINE_MEMBERS ? "members"
+                                                                                 : "full"));
+    if (en->asked && !en->freq_rel)
+        json_object_set_new(o, "engine_reason", json_string(en->why));
+    for (int j = 0; j < mo->k; j++) {
+        json_t *m = json_pack("{s:i, s:f, s:f, s:s}", "mode", j + 1, "freq_hz", mo->freq_hz[j],
+                              "platform_share", mo->platform_share[j], "direction",
+                              dm_direction_name(mo->direction[j]));
+        if (en->freq_rel)
+            json_object_set_new(m, "freq_bound_rel", json_real(en->freq_rel[j]));
+        json_array_append_new(modes, m);
+    }
     json_object_set_new(o, "modes", modes);
     json_object_set_new(o, "static_error", json_array_of(res->static_error, 6));
     for (int r = 0; r < 6; r++) {
@@ -212,6 +249,49 @@ static int print_modes_json(const dm_robot *rb, const dm_analysis *an,
     putchar('\n');
     json_decref(o);
     return rc ? DM_EIO : 0;
+}
+
+/* --method members: the member bases for the analysis (the model built
+ * too: the shapes' outputs read it), or NULL and why the full model serves. */
+static dm_members *use_members(dm_analysis *an, int na, int nb, int k, engine_note *en)
+{
+    dm_error why;
+    dm_members *ms = dm_analysis_members(an->robot, na, nb, k, &why);
+    if (ms && dm_analysis_use_members(an, ms, &why)) {
+        dm_members_free(ms);
+        ms = NULL;
+    }
+    if (!ms)
+        snprintf(en->why, sizeof en->why, "the member bases cannot serve: %.200s", why.msg);
+    an->want_model = 1;
+    return ms;
+}
+
+/* Each frequency's certified relative bound where the members served (a
+ * bound b on lambda = omega^2 is b / (2 lambda) on the frequency, to
+ * first order), or why the full model served the pose. */
+static int member_bounds(dm_analysis *an, const dm_pose_result *res, int k, engine_note *en,
+                         double **freq_rel, dm_error *err)
+{
+    if (res->engine != DM_ENGINE_MEMBERS) {
+        if (!en->why[0])
+            snprintf(en->why, sizeof en->why,
+                     "the member solve or its count failed at this pose");
+        return DM_OK;
+    }
+    double *b = malloc(sizeof(double) * k);
+    if (!b)
+        return dm_fail(err, DM_ENOMEM, "out of memory");
+    int rc = dm_analysis_bounds(an, k, b, err);
+    for (int j = 0; !rc && j < k; j++)
+        b[j] /= 2 * res->modes->omega_rad_s[j] * res->modes->omega_rad_s[j];
+    if (rc) {
+        free(b);
+        return rc;
+    }
+    *freq_rel = b;
+    en->freq_rel = b;
+    return DM_OK;
 }
 
 static int cmd_modes(int argc, char **argv)
@@ -236,10 +316,14 @@ static int cmd_modes(int argc, char **argv)
     }
     dm_pose_result res;
     const double *P = o.sh.have_at ? o.sh.at : rb->home_m;
-    double nominal = 0;
+    double nominal = 0, *freq_rel = NULL;
     dm_coupling *cw = NULL;
     dm_shape_set *shapes = NULL;
+    engine_note en = {o.members, NULL, ""};
+    dm_members *ms = o.members ? use_members(an, na, nb, o.k, &en) : NULL;
     rc = dm_analysis_run(an, P, o.k, &res, &err);
+    if (!rc && o.members)
+        rc = member_bounds(an, &res, o.k, &en, &freq_rel, &err);
     if (!rc && (o.sh.json || o.vtk) &&
         !(shapes = dm_shape_set_make(an, &res, dm_shape_default_max(rb), &err)))
         rc = err.code;
@@ -247,11 +331,13 @@ static int cmd_modes(int argc, char **argv)
         rc = err.code;
     if (!rc)
         rc = dm_coupling_nominal_log10(cw, P, &nominal, &err);
-    if (!rc && o.sh.json && (rc = print_modes_json(rb, an, &res, nominal, shapes)))
+    if (!rc && !dm_effects_any(&rb->effects)) /* the robot is its own nominal: 0 exactly, */
+        nominal = res.coupling_index_log10;   /* whichever model served */
+    if (!rc && o.sh.json && (rc = print_modes_json(rb, an, &res, nominal, shapes, &en)))
         dm_fail(&err, rc, "modes --json: the JSON could not be made or written (out of "
                 "memory, or stdout failed)");
     else if (!rc && !o.sh.json)
-        print_modes_table(rb, an, &res, nominal);
+        print_modes_table(rb, an, &res, nominal, &en);
     if (!rc && o.vtk) /* files last: a failure before leaves none behind */
         rc = dm_cli_modes_vtk(o.vtk, shapes, res.modes->platform_share, res.modes->freq_hz, &err);
     if (rc)
@@ -259,6 +345,8 @@ static int cmd_modes(int argc, char **argv)
     dm_coupling_free(cw);
     dm_shape_set_free(shapes);
     dm_analysis_free(an);
+    dm_members_free(ms);
+    free(freq_rel);
     return rc;
 }
 

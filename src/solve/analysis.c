@@ -2,10 +2,12 @@
  * statics, eigen solve. */
 #include "dm_analysis.h"
 
+#include <assert.h>
 #include <math.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "dm_coupling.h"
-#include <stdlib.h>
 
 dm_analysis *dm_analysis_alloc(const dm_robot *robot, int na, int nb, int kmax,
                                dm_eigen_method method, dm_error *err)
@@ -36,36 +38,238 @@ void dm_analysis_free(dm_analysis *an)
 {
     if (!an)
         return;
+    dm_boundary_eig_free(an->eig);
+    dm_boundary_free(an->boundary);
+    free(an->member_modes.omega_rad_s);
+    free(an->member_modes.freq_hz);
+    free(an->member_modes.platform_share);
+    free(an->member_modes.direction);
+    free(an->reduced);
+    free(an->lambda);
+    free(an->shapes);
     dm_static_free(an->statics);
     dm_modal_free(an->modal);
     dm_model_free(an->model);
     free(an);
 }
 
-int dm_analysis_run(dm_analysis *an, const double P[3], int k, dm_pose_result *res,
-                    dm_error *err)
+/* The statics of the factored full model into res. */
+static int full_statics(dm_analysis *an, dm_pose_result *res, dm_error *err)
 {
-    int rc = dm_kin_pose(an->robot, P, &res->pose, err);
-    if (!rc)
-        rc = dm_model_build(an->model, &res->pose, err);
-    /* one factorization of K: statics, then the eigen solve on it */
-    if (!rc)
-        rc = dm_static_factor(an->statics, an->model, err);
-    if (!rc)
-        rc = dm_static_platform_error(an->statics, an->model, an->model->F_gravity,
+    int rc = dm_static_platform_error(an->statics, an->model, an->model->F_gravity,
                                       res->static_error, err);
     if (!rc)
         res->coupling_index_log10 = dm_coupling_index_log10(an->statics);
     if (!rc)
         rc = dm_static_compliance(an->statics, an->model, res->compliance, err);
+    return rc;
+}
+
+/* The pose on the full model: assembly, one factorization of K for the
+ * statics, then the eigen solve on it. */
+static int run_full(dm_analysis *an, int k, dm_pose_result *res, dm_error *err)
+{
+    int rc = dm_model_build(an->model, &res->pose, err);
+    if (!rc)
+        rc = dm_static_factor(an->statics, an->model, err);
+    if (!rc)
+        rc = full_statics(an, res, err);
     if (!rc)
         rc = dm_modal_solve(an->modal, an->model, an->statics, k, &res->modes, err);
+    if (!rc)
+        dm_modal_platform_share(an->modal, an->model);
+    res->engine = DM_ENGINE_FULL;
+    return rc;
+}
+
+/* Each mode's share of its kinetic energy in the platform, and the
+ * direction with the most (dm_modal_platform_share's rule), from the
+ * reduced vectors' platform rows: the platform is part of the boundary,
+ * in the model's axes. */
+static void member_platform_share(dm_analysis *an, int k)
+{
+    const dm_members *ms = an->members;
+    int nr = dm_boundary_reduced_size(an->boundary), p = ms->bplat;
+    dm_modes *mo = &an->member_modes;
+    for (int j = 0; j < k; j++) {
+        const double *y = an->reduced + (size_t)j * nr + p;
+        double share = 0, best = -1;
+        for (int r = 0; r < 6; r++) {
+            double row = 0;
+            for (int c = 0; c < 6; c++)
+                row += ms->Mb[(size_t)(p + c) * ms->nbound + p + r] * y[c];
+            double energy = y[r] * row;
+            share += energy;
+            if (energy > best) {
+                best = energy;
+                mo->direction[j] = r;
+            }
+        }
+        mo->platform_share[j] = share;
+    }
+}
+
+/* The pose from the members: the boundary's statics, the reduced modes
+ * and the whole model's count at the reduced solve's shift, which must
+ * find no more modes below it than the reduced problem has (the reduced
+ * values are upper bounds of the model's: more means a mode the bases
+ * miss). */
+static int run_members(dm_analysis *an, int k, dm_pose_result *res, dm_error *err)
+{
+    dm_boundary_statics bs;
+    dm_modes *mo = &an->member_modes;
+    int rc = dm_boundary_solve(an->boundary, &res->pose, &bs, err);
     if (rc)
         return rc;
-    dm_modal_platform_share(an->modal, an->model);
+    memcpy(res->static_error, bs.static_error, sizeof bs.static_error);
+    memcpy(res->compliance, bs.compliance, sizeof bs.compliance);
+    res->coupling_index_log10 = bs.logdet_K / M_LN10;
+    double *lambda = an->lambda, sigma;
+    rc = dm_boundary_eig_solve(an->eig, an->boundary, lambda, NULL, NULL, err);
+    int reduced_count, whole_count;
+    if (!rc) {
+        dm_boundary_eig_count_point(an->eig, &sigma, &reduced_count);
+        rc = dm_boundary_count(an->boundary, sigma, &whole_count, err);
+    }
+    if (!rc && whole_count != reduced_count)
+        rc = dm_fail(err, DM_ENUMERIC,
+                     "member bases: the model has %d modes below %.6g Hz, the bases %d",
+                     whole_count, sqrt(sigma) / (2 * M_PI), reduced_count);
+    if (rc) {
+        dm_boundary_eig_forget(an->eig);
+        return rc;
+    }
+    for (int j = 0; j < an->kmax; j++) {
+        mo->omega_rad_s[j] = sqrt(lambda[j]);
+        mo->freq_hz[j] = mo->omega_rad_s[j] / (2 * M_PI);
+    }
+    dm_boundary_reduced_vectors(an->boundary, an->kmax, an->reduced);
+    member_platform_share(an, an->kmax);
+    mo->k = k;
+    mo->phi = an->want_shapes ? an->shapes : NULL;
+    if (an->want_shapes)
+        dm_boundary_mode_shapes(an->boundary, an->kmax, mo->phi);
+    if (an->want_model) {
+        rc = dm_model_build(an->model, &res->pose, err);
+        if (!rc)
+            rc = dm_static_factor(an->statics, an->model, err);
+    }
+    res->modes = mo;
+    res->engine = DM_ENGINE_MEMBERS;
+    return rc;
+}
+
+int dm_analysis_run(dm_analysis *an, const double P[3], int k, dm_pose_result *res,
+                    dm_error *err)
+{
+    assert(k >= 1 && k <= an->kmax);
+    int rc = dm_kin_pose(an->robot, P, &res->pose, err);
+    if (rc)
+        return rc;
+    an->last_members = 0;
+    if (an->members) {
+        rc = run_members(an, k, res, NULL);
+        an->last_members = !rc;
+        if (rc) { /* the full model serves, cold: its bits depend on the pose alone */
+            dm_modal_forget(an->modal);
+            rc = run_full(an, k, res, err);
+        }
+    } else
+        rc = run_full(an, k, res, err);
+    if (rc)
+        return rc;
     if (dm_compliance_worst(res->compliance, &res->compliance_max_m_per_n, res->compliance_dir))
         return dm_fail(err, DM_ENUMERIC, "eigen decomposition of the 3x3 compliance failed");
     res->stiffness_min_n_per_m = 1.0 / res->compliance_max_m_per_n;
     res->near_singular = !(res->pose.cond <= an->robot->singular_cond);
     return DM_OK;
+}
+
+dm_members *dm_analysis_members(const dm_robot *robot, int na, int nb, int kmax, dm_error *err)
+{
+    if (dm_members_serves(robot, err))
+        return NULL;
+    dm_model *md = dm_model_alloc(robot, na, nb, err);
+    dm_pose home;
+    dm_members *ms = NULL;
+    if (md && !dm_kin_pose(robot, robot->home_m, &home, err) && !dm_model_build(md, &home, err))
+        ms = dm_boundary_members_for_modes(md, &home, kmax < md->n ? kmax : md->n - 1, err);
+    dm_model_free(md);
+    return ms;
+}
+
+int dm_analysis_use_members(dm_analysis *an, const dm_members *members, dm_error *err)
+{
+    assert(!an->members && members->n == an->model->n);
+    int k = an->kmax;
+    an->boundary = dm_boundary_alloc(members, err);
+    if (!an->boundary)
+        return err ? err->code : DM_ENOMEM;
+    int nr = dm_boundary_reduced_size(an->boundary);
+    if (k >= nr)
+        return dm_fail(err, DM_EINVAL, "member bases: %d modes asked of a %d-DOF reduced model",
+                       k, nr);
+    an->eig = dm_boundary_eig_alloc(an->boundary, k, err);
+    if (!an->eig)
+        return err ? err->code : DM_ENOMEM;
+    dm_modes *mo = &an->member_modes;
+    mo->n = an->model->n, mo->k = k;
+    mo->omega_rad_s = malloc(sizeof(double) * k);
+    mo->freq_hz = malloc(sizeof(double) * k);
+    an->shapes = malloc(sizeof(double) * (size_t)mo->n * k);
+    mo->platform_share = malloc(sizeof(double) * k);
+    mo->direction = malloc(sizeof(int) * k);
+    an->reduced = malloc(sizeof(double) * (size_t)nr * k);
+    an->lambda = malloc(sizeof(double) * k);
+    if (!an->lambda || !mo->omega_rad_s || !mo->freq_hz || !an->shapes || !mo->platform_share ||
+        !mo->direction || !an->reduced)
+        return dm_fail(err, DM_ENOMEM, "out of memory for the member engine");
+    an->want_shapes = 1;
+    an->members = members;
+    return DM_OK;
+}
+
+/* A member seed: whether the solve left one, then the solver's. */
+size_t dm_analysis_seed_size(const dm_analysis *an)
+{
+    return an->members ? sizeof(double) + dm_boundary_eig_seed_size(an->eig)
+                       : dm_modal_seed_size(an->modal);
+}
+
+int dm_analysis_seed_save(const dm_analysis *an, void *seed)
+{
+    if (!an->members)
+        return dm_modal_seed_save(an->modal, seed);
+    double has = dm_boundary_eig_seed_save(an->eig, (char *)seed + sizeof(double));
+    memcpy(seed, &has, sizeof has);
+    return has != 0;
+}
+
+void dm_analysis_seed_load(dm_analysis *an, const void *seed)
+{
+    if (!an->members) {
+        dm_modal_seed_load(an->modal, seed);
+        return;
+    }
+    double has;
+    memcpy(&has, seed, sizeof has);
+    if (has != 0)
+        dm_boundary_eig_seed_load(an->eig, (const char *)seed + sizeof(double));
+    else
+        dm_boundary_eig_forget(an->eig);
+}
+
+void dm_analysis_forget(dm_analysis *an)
+{
+    dm_modal_forget(an->modal);
+    if (an->members)
+        dm_boundary_eig_forget(an->eig);
+}
+
+int dm_analysis_bounds(dm_analysis *an, int k, double *bound, dm_error *err)
+{
+    if (!an->last_members)
+        return dm_fail(err, DM_EINVAL, "certified bounds: the full model served the last pose");
+    assert(k >= 1 && k <= an->kmax);
+    return dm_boundary_bounds(an->boundary, k, an->lambda, bound, err);
 }

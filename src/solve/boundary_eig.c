@@ -32,6 +32,8 @@ struct dm_boundary_eig {
     lapack_int *iwork;
     int lwork, liwork, nstart;
     dm_rng rng;
+    double sigma; /* the last solve's count: its shift and the modes below it */
+    int count;
 };
 
 void dm_boundary_eig_free(dm_boundary_eig *e)
@@ -554,8 +556,10 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
             e->nstart = 0, e->plan = 0;
             return dm_fail(err, DM_ENUMERIC, "reduced eigensolver: the count's shift is singular");
         }
-        if (count == top + 1)
+        if (count == top + 1) {
+            e->sigma = e->w[top] * (1 + COUNT_SHIFT), e->count = count;
             break;
+        }
         if (count < top + 1 || attempt == MAX_RESTARTS) { /* Ritz values are upper bounds */
             e->nstart = 0, e->plan = 0;
             return dm_fail(err, DM_ENUMERIC, "reduced eigensolver: %d modes below %d Ritz values",
@@ -576,4 +580,28 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
     }
     e->nstart = e->p;
     return DM_OK;
+}
+
+void dm_boundary_eig_forget(dm_boundary_eig *e)
+{
+    e->nstart = 0, e->plan = 0, e->easy = 0, e->b = 0;
+    e->p = e->k + GUARD < e->pmax ? e->k + GUARD : e->pmax;
+    e->rng.state = 0x39e1; /* as allocated: a cold solve's bits depend on its pose alone */
+}
+
+void dm_boundary_eig_count_point(const dm_boundary_eig *e, double *sigma, int *count)
+{
+    *sigma = e->sigma, *count = e->count;
+}
+
+void dm_boundary_eig_mult_M(dm_boundary_eig *e, const double *Y, int ncol, double *MY)
+{
+    assert(ncol <= 2 * e->p);
+    for (int j = 0; j < ncol; j++) { /* into the rotated coordinates, where B lives */
+        memcpy(e->W + (size_t)j * e->nr, Y + (size_t)j * e->nr, sizeof(double) * e->nr);
+        rotate(e, e->ms, e->W + (size_t)j * e->nr, 1);
+    }
+    apply_M(e, e->W, ncol, MY);
+    for (int j = 0; j < ncol; j++)
+        rotate(e, e->ms, MY + (size_t)j * e->nr, 0);
 }
