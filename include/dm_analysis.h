@@ -87,6 +87,20 @@ int dm_analysis_seed_save(const dm_analysis *an, void *seed);
 void dm_analysis_seed_load(dm_analysis *an, const void *seed);
 void dm_analysis_forget(dm_analysis *an);
 
+/* Mode tracking for whichever engine is in use (dm_modal_track): the
+ * vectors families are followed by are the shapes (n) on the full model,
+ * the reduced vectors (nred: the same M-products, dm_boundary_eig_mult_M)
+ * on the members. track_dim: their length; track_vectors: the last run's
+ * (kmax of them), NULL where the full model served a member analysis (its
+ * vectors are not in the members' coordinates). dm_analysis_track
+ * matches families ref (track_dim x kr) against the last run's kc modes;
+ * -1 (nothing assigned) where track_vectors is NULL. work: 2 track_dim kr
+ * + kr kc doubles. */
+int dm_analysis_track_dim(const dm_analysis *an);
+const double *dm_analysis_track_vectors(const dm_analysis *an, const dm_pose_result *res);
+int dm_analysis_track(dm_analysis *an, const dm_pose_result *res, const double *ref, int kr,
+                      int kc, int *assign, double *mac, double *shapes, double *work);
+
 /* Certified error bounds (rad^2/s^2) of the k lowest eigenvalues of the
  * last run, which the members served (dm_boundary_bounds: the whole
  * model's eigenvalue within bound[j] of omega_j^2). DM_EINVAL when the

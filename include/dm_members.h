@@ -112,6 +112,10 @@ typedef struct dm_members_pose {
 dm_members *dm_members_build(const dm_model *model, double lambda_cut, dm_error *err);
 void dm_members_free(dm_members *members);
 
+/* The reduced problem's size on these bases: boundary DOFs + each
+ * member's kept modes and residual vectors (dm_boundary_reduced_size). */
+int dm_members_reduced_size(const dm_members *members);
+
 /* Can the cache serve this robot's models at all (else the reason)? */
 int dm_members_serves(const dm_robot *robot, dm_error *err);
 

@@ -196,4 +196,12 @@ void dm_modal_track(const double *ref, int kr, const dm_modes *modes, int kc,
                     const dm_model *model, int *assign, double *mac, double *shapes,
                     double *work);
 
+/* dm_modal_track's matching from the products it needs, in any
+ * coordinates where M is known: a[j + kc f] = y_j' M ref_f (kc x kr),
+ * norms2[f] = ref_f' M ref_f, the modes' frequencies (kc) and vectors
+ * (vec: dim x kc, for the families' next references in shapes, dim x kr). */
+void dm_modal_track_products(const double *a, const double *norms2, int kr, const double *freq_hz,
+                             int kc, const double *vec, int dim, int *assign, double *mac,
+                             double *shapes);
+
 #endif

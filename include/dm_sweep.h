@@ -50,6 +50,11 @@ typedef struct dm_sweep_opts {
     int tile[3];        /* tile shape (0: automatic) */
     int threads;        /* 0: OpenMP default */
     int dynamic;        /* standard moves along X, Y, Z (default 1) */
+    /* members: every point served by the member bases (dm_analysis_use_
+     * members, built once and shared by the threads; a pose they cannot
+     * serve by the full model, and its families untracked); refused for a
+     * robot they cannot serve at all. Part of the fingerprint. */
+    int members;
     dm_move_opts move;
     int replace;        /* replace a store of another robot/grid/options */
     int force_long;     /* run even beyond DM_SWEEP_MAX_SECONDS or DM_SWEEP_MAX_FILES */

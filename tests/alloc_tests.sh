@@ -50,6 +50,16 @@ for robot in chen2018 zheng2017 han2011; do
     same "sweep $robot" "$n16" "$n32"
 done
 
+# the member engine's sweeps, with and without the standard moves
+for moves in "" "--no-dynamic"; do
+    for g in 16 32; do
+        rm -rf "$TMP/s"
+        eval "m$g=\$(allocations sweep --robot zheng2017 --grid x=-0.15:0.15:$g,y=-0.15:0.15:$((2 * g)),z=-0.45 \
+            --tile $g,$g,1 --threads 2 --progress none --method members $moves --out $TMP/s)"
+    done
+    same "members sweep $moves" "$m16" "$m32"
+done
+
 # trajectories: 50 and 100 steps, CVODE and closed form
 for integ in cvode closed-form; do
     for d in 0.05 0.1; do

@@ -303,7 +303,10 @@ static void accuracy(const char *preset, int mesh)
 
 static volatile sig_atomic_t never;
 
-static double sweep_rate(const char *grid_spec, int mesh, int threads, long *points)
+/* poses/s of a chen2018 sweep: the full model or the members, with or
+ * without the standard moves. */
+static double sweep_rate_with(const char *grid_spec, int mesh, int threads, int members,
+                              int dynamic, long *points)
 {
     dm_robot rb;
     dm_grid g;
@@ -316,6 +319,8 @@ static double sweep_rate(const char *grid_spec, int mesh, int threads, long *poi
     dm_sweep_opts_default(&o);
     o.na = o.nb = mesh;
     o.threads = threads;
+    o.members = members;
+    o.dynamic = dynamic;
     if (!mkdtemp(dir))
         return 0;
     double t0 = now_s();
@@ -327,6 +332,12 @@ static double sweep_rate(const char *grid_spec, int mesh, int threads, long *poi
     *points = st.points_total;
     return st.points_total / dt;
 }
+
+static double sweep_rate(const char *grid_spec, int mesh, int threads, long *points)
+{
+    return sweep_rate_with(grid_spec, mesh, threads, 0, 1, points);
+}
+
 
 /* Bare dsygvx(10) (seconds, the mean) at poses of a sweep's grid: the
  * model built at 8 of its points spread over the map, as section 1 times
@@ -663,6 +674,28 @@ static void on_every_path(const char *job)
     }
 }
 
+/* Section 5's whole engine: a sweep (anchors, tile I/O, tracking
+ * included) with the members against the full model in the same run, per
+ * pose on one thread against bare dsygvx(10) at the map's poses, and
+ * poses/s on 1 and 2 threads, with and without the standard moves. */
+static void members_sweep_rows(int mesh)
+{
+    long pts;
+    double x = bare_dsygvx_on_grid("chen2018", mesh);
+    for (int dynamic = 1; dynamic >= 0; dynamic--) {
+        double r[2][2];
+        for (int members = 0; members < 2; members++)
+            for (int t = 1; t <= 2; t++)
+                r[members][t - 1] = sweep_rate_with(SWEEP_GRID, mesh, t, members, dynamic, &pts);
+        printf("   sweep chen2018 %d,%d, %ld points, %s: full model %6.0f us a pose = %.3f x "
+               "dsygvx(10), %5.0f poses/s on 2 threads | members %6.0f us = %.3f x, %5.0f "
+               "poses/s on 2 threads (%.2f x one; 1e6 poses %.1f min), %.2f x faster\n",
+               mesh, mesh, pts, dynamic ? "standard moves" : "--no-dynamic  ",
+               1e6 / r[0][0], 1 / r[0][0] / x, r[0][1], 1e6 / r[1][0], 1 / r[1][0] / x,
+               r[1][1], r[1][1] / r[1][0], 1e6 / r[1][1] / 60, r[1][1] / r[0][1]);
+    }
+}
+
 /* Section 5: along a tile's path, per pose the minimum of REPS timings
  * of each part run REPS times in a row (warm caches; the machine is
  * shared: the minimum is the figure least disturbed by other load),
@@ -902,5 +935,7 @@ int main(int argc, char **argv)
         for (int p = 0; p < 3; p++)
             if (wanted(argc, argv, presets[p]))
                 members_row(presets[p], meshes[m]);
+    for (int m = 1; m < 3 && wanted(argc, argv, "5") && wanted(argc, argv, "chen2018"); m++)
+        members_sweep_rows(meshes[m]);
     return 0;
 }

@@ -64,6 +64,17 @@ for spec in "chen2018 x=-0.3:0.3:9,y=-0.3:0.3:7,z=-0.6:-0.45:2" \
     done
 done
 
+# the member engine's store: the same bytes on every path (its own code
+# is BLAS, LAPACK and scalar loops; the moves' kernels are per path)
+mgrid="x=-0.1:0.1:6,y=-0.1:0.1:5,z=-0.45:-0.35:2"
+for isa in $paths; do
+    DELTAMAP_ISA=$isa $DM sweep --robot zheng2017 --grid "$mgrid" --tile 4,4,1 --threads 2 \
+        --method members --progress none --out "$TMP/members-$isa" >/dev/null ||
+        bad "members sweep on $isa"
+    if diff -r "$TMP/members-default" "$TMP/members-$isa" >/dev/null; then ok
+    else bad "members store on path $isa differs from default's"; fi
+done
+
 # a trajectory's CSV and JSON, every path
 for isa in $paths; do
     DELTAMAP_ISA=$isa $DM trajectory --robot zheng2017 --path zheng2017 --no-reference \

@@ -244,6 +244,99 @@ static void threads_resume_and_refusal(void **state)
     rmtree(three);
 }
 
+/* --method members: the store bit-identical on 1 and 2 threads and its
+ * values on other tiles; every point's values those of the member
+ * analysis at its pose (to 1e-9, as the full sweep's are the full
+ * analysis's) and within 1e-9 of the full model's frequencies; the
+ * standard moves' peaks within 1e-7 of the full sweep's (their inputs
+ * differ by ~1e-10 in frequency, which the peak's phase over the window,
+ * omega t ~ 100, multiplies: 1.3e-8 measured); a robot the members cannot
+ * serve is refused, and so is resuming a store of the full model. */
+static void member_engine_sweeps(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
+    dm_sweep_opts o;
+    sweep_options(&o, 2, 6, 3, 2);
+    o.members = 1;
+    char *one = tmpdir(), *two = tmpdir(), *other = tmpdir(), *full = tmpdir();
+    o.threads = 1;
+    run_sweep(&rb, SPEC, &o, one);
+    o.threads = 2;
+    run_sweep(&rb, SPEC, &o, two);
+    assert_true(same_tree(one, two));
+    o.tile[0] = 7, o.tile[1] = 5;
+    run_sweep(&rb, SPEC, &o, other);
+    o.members = 0;
+    o.tile[0] = 3, o.tile[1] = 2;
+    run_sweep(&rb, SPEC, &o, full);
+    static double f[NPTS * 6], fo[NPTS * 6], ff[NPTS * 6], tr[NPTS * 6], tro[NPTS * 6];
+    static double mp[NPTS * 3], mpo[NPTS * 3], mpf[NPTS * 3], e[NPTS * 6];
+    static unsigned char status[NPTS];
+    read_all(one, "frequencies_hz", f, 8);
+    read_all(other, "frequencies_hz", fo, 8);
+    read_all(full, "frequencies_hz", ff, 8);
+    read_all(one, "frequencies_tracked_hz", tr, 8);
+    read_all(other, "frequencies_tracked_hz", tro, 8);
+    read_all(one, "move_peak_m", mp, 8);
+    read_all(other, "move_peak_m", mpo, 8);
+    read_all(full, "move_peak_m", mpf, 8);
+    read_all(one, "static_error", e, 8);
+    read_all(one, "status", status, 1);
+    assert_memory_equal(f, fo, sizeof f);
+    assert_memory_equal(tr, tro, sizeof tr);
+    assert_memory_equal(mp, mpo, sizeof mp);
+    dm_grid g;
+    assert_int_equal(dm_grid_parse(SPEC, &g, NULL), 0);
+    dm_members *ms = dm_analysis_members(&rb, 2, 2, 10, NULL);
+    dm_analysis *an = dm_analysis_alloc(&rb, 2, 2, 10, DM_EIGEN_PARTIAL, NULL);
+    assert_int_equal(dm_analysis_use_members(an, ms, NULL), 0);
+    int served = 0;
+    for (int p = 0; p < NPTS; p++) {
+        int idx[3] = {p / 10, (p / 2) % 5, p % 2};
+        double P[3];
+        dm_pose_result res;
+        dm_grid_position(&g, idx, P);
+        if (dm_analysis_run(an, P, 10, &res, NULL) == DM_EUNREACHABLE) {
+            assert_int_equal(status[p], DM_POINT_UNREACHABLE);
+            continue;
+        }
+        served += res.engine == DM_ENGINE_MEMBERS;
+        for (int j = 0; j < 6; j++) {
+            assert_rel(f[6 * p + j], res.modes->freq_hz[j], 1e-9, "point %d f%d", p, j + 1);
+            assert_rel(f[6 * p + j], ff[6 * p + j], 1e-9, "point %d f%d (full)", p, j + 1);
+            assert_abs(e[6 * p + j], res.static_error[j], 1e-9 * fabs(res.static_error[2]),
+                       "point %d error %d", p, j);
+            int found = 0;
+            for (int i = 0; i < 10; i++)
+                found |= fabs(tr[6 * p + j] - res.modes->freq_hz[i]) < 1e-8 * res.modes->freq_hz[i];
+            assert_true(found);
+        }
+        for (int d = 0; d < 3; d++)
+            assert_rel(mp[3 * p + d], mpf[3 * p + d], 1e-7, "point %d move %d", p, d);
+    }
+    assert_true(served > 0);
+    dm_analysis_free(an);
+    dm_members_free(ms);
+    /* resuming the full model's store with the members: another sweep */
+    dm_sweep_stats st;
+    dm_error err;
+    o.members = 1;
+    assert_int_equal(dm_sweep_run(&rb, &g, &o, full, &no_stop, &st, &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "another --method"));
+    /* geometric stiffness: the members cannot serve, said before any work */
+    char *none = tmpdir();
+    assert_int_equal(dm_robot_set(&rb, "effects.geometric_stiffness=on", NULL), 0);
+    assert_int_equal(dm_sweep_run(&rb, &g, &o, none, &no_stop, &st, &err), DM_EINVAL);
+    assert_non_null(strstr(err.msg, "geometric stiffness"));
+    rmtree(one);
+    rmtree(two);
+    rmtree(other);
+    rmtree(full);
+    rmtree(none);
+}
+
 /* Three shards run one after the other into one store make the store of
  * one process, each computing only its tiles; a finished shard's rerun
  * computes nothing; a shard that does not exist is refused. */
@@ -561,6 +654,7 @@ int main(void)
         cmocka_unit_test(values_equal_single_pose_analysis),
         cmocka_unit_test(points_between_anchors),
         cmocka_unit_test(threads_resume_and_refusal),
+        cmocka_unit_test(member_engine_sweeps),
         cmocka_unit_test(shards_make_the_same_store),
         cmocka_unit_test(resume_repairs_derived_files),
         cmocka_unit_test(array_table_matches_point_result),

@@ -60,6 +60,15 @@ static int worker_alloc(const sweep_ctx *c, sweep_worker *w, dm_error *err)
     w->an = dm_analysis_alloc(c->rb, c->na, c->nb, c->kc, DM_EIGEN_PARTIAL, err);
     if (!w->an)
         return err ? err->code : DM_ENOMEM;
+    if (c->members) { /* the moves read the model and the shapes */
+        int rc = dm_analysis_use_members(w->an, c->members, err);
+        if (rc) {
+            worker_free(w);
+            memset(w, 0, sizeof *w);
+            return rc;
+        }
+        w->an->want_model = w->an->want_shapes = c->o.dynamic;
+    }
     if (dm_effects_any(&c->rb->effects) && /* else the change is 0 */
         !(w->nominal = dm_coupling_alloc(c->rb, c->na, c->nb, err))) {
         worker_free(w);
@@ -108,7 +117,12 @@ static void analyse_point(const sweep_ctx *c, sweep_worker *w, const int idx[3],
     dm_pose_result res;
     point_nan(r, DM_POINT_OK);
     int an = dm_sweep_anchors_nearest(c, P);
-    if (an >= 0 && c->seed_len) {
+    if (c->members) { /* the anchor's seed as it is: the filter needs no nudge */
+        if (an >= 0)
+            dm_analysis_seed_load(w->an, dm_sweep_anchors_seed(c, an));
+        else
+            dm_analysis_forget(w->an);
+    } else if (an >= 0 && c->seed_len) {
         const void *toward[3];
         double frac[3];
         int nt = dm_sweep_anchors_toward(c, an, idx, toward, frac);
@@ -139,7 +153,7 @@ static void analyse_point(const sweep_ctx *c, sweep_worker *w, const int idx[3],
                                        : res.coupling_index_log10 - nominal;
     /* families: matched against the nearest anchor's */
     if (an >= 0) {
-        dm_sweep_anchors_track(c, w, c->anchor_phi + (size_t)an * c->n * c->k, res.modes, w->shapes);
+        dm_sweep_anchors_track(c, w, c->anchor_phi + (size_t)an * c->dim * c->k, &res, w->shapes);
         for (int f = 0; f < c->k; f++)
             r->tracked_hz[f] = w->assign[f] < 0 ? NAN : res.modes->freq_hz[w->assign[f]];
     }
@@ -341,6 +355,13 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
                        o->shards);
     c->k = o->k;
     c->kc = c->k + EXTRA_MODES < c->n ? c->k + EXTRA_MODES : c->n;
+    c->dim = c->n;
+    if (o->members) {
+        dm_error why;
+        if (!(c->members = dm_analysis_members(rb, c->na, c->nb, c->kc, &why)))
+            return dm_fail(err, why.code, "sweep --method members: %s", why.msg);
+        c->dim = dm_members_reduced_size(c->members);
+    }
     c->ndata = dm_sweep_ndata(o->tolerance, o->tolerance_spec.spec_m);
     if (o->tolerance) {
         c->tol = o->tolerance_spec;
@@ -377,6 +398,7 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
 
 static void teardown(sweep_ctx *c)
 {
+    dm_members_free(c->members);
     free(c->anchor_P);
     free(c->anchor_ok);
     free(c->anchor_phi);

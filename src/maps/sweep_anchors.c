@@ -31,10 +31,10 @@ static int anchor_index(const sweep_ctx *c, const int m[3], const int a[3])
     return (a[0] * m[1] + a[1]) * m[2] + a[2];
 }
 
-void dm_sweep_anchors_track(const sweep_ctx *c, sweep_worker *w, const double *ref,
-                            const dm_modes *modes, double *dst)
+int dm_sweep_anchors_track(const sweep_ctx *c, sweep_worker *w, const double *ref,
+                           const dm_pose_result *res, double *dst)
 {
-    dm_modal_track(ref, c->k, modes, c->kc, w->an->model, w->assign, w->mac, dst, w->mac_work);
+    return dm_analysis_track(w->an, res, ref, c->k, c->kc, w->assign, w->mac, dst, w->mac_work);
 }
 
 unsigned char *dm_sweep_anchors_seed(const sweep_ctx *c, int a)
@@ -54,15 +54,16 @@ static void anchor_progress(const sweep_ctx *c, long done, long total, int final
  * starts from `from`'s seed and leaves `to`'s. */
 static int follow(sweep_ctx *c, sweep_worker *w, int from, int to)
 {
-    size_t block = (size_t)c->n * c->k;
+    size_t block = (size_t)c->dim * c->k;
     dm_pose_result res;
     if (c->seed_len)
-        dm_modal_seed_load(w->an->modal, dm_sweep_anchors_seed(c, from));
-    if (dm_analysis_run(w->an, c->anchor_P[to], c->kc, &res, NULL))
+        dm_analysis_seed_load(w->an, dm_sweep_anchors_seed(c, from));
+    if (dm_analysis_run(w->an, c->anchor_P[to], c->kc, &res, NULL) ||
+        dm_sweep_anchors_track(c, w, c->anchor_phi + from * block, &res,
+                               c->anchor_phi + to * block))
         return 0;
-    dm_sweep_anchors_track(c, w, c->anchor_phi + from * block, res.modes, c->anchor_phi + to * block);
     if (c->seed_len)
-        dm_modal_seed_save(w->an->modal, dm_sweep_anchors_seed(c, to));
+        dm_analysis_seed_save(w->an, dm_sweep_anchors_seed(c, to));
     c->anchor_ok[to] = 1;
     return 1;
 }
@@ -72,7 +73,7 @@ static int follow(sweep_ctx *c, sweep_worker *w, int from, int to)
 #define ANCHOR_BYTES (128u << 20)
 static void anchor_lattice(const sweep_ctx *c, int m[3])
 {
-    size_t per = (size_t)c->n * c->k * sizeof(double) + c->seed_len + 64;
+    size_t per = (size_t)c->dim * c->k * sizeof(double) + c->seed_len + 64;
     for (int d = 0; d < 3; d++) {
         int count = c->grid->axis[d].count, want = count / POINTS_PER_ANCHOR;
         want = want < ANCHORS_MIN ? ANCHORS_MIN : want > ANCHORS_MAX ? ANCHORS_MAX : want;
@@ -145,14 +146,16 @@ static int root_column(sweep_ctx *c, sweep_worker *w, const int m[3], const int 
                        int *queue)
 {
     int tail = 0;
-    size_t block = (size_t)c->n * c->k;
+    size_t block = (size_t)c->dim * c->k;
     dm_pose_result res;
-    dm_modal_forget(w->an->modal); /* the root starts cold */
-    if (dm_analysis_run(w->an, c->anchor_P[root], c->kc, &res, NULL))
+    dm_analysis_forget(w->an); /* the root starts cold */
+    if (dm_analysis_run(w->an, c->anchor_P[root], c->kc, &res, NULL) ||
+        !dm_analysis_track_vectors(w->an, &res))
         return 0;
-    memcpy(c->anchor_phi + root * block, res.modes->phi, sizeof(double) * block);
+    memcpy(c->anchor_phi + root * block, dm_analysis_track_vectors(w->an, &res),
+           sizeof(double) * block);
     if (c->seed_len)
-        dm_modal_seed_save(w->an->modal, dm_sweep_anchors_seed(c, root));
+        dm_analysis_seed_save(w->an, dm_sweep_anchors_seed(c, root));
     c->anchor_ok[root] = 1;
     queue[tail++] = root;
     int r0 = root / (m[1] * m[2]), r1 = (root / m[2]) % m[1], r2 = root % m[2];
@@ -228,13 +231,13 @@ int dm_sweep_anchors_build(sweep_ctx *c, sweep_worker *w, int nw, dm_error *err)
 {
     int m[3];
     assert(nw >= 1);
-    c->seed_len = dm_modal_seed_size(w->an->modal);
+    c->seed_len = dm_analysis_seed_size(w->an);
     anchor_lattice(c, m);
     memcpy(c->anchor_m, m, sizeof m);
     c->nanchor = m[0] * m[1] * m[2];
     c->anchor_P = calloc((size_t)c->nanchor, sizeof *c->anchor_P);
     c->anchor_ok = calloc((size_t)c->nanchor, sizeof *c->anchor_ok);
-    c->anchor_phi = calloc((size_t)c->nanchor * c->n * c->k, sizeof(double));
+    c->anchor_phi = calloc((size_t)c->nanchor * c->dim * c->k, sizeof(double));
     c->anchor_seed = c->seed_len ? calloc((size_t)c->nanchor, c->seed_len) : NULL;
     int *queue = malloc(sizeof(int) * c->nanchor), *reach = calloc((size_t)c->nanchor, sizeof(int));
     int rc = DM_OK;

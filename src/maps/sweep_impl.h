@@ -82,6 +82,8 @@ typedef struct sweep_ctx {
     const dm_grid *grid;
     dm_sweep_opts o;
     int na, nb, n, k, kc;
+    struct dm_members *members; /* o.members: the bases every worker shares */
+    int dim;            /* the length of the vectors families are tracked by */
     int tile[3], ntiles[3];
     int ndata;          /* data arrays in the store: dm_sweep_arrays' first */
     dm_tolerance_spec tol; /* the Monte Carlo's, at the sweep's mesh (o.tolerance) */
@@ -95,7 +97,8 @@ typedef struct sweep_ctx {
     int anchor_m[3];     /* the lattice: anchors per axis */
     double (*anchor_P)[3];
     int *anchor_ok;
-    double *anchor_phi;  /* nanchor x (n x k): the families' shapes */
+    double *anchor_phi;  /* nanchor x (dim x k): the families' vectors (shapes,
+                          * or the members' reduced vectors) */
     unsigned char *anchor_seed; /* nanchor x seed_len: the solver's start */
     size_t seed_len;
     double t0;           /* when the sweep started */
@@ -107,7 +110,7 @@ typedef struct sweep_worker {
     dm_move_ws *move;
     double *mac_work, *mac;
     int *assign;
-    double *shapes;     /* families' shapes at the point (n x k) */
+    double *shapes;     /* families' vectors at the point (dim x k) */
     struct dm_coupling *nominal; /* the robot without effects (NULL: it has none) */
     int nbuf;
     void **buf;         /* a chunk of each of the store's data arrays (nbuf) */
@@ -161,9 +164,11 @@ unsigned char *dm_sweep_anchors_seed(const sweep_ctx *c, int a);
  * how many (0..3). */
 int dm_sweep_anchors_toward(const sweep_ctx *c, int a, const int idx[3], const void *toward[3],
                             double frac[3]);
-/* Match the k families with shapes ref to the modes by MAC, clusters as
- * subspaces (w->assign), their next shapes into dst (may be ref). */
-void dm_sweep_anchors_track(const sweep_ctx *c, sweep_worker *w, const double *ref,
-                            const dm_modes *modes, double *dst);
+/* Match the k families with vectors ref (c->dim each) to the modes of
+ * the worker's last run res by MAC, clusters as subspaces (w->assign),
+ * their next vectors into dst (may be ref). -1 (nothing assigned) where
+ * the run's vectors are not the anchors' kind (dm_analysis_track). */
+int dm_sweep_anchors_track(const sweep_ctx *c, sweep_worker *w, const double *ref,
+                           const dm_pose_result *res, double *dst);
 
 #endif

@@ -146,6 +146,8 @@ static json_t *fingerprint(const sweep_ctx *c)
     free(ini);
     if (c->o.tolerance) /* absent otherwise: stores without the maps keep their fingerprint */
         json_object_set_new(f, "tolerance", tolerance_settings(c));
+    if (c->o.members) /* likewise: the full model's stores keep theirs */
+        json_object_set_new(f, "method", json_string("members"));
     return f;
 }
 

@@ -28,6 +28,14 @@ static json_t *fingerprint_of(json_t *group_attributes)
     return json_object_get(json_object_get(group_attributes, "deltamap"), "fingerprint");
 }
 
+/* Whether the two fingerprints hold the same value at key (both without
+ * it is the same: json_equal says NULLs differ). */
+static int same_at(json_t *ofp, json_t *nfp, const char *key)
+{
+    json_t *a = json_object_get(ofp, key), *b = json_object_get(nfp, key);
+    return (!a && !b) || json_equal(a, b);
+}
+
 /* What differs between the store's fingerprint and ours, in words. */
 static void difference(json_t *ofp, json_t *nfp, char *out, size_t len)
 {
@@ -39,13 +47,15 @@ static void difference(json_t *ofp, json_t *nfp, char *out, size_t len)
     else if (ov && nv && strcmp(ov, nv)) { /* its layout may differ: not checked, not resumed */
         snprintf(out, len, "another version, made by %.60s (this is %s)", ov, nv);
         return;
-    } else if (!json_equal(json_object_get(ofp, "robot_ini"), json_object_get(nfp, "robot_ini")))
+    } else if (!same_at(ofp, nfp, "robot_ini"))
         what = "another robot";
-    else if (!json_equal(json_object_get(ofp, "grid"), json_object_get(nfp, "grid")))
+    else if (!same_at(ofp, nfp, "grid"))
         what = "another grid";
-    else if (!json_equal(json_object_get(ofp, "tolerance"), json_object_get(nfp, "tolerance")))
+    else if (!same_at(ofp, nfp, "tolerance"))
         what = "other tolerance Monte Carlo settings (samples, seed, spec, tolerances or "
                "their law, or none)";
+    else if (!same_at(ofp, nfp, "method"))
+        what = "another --method (the member bases or the full model)";
     snprintf(out, len, "%s", what);
 }
 

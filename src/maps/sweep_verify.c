@@ -176,6 +176,8 @@ static int sweep_from(json_t *fp, const char *path, sweep_ctx *c, dm_robot *rb, 
     c->o.move.window_s = json_number_value(json_object_get(move, "window_s"));
     c->o.move.quasi_static = json_is_true(json_object_get(move, "quasi_static"));
     c->o.tolerance = tol != NULL;
+    const char *method = json_string_value(json_object_get(fp, "method"));
+    c->o.members = method && !strcmp(method, "members"); /* else the fingerprints differ */
     c->ndata = dm_sweep_ndata(tol != NULL, c->tol.spec_m);
     dm_sweep_schema_define(c, path);
     json_t *again = json_object_get(json_object_get(c->store.group_attributes, "deltamap"),

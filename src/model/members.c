@@ -667,3 +667,11 @@ int dm_members_mult(const dm_members *ms, const dm_members_pose *mp, char which,
     free(w);
     return DM_OK;
 }
+
+int dm_members_reduced_size(const dm_members *ms)
+{
+    int nred = ms->nbound;
+    for (int m = 0; m < DM_MEMBERS_N; m++)
+        nred += ms->member[m].nkeep + ms->member[m].nres;
+    return nred;
+}

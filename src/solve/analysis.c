@@ -3,6 +3,7 @@
 #include "dm_analysis.h"
 
 #include <assert.h>
+#include <cblas.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -272,4 +273,41 @@ int dm_analysis_bounds(dm_analysis *an, int k, double *bound, dm_error *err)
         return dm_fail(err, DM_EINVAL, "certified bounds: the full model served the last pose");
     assert(k >= 1 && k <= an->kmax);
     return dm_boundary_bounds(an->boundary, k, an->lambda, bound, err);
+}
+
+int dm_analysis_track_dim(const dm_analysis *an)
+{
+    return an->members ? dm_boundary_reduced_size(an->boundary) : an->model->n;
+}
+
+const double *dm_analysis_track_vectors(const dm_analysis *an, const dm_pose_result *res)
+{
+    if (!an->members)
+        return res->modes->phi;
+    return an->last_members ? an->reduced : NULL;
+}
+
+int dm_analysis_track(dm_analysis *an, const dm_pose_result *res, const double *ref, int kr,
+                      int kc, int *assign, double *mac, double *shapes, double *work)
+{
+    assert(kr <= kc && kc <= an->kmax && kc <= DM_TRACK_MAX);
+    if (!an->members) {
+        dm_modal_track(ref, kr, res->modes, kc, an->model, assign, mac, shapes, work);
+        return 0;
+    }
+    if (!an->last_members) {
+        for (int f = 0; f < kr; f++)
+            assign[f] = -1, mac[f] = 0;
+        return -1;
+    }
+    int nr = dm_boundary_reduced_size(an->boundary);
+    double *MR = work, *a = work + 2 * (size_t)nr * kr, norms2[DM_TRACK_MAX];
+    dm_boundary_eig_mult_M(an->eig, ref, kr, MR);
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, kc, kr, nr, 1.0, an->reduced, nr, MR, nr,
+                0.0, a, kc);
+    for (int f = 0; f < kr; f++)
+        norms2[f] = cblas_ddot(nr, ref + (size_t)f * nr, 1, MR + (size_t)f * nr, 1);
+    dm_modal_track_products(a, norms2, kr, res->modes->freq_hz, kc, an->reduced, nr, assign, mac,
+                            shapes);
+    return 0;
 }

@@ -16,19 +16,23 @@ dm_boundary *dm_boundary_alloc(const dm_members *ms, dm_error *err)
         size_t nB = (size_t)ms->nbound, nr;
         bw->ms = ms;
         bw->nB = ms->nbound;
-        bw->nred = ms->nbound;
-        for (int m = 0; m < DM_MEMBERS_N; m++)
-            bw->nred += ms->member[m].nkeep + ms->member[m].nres;
+        bw->nred = dm_members_reduced_size(ms);
         nr = (size_t)bw->nred;
-        size_t nimax = 1;
-        for (int m = 0; m < DM_MEMBERS_N; m++)
-            nimax = (size_t)ms->member[m].ni > nimax ? (size_t)ms->member[m].ni : nimax;
+        size_t nimax = 1, ncmax = 1;
+        for (int m = 0; m < DM_MEMBERS_N; m++) {
+            const dm_member_basis *mb = &ms->member[m];
+            size_t nc = (size_t)(mb->nb + mb->nkeep + mb->nres);
+            nimax = (size_t)mb->ni > nimax ? (size_t)mb->ni : nimax;
+            ncmax = nc > ncmax ? nc : ncmax;
+        }
         bw->lwork = 1 + 6 * bw->nred + 2 * bw->nred * bw->nred;
         bw->liwork = 3 + 5 * bw->nred;
-        double **arrays[] = {&bw->S, &bw->Sk, &bw->D,  &bw->F,  &bw->X6, &bw->C,
-                             &bw->z, &bw->Kr, &bw->Mr, &bw->wr, &bw->work, &bw->wsy, &bw->wcount};
+        double **arrays[] = {&bw->S,  &bw->Sk,  &bw->D,   &bw->F,    &bw->X6,
+                             &bw->C,  &bw->z,   &bw->Kr,  &bw->Mr,   &bw->wr,
+                             &bw->work, &bw->wsy, &bw->wcount, &bw->shW, &bw->shZt, &bw->shZ};
         size_t sizes[] = {nB * nB, nB * nB, nB * nB, nB, nB * 6, nB * 9,
-                          (size_t)ms->n, nr * nr, nr * nr, nr, (size_t)bw->lwork, nB * 64, nimax};
+                          (size_t)ms->n, nr * nr, nr * nr, nr, (size_t)bw->lwork, nB * 64, nimax,
+                          ncmax * nr, nr * nimax, (size_t)ms->n * nr};
         for (size_t k = 0; k < sizeof sizes / sizeof *sizes; k++)
             fail |= !(*arrays[k] = malloc(sizeof(double) * sizes[k]));
         bw->ipiv = malloc(sizeof(lapack_int) * (nB + (size_t)bw->liwork));
@@ -46,8 +50,9 @@ void dm_boundary_free(dm_boundary *bw)
 {
     if (!bw)
         return;
-    double *arrays[] = {bw->S, bw->Sk, bw->D,  bw->F,  bw->X6,   bw->C,
-                        bw->z, bw->Kr, bw->Mr, bw->wr, bw->work, bw->wsy, bw->wcount};
+    double *arrays[] = {bw->S,    bw->Sk,  bw->D,      bw->F,   bw->X6,   bw->C,
+                        bw->z,    bw->Kr,  bw->Mr,     bw->wr,  bw->work, bw->wsy,
+                        bw->wcount, bw->shW, bw->shZt, bw->shZ};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; k++)
         free(arrays[k]);
     free(bw->ipiv);

@@ -22,6 +22,7 @@ struct dm_boundary_eig {
     double *d;           /* nv: K's interior diagonal */
     double *V;           /* each member's residual rotation (KR's eigenvectors) */
     double *B, *Mbb, *D; /* nv x nB: M_qB at the pose; nB x nB: M_BB; count scratch */
+    double *Bt, *Qt;     /* B' (nB x nv); times()'s Q' (p x p) */
     double *X, *KX, *MX, *W, *KW, *MW, *T; /* nr x p (W, KW, MW, T: nr x 2p) */
     double *H, *Z, *w, *s, *est, *work; /* projected problem (2p x 2p), residual norms */
     double ahead;        /* estimates(): the wanted clusters' worst first-order estimate */
@@ -40,8 +41,8 @@ void dm_boundary_eig_free(dm_boundary_eig *e)
 {
     if (!e)
         return;
-    double *a[] = {e->d, e->V, e->B, e->Mbb, e->D, e->X, e->KX, e->MX, e->W, e->KW,
-                   e->MW, e->T, e->H, e->Z, e->w, e->s, e->est, e->work, e->Sinv, e->dinv};
+    double *a[] = {e->d,  e->V,  e->B, e->Mbb, e->D, e->X,   e->KX,   e->MX,   e->W,   e->KW, e->MW,
+                   e->T,  e->H,  e->Z, e->w,   e->s, e->est, e->work, e->Sinv, e->dinv, e->Bt, e->Qt};
     for (size_t i = 0; i < sizeof a / sizeof *a; i++)
         free(a[i]);
     free(e->iwork);
@@ -89,10 +90,11 @@ dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
         vsz += (size_t)bw->ms->member[m].nres * bw->ms->member[m].nres;
     double **a[] = {&e->d,  &e->V, &e->B, &e->Mbb, &e->D, &e->X,    &e->KX,
                     &e->MX, &e->W, &e->KW, &e->MW, &e->T, &e->H,    &e->Z,
-                    &e->w,  &e->s, &e->est, &e->work, &e->Sinv, &e->dinv};
+                    &e->w,  &e->s, &e->est, &e->work, &e->Sinv, &e->dinv, &e->Bt, &e->Qt};
     size_t sz[] = {e->nv, vsz, (size_t)e->nv * nB, (size_t)nB * nB, (size_t)nB * nB,
                    (size_t)nr * p, (size_t)nr * p, (size_t)nr * p, n2, n2, n2, n2,
-                   (size_t)q * q, (size_t)q * q, q, q, q, e->lwork, (size_t)nB * nB, e->nv};
+                   (size_t)q * q, (size_t)q * q, q, q, q, e->lwork, (size_t)nB * nB, e->nv,
+                   (size_t)nB * e->nv, (size_t)p * p};
     int fail = 0;
     for (size_t i = 0; i < sizeof sz / sizeof *sz; i++)
         fail |= !(*a[i] = malloc(sizeof(double) * sz[i]));
@@ -126,6 +128,7 @@ static void pose_mass(dm_boundary_eig *e, dm_boundary *bw)
                 for (int r = 0; r < nb; r++)
                     v += Cc[r] * mb->Gam[(size_t)r * ni + j];
                 e->B[(size_t)c * nv + q + j] = v;
+                e->Bt[(size_t)(q + j) * nB + c] = v;
             }
             for (int a = 0; a < nres; a++) {
                 g[a] = 0;
@@ -137,6 +140,7 @@ static void pose_mass(dm_boundary_eig *e, dm_boundary *bw)
                 for (int a = 0; a < nres; a++)
                     v += e->V[e->v0[m] + (size_t)b * nres + a] * g[a];
                 e->B[(size_t)c * nv + q + mb->nkeep + b] = v;
+                e->Bt[(size_t)(q + mb->nkeep + b) * nB + c] = v;
             }
         }
     }
@@ -146,13 +150,17 @@ static void pose_mass(dm_boundary_eig *e, dm_boundary *bw)
 static void apply_M(const dm_boundary_eig *e, const double *X, int ncol, double *Y)
 {
     int nr = e->nr, nB = e->nB, nv = e->nv;
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nB, ncol, nB, 1, e->Mbb, nB, X, nr, 0,
+    /* no NoTrans x NoTrans product: OpenBLAS 0.3.21's small-matrix kernels
+     * for it (Skylake-X, Cooper Lake) allocate at every call, and the
+     * per-pose paths allocate nothing (tests/alloc_tests.sh). Mbb is
+     * symmetric; B' is kept beside B. */
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nB, ncol, nB, 1, e->Mbb, nB, X, nr, 0,
                 Y, nr);
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nB, ncol, nv, 1, e->B, nv, X + nB, nr, 1,
                 Y, nr);
     for (int c = 0; c < ncol; c++)
         memcpy(Y + (size_t)c * nr + nB, X + (size_t)c * nr + nB, sizeof(double) * nv);
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nv, ncol, nB, 1, e->B, nv, X, nr, 1,
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nv, ncol, nB, 1, e->Bt, nB, X, nr, 1,
                 Y + nB, nr);
 }
 
@@ -163,8 +171,8 @@ static void block_diag_times(const dm_boundary_eig *e, const double *A, const do
                              const double *X, int ncol, double *Y)
 {
     int nr = e->nr, nB = e->nB;
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, nB, ncol, nB, 1, A, nB, X, nr, 0, Y,
-                nr);
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nB, ncol, nB, 1, A, nB, X, nr, 0, Y,
+                nr); /* A symmetric: see apply_M for why not NoTrans */
     for (int c = 0; c < ncol; c++)
         for (int i = 0; i < e->nv; i++)
             Y[(size_t)c * nr + nB + i] = v[i] * X[(size_t)c * nr + nB + i];
@@ -215,7 +223,11 @@ static void inverse_K_times(const dm_boundary_eig *e, const double *X, int ncol,
 /* A = A Q for A nr x p, Q p x p (ld q), through T. */
 static void times(dm_boundary_eig *e, double *A, const double *Q, int q)
 {
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, e->nr, e->p, e->p, 1, A, e->nr, Q, q, 0,
+    int p = e->p;
+    for (int c = 0; c < p; c++) /* through Q': see apply_M for why */
+        for (int r = 0; r < p; r++)
+            e->Qt[(size_t)r * p + c] = Q[(size_t)c * q + r];
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, e->nr, p, p, 1, A, e->nr, e->Qt, p, 0,
                 e->T, e->nr);
     memcpy(A, e->T, sizeof(double) * e->nr * e->p);
 }

@@ -23,6 +23,9 @@ struct dm_boundary {
     double *Kr, *Mr, *wr; /* the reduced problem, then its eigenvectors (Kr) and values */
     double *work, *wsy;   /* dsygvd's and dsytrf's workspaces */
     double *wcount;       /* the largest member interior: a count's 1 / (lambda_j - sigma) */
+    double *shW, *shZt, *shZ; /* the shapes' scratch: a member's coefficients
+                               * (ncoef x nred), its interior transposed
+                               * (nred x ni), the modes in (boundary, interiors) (n x nred) */
     int lwork, liwork;
     lapack_int *ipiv;     /* nB, then dsygvd's liwork */
 };

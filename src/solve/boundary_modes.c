@@ -2,6 +2,7 @@
  * count from the members' exact dynamic stiffness, and the reduced
  * eigenproblem on the member bases. */
 #include <assert.h>
+#include <cblas.h>
 #include <math.h>
 #include <string.h>
 
@@ -249,30 +250,57 @@ void dm_boundary_reduced_pair(dm_boundary *bw, double *K, double *M)
     memcpy(M, bw->Mr, sizeof(double) * n2);
 }
 
+/* Member m's coefficients of the k modes in bw->shW (ncoef x k): its
+ * boundary displacements C y_B, then its kept modes' and residual
+ * vectors' coordinates (from reduced row q0). */
+static void member_coefficients(dm_boundary *bw, int m, int k, int q0)
+{
+    const dm_member_basis *mb = &bw->ms->member[m];
+    int nb = mb->nb, nq = mb->nkeep + mb->nres, nc = nb + nq, nB = bw->nB, nr = bw->nred;
+    dm_members_coupling(bw->ms, &bw->mp, m, bw->C); /* once for all k modes */
+    for (int j = 0; j < k; j++) {
+        const double *y = bw->Kr + (size_t)j * nr;
+        double *w = bw->shW + (size_t)j * nc;
+        for (int r = 0; r < nb; r++) {
+            double s = 0;
+            for (int c = 0; c < nB; c++)
+                s += bw->C[(size_t)c * nb + r] * y[c];
+            w[r] = s;
+        }
+        memcpy(w + nb, y + q0, sizeof(double) * nq);
+    }
+}
+
 void dm_boundary_mode_shapes(dm_boundary *bw, int k, double *phi)
 {
     const dm_members *ms = bw->ms;
-    int nB = bw->nB, nr = bw->nred;
-    for (int j = 0; j < k; j++) {
-        const double *y = bw->Kr + (size_t)j * nr, *q = y + nB;
-        memcpy(bw->z, y, sizeof(double) * nB);
-        for (int m = 0; m < DM_MEMBERS_N; m++) {
-            const dm_member_basis *mb = &ms->member[m];
-            double xb[9];
-            dm_boundary_member_dofs(bw, m, y, xb);
-            double *zi = bw->z + ms->interior0[m];
-            for (int r = 0; r < mb->ni; r++) { /* Psi C x_B + Phi_keep q + R r */
-                double s = 0;
-                for (int a = 0; a < mb->nb; a++)
-                    s += mb->Psi[(size_t)a * mb->ni + r] * xb[a];
-                for (int a = 0; a < mb->nkeep; a++)
-                    s += mb->Phi[(size_t)a * mb->ni + r] * q[a];
-                for (int a = 0; a < mb->nres; a++)
-                    s += mb->R[(size_t)a * mb->ni + r] * q[mb->nkeep + a];
-                zi[r] = s;
-            }
-            q += mb->nkeep + mb->nres;
+    int nB = bw->nB, nr = bw->nred, n = ms->n, q0 = nB;
+    assert(k <= nr);
+    for (int j = 0; j < k; j++)
+        memcpy(bw->shZ + (size_t)j * n, bw->Kr + (size_t)j * nr, sizeof(double) * nB);
+    for (int m = 0; m < DM_MEMBERS_N; m++) {
+        const dm_member_basis *mb = &ms->member[m];
+        int nb = mb->nb, ni = mb->ni, nc = nb + mb->nkeep + mb->nres;
+        member_coefficients(bw, m, k, q0);
+        /* interior' (k x ni) = W' [Psi Phi_keep R]': all k modes in three
+         * products, transposed both ways (OpenBLAS 0.3.21's NoTrans x
+         * NoTrans small kernels allocate: boundary_eig.c, apply_M) */
+        const double *W = bw->shW;
+        cblas_dgemm(CblasColMajor, CblasTrans, CblasTrans, k, ni, nb, 1, W, nc, mb->Psi, ni, 0,
+                    bw->shZt, k);
+        if (mb->nkeep)
+            cblas_dgemm(CblasColMajor, CblasTrans, CblasTrans, k, ni, mb->nkeep, 1, W + nb, nc,
+                        mb->Phi, ni, 1, bw->shZt, k);
+        if (mb->nres)
+            cblas_dgemm(CblasColMajor, CblasTrans, CblasTrans, k, ni, mb->nres, 1,
+                        W + nb + mb->nkeep, nc, mb->R, ni, 1, bw->shZt, k);
+        for (int j = 0; j < k; j++) {
+            double *zi = bw->shZ + (size_t)j * n + ms->interior0[m];
+            for (int r = 0; r < ni; r++)
+                zi[r] = bw->shZt[(size_t)r * k + j];
         }
-        dm_members_scatter(ms, &bw->mp, bw->z, phi + (size_t)j * ms->n);
+        q0 += mb->nkeep + mb->nres;
     }
+    for (int j = 0; j < k; j++)
+        dm_members_scatter(ms, &bw->mp, bw->shZ + (size_t)j * n, phi + (size_t)j * n);
 }

@@ -1374,12 +1374,21 @@ void dm_modal_track(const double *ref, int kr, const dm_modes *mo, int kc, const
 {
     int n = md->n;
     assert(kr <= DM_TRACK_MAX && kc <= DM_TRACK_MAX && kr <= kc);
-    double *a = work + 2 * (size_t)n * kr, norms2[DM_TRACK_MAX], cm[DM_TRACK_MAX][DM_TRACK_MAX];
-    int first[DM_TRACK_MAX + 1], nclu = 0, room[DM_TRACK_MAX], of[DM_TRACK_MAX];
+    double *a = work + 2 * (size_t)n * kr, norms2[DM_TRACK_MAX];
     reference_products(ref, kr, mo, kc, md, a, norms2, work);
+    dm_modal_track_products(a, norms2, kr, mo->freq_hz, kc, mo->phi, n, assign, mac, shapes);
+}
+
+void dm_modal_track_products(const double *a, const double *norms2, int kr, const double *freq_hz,
+                             int kc, const double *vec, int n, int *assign, double *mac,
+                             double *shapes)
+{
+    assert(kr <= DM_TRACK_MAX && kc <= DM_TRACK_MAX && kr <= kc);
+    double cm[DM_TRACK_MAX][DM_TRACK_MAX];
+    int first[DM_TRACK_MAX + 1], nclu = 0, room[DM_TRACK_MAX], of[DM_TRACK_MAX];
     /* clusters: runs of modes closer than DM_TRACK_GAP (relative) */
     for (int j = 0; j < kc; j++)
-        if (j == 0 || mo->freq_hz[j] > mo->freq_hz[j - 1] * (1 + DM_TRACK_GAP))
+        if (j == 0 || freq_hz[j] > freq_hz[j - 1] * (1 + DM_TRACK_GAP))
             first[nclu++] = j;
     first[nclu] = kc;
     /* each family's MAC with each cluster's invariant subspace */
@@ -1426,7 +1435,7 @@ void dm_modal_track(const double *ref, int kr, const dm_modes *mo, int kc, const
         for (int j = first[of[f]]; j < first[of[f] + 1]; j++) {
             double c = a[j + (size_t)kc * f];
             s2 += c * c;
-            cblas_daxpy(n, c, mo->phi + (size_t)j * n, 1, dst, 1);
+            cblas_daxpy(n, c, vec + (size_t)j * n, 1, dst, 1);
         }
         if (s2 > 0)
             cblas_dscal(n, 1 / sqrt(s2), dst, 1);
