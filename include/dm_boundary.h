@@ -159,17 +159,23 @@ int dm_boundary_reduced_size(const dm_boundary *bw);
  * independent one. Overwrites dm_boundary_reduced_modes' vectors. */
 void dm_boundary_reduced_pair(dm_boundary *bw, double *K, double *M);
 
-/* Certified per-mode error bounds of reduced eigenvalues lambda:
- * bound[j] = tau lambda[j] for the smallest tau in 1e-9 x 10^(i/2) with
- * fewer than j + 1 of the model's eigenvalues below lambda[j] (1 - tau)
- * and at least j + 1 below lambda[j] (1 + tau) (dm_boundary_count), so
- * the model's lambda_j is within bound[j] of lambda[j]: no mode below is
- * missed and none is off by more (the Ritz values are upper bounds too,
- * but only up to the reduced solve's rounding). The counts resolve about
- * 1e-11 of an eigenvalue at mesh 4,4, 1e-10 at 8,8 and less with soft
- * springs (docs/model-choices.md), so no bound is below 1e-9: the bound
- * certifies 1e-9, the eigenvalues are better (1e-10, measured). DM_ENUMERIC when some mode cannot be
- * bracketed within half its value (a mode missed: use the full solver). */
+/* Certified per-mode error bounds of reduced eigenvalues lambda. Modes
+ * whose values lie within 1e-9 of each other (a degenerate pair) form a
+ * cluster a..b, bracketed together: for the smallest tau in
+ * 1e-9 x 10^(i/2) with at most a of the model's eigenvalues below
+ * lambda[a] (1 - tau) and at least b + 1 below lambda[b] (1 + tau)
+ * (dm_boundary_count), every model eigenvalue lambda_j of the cluster is
+ * between the two (counts are monotone): bound[j] is the farther end's
+ * distance from lambda[j] (tau lambda[j] for a single mode). So no mode
+ * below is missed and none is off by more (the Ritz values are upper
+ * bounds too, but only up to the reduced solve's rounding). Two counts a
+ * cluster, not a mode: at a symmetric pose, where the platform's modes
+ * come in pairs, about half. The counts resolve about 1e-11 of an
+ * eigenvalue at mesh 4,4, 1e-10 at 8,8 and less with soft springs
+ * (docs/model-choices.md), so no bound is below 1e-9: the bound
+ * certifies 1e-9, the eigenvalues are better (1e-10, measured).
+ * DM_ENUMERIC when some mode cannot be bracketed within half its value (a
+ * mode missed: use the full solver). */
 int dm_boundary_bounds(dm_boundary *bw, int k, const double *lambda, double *bound,
                        dm_error *err);
 
