@@ -59,6 +59,10 @@ $SW --out "$TMP/mref" --threads 1 --method members >/dev/null || bad "members sw
 $SW --out "$TMP/mtwo" --threads 2 --method members >/dev/null || bad "members sweep, 2 threads"
 if diff -r "$TMP/mref" "$TMP/mtwo" >/dev/null; then ok; else bad "members: 1 and 2 threads differ"; fi
 if $PY tests/check_store.py "$TMP/mref" "$DM" chen2018 2,2; then ok; else bad "members store checks"; fi
+if "$DM" info "$TMP/mref" | grep -q "^model   mesh 2,2, 6 modes, standard moves, member bases"; then ok
+else bad "info does not say the members made the store"; fi
+if "$DM" info "$TMP/ref" | grep -q "^model   mesh 2,2, 6 modes, standard moves, the full model$"; then ok
+else bad "info does not say the full model made the store"; fi
 $CSW --out "$TMP/mc16" --tile 16,16,1 --threads 2 --method members >/dev/null || bad "members cluster sweep"
 for run in "--tile 2,3,1 --threads 2" "OMP_NUM_THREADS=1" "OPENBLAS_NUM_THREADS=2"; do
     rm -rf "$TMP/mcx"

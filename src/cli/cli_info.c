@@ -186,6 +186,26 @@ static int trajectory_summary(dm_sweep_check *chk)
     return damaged ? DM_EIO : 0;
 }
 
+
+/* A sweep's settings from its fingerprint: the mesh, the modes, the
+ * standard moves and which model served the points (a store says how it
+ * was made; nothing printed where the fingerprint lacks them). */
+static void print_sweep_settings(json_t *fp)
+{
+    json_t *mesh = json_object_get(fp, "mesh"), *modes = json_object_get(fp, "modes");
+    json_t *dynamic = json_object_get(fp, "dynamic");
+    const char *method = json_string_value(json_object_get(fp, "method"));
+    if (!json_is_integer(json_array_get(mesh, 0)) || !json_is_integer(json_array_get(mesh, 1)) ||
+        !json_is_integer(modes) || !json_is_boolean(dynamic))
+        return;
+    printf("model   mesh %d,%d, %d modes, %s, %s\n",
+           (int)json_integer_value(json_array_get(mesh, 0)),
+           (int)json_integer_value(json_array_get(mesh, 1)), (int)json_integer_value(modes),
+           json_is_true(dynamic) ? "standard moves" : "no standard moves",
+           method && !strcmp(method, "members") ? "member bases (--method members)"
+                                                : "the full model");
+}
+
 int dm_cli_info(int argc, char **argv)
 {
     const char *path;
@@ -209,6 +229,8 @@ int dm_cli_info(int argc, char **argv)
         printf("grid    %s (%s)\n", attr_text(dm, "grid", a1, sizeof a1),
                attr_text(dm, "grid_kind", a2, sizeof a2));
     printf("tool    %s\n", attr_text(dm, "tool", a1, sizeof a1));
+    if (!chk.trajectory)
+        print_sweep_settings(json_object_get(dm, "fingerprint"));
     if (chk.other_version)
         printf("        made by version %s; this is %s: read as its metadata says, not "
                "compared with what this version writes; a sweep does not resume it (--replace "
