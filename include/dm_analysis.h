@@ -34,6 +34,7 @@ typedef struct dm_analysis {
     double *reduced;          /* nred x kmax: their reduced vectors */
     double *lambda, *shapes;  /* kmax: their eigenvalues; n x kmax: their shapes */
     int last_members;         /* the members served the last run */
+    dm_error member_error;    /* else why not (code 0: they were not asked) */
     int want_model;           /* the member engine also builds and factors the
                                  full model (the standard moves read it) */
     int want_shapes;          /* and recovers the shapes in the model's DOFs

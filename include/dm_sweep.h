@@ -100,6 +100,8 @@ typedef struct dm_sweep_stats {
     long tiles_mine;                   /* this shard's (all without shards) */
     long tiles_present, tiles_computed; /* of this shard's */
     long points_total, points_ok, points_unreachable, points_near_singular, points_failed;
+    long points_full_model; /* opts.members: points the members could not serve (the full
+                               model did; their families untracked) */
     double seconds;
     int interrupted;
     int store_refused;  /* out holds another sweep's store (opts.force replaces it) */

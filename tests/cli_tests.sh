@@ -68,6 +68,10 @@ expect 0 "modes members, geometric stiffness" "$DM" modes --robot chen2018 --met
 contains out "engine  the full model (the member bases cannot serve: member bases: geometric stiffness"
 expect 0 "modes members, geometric stiffness, json" "$DM" modes --robot chen2018 --method members --modes 3 --set effects.geometric_stiffness=on --json
 json_true "d['engine'] == 'full' and 'geometric' in d['engine_reason'] and 'freq_bound_rel' not in d['modes'][0]"
+expect 0 "modes members, a pose they cannot serve" "$DM" modes --robot chen2018 --mesh 1,1 --modes 47 --method members
+contains out "engine  the full model (the members could not serve this pose: reduced eigensolver"
+expect 0 "the last --method counts" "$DM" modes --robot chen2018 --modes 3 --method members --method partial --json
+json_true "d['engine'] == 'full' and 'engine_reason' not in d"
 expect 1 "bad --method" "$DM" modes --robot chen2018 --method fast
 contains err "partial, dense, all or members"
 

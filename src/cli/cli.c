@@ -114,6 +114,7 @@ static int parse_modes_opts(int argc, char **argv, modes_opts *o)
                 return dm_cli_usage("modes", "--modes takes a whole number >= 1", optarg);
             break;
         case 'M':
+            o->members = 0; /* the last --method counts */
             if (!strcmp(optarg, "partial"))
                 o->method = DM_EIGEN_PARTIAL;
             else if (!strcmp(optarg, "all"))
@@ -275,8 +276,8 @@ static int member_bounds(dm_analysis *an, const dm_pose_result *res, int k, engi
 {
     if (res->engine != DM_ENGINE_MEMBERS) {
         if (!en->why[0])
-            snprintf(en->why, sizeof en->why,
-                     "the member solve or its count failed at this pose");
+            snprintf(en->why, sizeof en->why, "the members could not serve this pose: %.200s",
+                     an->member_error.code ? an->member_error.msg : "(no reason given)");
         return DM_OK;
     }
     double *b = malloc(sizeof(double) * k);

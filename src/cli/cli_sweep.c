@@ -338,6 +338,10 @@ int dm_cli_sweep(int argc, char **argv)
            st.seconds);
     printf("points  computed now: %ld ok, %ld near-singular, %ld unreachable, %ld failed\n",
            st.points_ok, st.points_near_singular, st.points_unreachable, st.points_failed);
+    if (st.points_full_model)
+        printf("members %ld points served by the full model, the member bases could not "
+               "(their frequencies are the full model's, their families untracked)\n",
+               st.points_full_model);
     if (a.o.tolerance) {
         const dm_tolerance_spec *t = &a.o.tolerance_spec;
         printf("tolerance %ld samples per point, seed %llu", t->samples,

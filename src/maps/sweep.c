@@ -130,6 +130,7 @@ static void analyse_point(const sweep_ctx *c, sweep_worker *w, const int idx[3],
     } else
         dm_modal_forget(w->an->modal); /* no anchor reached: cold */
     int rc = dm_analysis_run(w->an, P, c->kc, &res, NULL);
+    w->served_full = c->members && !rc && res.engine != DM_ENGINE_MEMBERS;
     if (rc) {
         int unreachable = rc == DM_EUNREACHABLE;
         point_nan(r, unreachable ? DM_POINT_UNREACHABLE : DM_POINT_FAILED);
@@ -263,7 +264,9 @@ static void store_point(const sweep_ctx *c, sweep_worker *w, size_t off, const d
     }
 }
 
-static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts[4], dm_error *err)
+/* counts: points ok, unreachable, near-singular, failed, and (o.members)
+ * served by the full model */
+static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts[5], dm_error *err)
 {
     int64_t tc[4];
     tile_coords(c, t, tc);
@@ -286,6 +289,7 @@ static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts
                 compute_point(c, w, idx, P, &r);
                 store_point(c, w, ((size_t)i0 * c->tile[1] + i1) * c->tile[2] + i2, &r);
                 counts[r.status == DM_POINT_NOT_COMPUTED ? 3 : r.status]++;
+                counts[4] += w->served_full;
             }
     /* status last: a reader sees a tile's status only once its data is there */
     assert(!strcmp(dm_sweep_arrays[0].name, "status"));
@@ -361,6 +365,12 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
         if (!(c->members = dm_analysis_members(rb, c->na, c->nb, c->kc, &why)))
             return dm_fail(err, why.code, "sweep --method members: %s", why.msg);
         c->dim = dm_members_reduced_size(c->members);
+        if (c->kc >= c->dim) /* before the store is made */
+            return dm_fail(err, DM_EINVAL,
+                           "sweep --method members: %d modes (%d and %d more for mode tracking) "
+                           "need a reduced model larger than the bases' %d DOF at this mesh; "
+                           "use fewer modes or --method partial",
+                           c->kc, c->k, c->kc - c->k, c->dim);
     }
     c->ndata = dm_sweep_ndata(o->tolerance, o->tolerance_spec.spec_m);
     if (o->tolerance) {
@@ -450,7 +460,7 @@ static int plan_tiles(const sweep_ctx *c, tile_plan *p, dm_error *err)
 }
 
 typedef struct {
-    long done, counts[4];
+    long done, counts[5];
     int rc;
     dm_error err;
 } tile_result;
@@ -466,7 +476,7 @@ static void run_tiles(const sweep_ctx *c, tile_plan *p, volatile sig_atomic_t *s
         sweep_worker w;
         dm_error werr = {0};
         int wrc = worker_alloc(c, &w, &werr);
-        long local[4] = {0};
+        long local[5] = {0};
 #pragma omp for schedule(dynamic, 1)
         for (long t = 0; t < p->total; t++) {
             if (wrc || !p->pending[t] || *stop)
@@ -491,7 +501,7 @@ static void run_tiles(const sweep_ctx *c, tile_plan *p, volatile sig_atomic_t *s
         }
 #pragma omp critical(dm_sweep_progress)
         {
-            for (int s = 0; s < 4; s++)
+            for (int s = 0; s < 5; s++)
                 res->counts[s] += local[s];
             if (wrc && !res->rc) {
                 res->rc = wrc;
@@ -534,6 +544,7 @@ static void fill_stats(const tile_plan *p, const tile_result *r, const dm_grid *
     stats->points_unreachable = r->counts[1];
     stats->points_near_singular = r->counts[2];
     stats->points_failed = r->counts[3];
+    stats->points_full_model = r->counts[4];
 }
 
 int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, const char *out,

@@ -35,19 +35,27 @@ dm_analysis *dm_analysis_alloc(const dm_robot *robot, int na, int nb, int kmax,
     return an;
 }
 
+/* The member engine's parts, released (a failed dm_analysis_use_members
+ * leaves the analysis as it found it). */
+static void drop_members(dm_analysis *an)
+{
+    dm_boundary_eig_free(an->eig);
+    dm_boundary_free(an->boundary);
+    dm_modes *mo = &an->member_modes;
+    void *p[] = {mo->omega_rad_s, mo->freq_hz, mo->platform_share, mo->direction,
+                 an->reduced,     an->lambda,  an->shapes};
+    for (size_t i = 0; i < sizeof p / sizeof *p; i++)
+        free(p[i]);
+    memset(mo, 0, sizeof *mo);
+    an->eig = NULL, an->boundary = NULL, an->reduced = an->lambda = an->shapes = NULL;
+    an->members = NULL, an->last_members = 0;
+}
+
 void dm_analysis_free(dm_analysis *an)
 {
     if (!an)
         return;
-    dm_boundary_eig_free(an->eig);
-    dm_boundary_free(an->boundary);
-    free(an->member_modes.omega_rad_s);
-    free(an->member_modes.freq_hz);
-    free(an->member_modes.platform_share);
-    free(an->member_modes.direction);
-    free(an->reduced);
-    free(an->lambda);
-    free(an->shapes);
+    drop_members(an);
     dm_static_free(an->statics);
     dm_modal_free(an->modal);
     dm_model_free(an->model);
@@ -163,13 +171,16 @@ static int run_members(dm_analysis *an, int k, dm_pose_result *res, dm_error *er
 int dm_analysis_run(dm_analysis *an, const double P[3], int k, dm_pose_result *res,
                     dm_error *err)
 {
-    assert(k >= 1 && k <= an->kmax);
+    an->last_members = 0; /* nothing of a previous run stands for this one */
+    dm_error_clear(&an->member_error);
+    if (k < 1 || k > an->kmax)
+        return dm_fail(err, DM_EINVAL, "%d modes asked of an analysis made for 1 to %d", k,
+                       an->kmax);
     int rc = dm_kin_pose(an->robot, P, &res->pose, err);
     if (rc)
         return rc;
-    an->last_members = 0;
     if (an->members) {
-        rc = run_members(an, k, res, NULL);
+        rc = run_members(an, k, res, &an->member_error);
         an->last_members = !rc;
         if (rc) { /* the full model serves, cold: its bits depend on the pose alone */
             dm_modal_forget(an->modal);
@@ -202,29 +213,34 @@ dm_members *dm_analysis_members(const dm_robot *robot, int na, int nb, int kmax,
 int dm_analysis_use_members(dm_analysis *an, const dm_members *members, dm_error *err)
 {
     assert(!an->members && members->n == an->model->n);
-    int k = an->kmax;
+    int k = an->kmax, rc = DM_OK;
     an->boundary = dm_boundary_alloc(members, err);
     if (!an->boundary)
         return err ? err->code : DM_ENOMEM;
     int nr = dm_boundary_reduced_size(an->boundary);
     if (k >= nr)
-        return dm_fail(err, DM_EINVAL, "member bases: %d modes asked of a %d-DOF reduced model",
-                       k, nr);
-    an->eig = dm_boundary_eig_alloc(an->boundary, k, err);
-    if (!an->eig)
-        return err ? err->code : DM_ENOMEM;
+        rc = dm_fail(err, DM_EINVAL, "member bases: %d modes asked of a %d-DOF reduced model",
+                     k, nr);
+    if (!rc && !(an->eig = dm_boundary_eig_alloc(an->boundary, k, err)))
+        rc = err ? err->code : DM_ENOMEM;
     dm_modes *mo = &an->member_modes;
-    mo->n = an->model->n, mo->k = k;
-    mo->omega_rad_s = malloc(sizeof(double) * k);
-    mo->freq_hz = malloc(sizeof(double) * k);
-    an->shapes = malloc(sizeof(double) * (size_t)mo->n * k);
-    mo->platform_share = malloc(sizeof(double) * k);
-    mo->direction = malloc(sizeof(int) * k);
-    an->reduced = malloc(sizeof(double) * (size_t)nr * k);
-    an->lambda = malloc(sizeof(double) * k);
-    if (!an->lambda || !mo->omega_rad_s || !mo->freq_hz || !an->shapes || !mo->platform_share ||
-        !mo->direction || !an->reduced)
-        return dm_fail(err, DM_ENOMEM, "out of memory for the member engine");
+    if (!rc) {
+        mo->n = an->model->n, mo->k = k;
+        mo->omega_rad_s = malloc(sizeof(double) * k);
+        mo->freq_hz = malloc(sizeof(double) * k);
+        an->shapes = malloc(sizeof(double) * (size_t)mo->n * k);
+        mo->platform_share = malloc(sizeof(double) * k);
+        mo->direction = malloc(sizeof(int) * k);
+        an->reduced = malloc(sizeof(double) * (size_t)nr * k);
+        an->lambda = malloc(sizeof(double) * k);
+        if (!an->lambda || !mo->omega_rad_s || !mo->freq_hz || !an->shapes ||
+            !mo->platform_share || !mo->direction || !an->reduced)
+            rc = dm_fail(err, DM_ENOMEM, "out of memory for the member engine");
+    }
+    if (rc) {
+        drop_members(an);
+        return rc;
+    }
     an->want_shapes = 1;
     an->members = members;
     return DM_OK;
@@ -241,7 +257,9 @@ int dm_analysis_seed_save(const dm_analysis *an, void *seed)
 {
     if (!an->members)
         return dm_modal_seed_save(an->modal, seed);
-    double has = dm_boundary_eig_seed_save(an->eig, (char *)seed + sizeof(double));
+    /* none where the full model served the last run: the solver's state is
+     * an older pose's */
+    double has = an->last_members && dm_boundary_eig_seed_save(an->eig, (char *)seed + sizeof(double));
     memcpy(seed, &has, sizeof has);
     return has != 0;
 }
