@@ -27,6 +27,9 @@
 /* log10 lambda_s of the model whose K `factored` holds (dm_static_factor). */
 double dm_coupling_index_log10(const dm_static *factored);
 
+/* The same from ln det K however it was found (dm_boundary_statics). */
+double dm_coupling_index_from_logdet(double logdet_K);
+
 /* Workspace for the nominal robot's index (per thread; it owns a copy of
  * the robot with every effect off, its model and factor). */
 typedef struct dm_coupling dm_coupling;

@@ -173,6 +173,12 @@ void dm_modal_last_stats(const dm_modal *ws, dm_modal_stats *stats);
 /* Platform share and dominant direction of each mode of `model`. */
 void dm_modal_platform_share(dm_modal *ws, const dm_model *model);
 
+/* One mode's: phiP its 6 platform rows, MP the platform's 6 x 6 mass
+ * (leading dimension ld); the share phiP' MP phiP, the direction whose
+ * diagonal contribution is largest. */
+void dm_modal_mode_platform_share(const double *MP, int ld, const double *phiP, double *share,
+                                  int *direction);
+
 const char *dm_direction_name(int direction);
 
 /* Mode tracking by the modal assurance criterion, clusters as subspaces.

@@ -92,30 +92,18 @@ static int run_full(dm_analysis *an, int k, dm_pose_result *res, dm_error *err)
 }
 
 /* Each mode's share of its kinetic energy in the platform, and the
- * direction with the most (dm_modal_platform_share's rule), from the
- * reduced vectors' platform rows: the platform is part of the boundary,
- * in the model's axes. */
+ * direction with the most, from the reduced vectors' platform rows: the
+ * platform is part of the boundary, in the model's axes, and the
+ * boundary's mass holds the platform's. */
 static void member_platform_share(dm_analysis *an, int k)
 {
     const dm_members *ms = an->members;
     int nr = dm_boundary_reduced_size(an->boundary), p = ms->bplat;
     dm_modes *mo = &an->member_modes;
-    for (int j = 0; j < k; j++) {
-        const double *y = an->reduced + (size_t)j * nr + p;
-        double share = 0, best = -1;
-        for (int r = 0; r < 6; r++) {
-            double row = 0;
-            for (int c = 0; c < 6; c++)
-                row += ms->Mb[(size_t)(p + c) * ms->nbound + p + r] * y[c];
-            double energy = y[r] * row;
-            share += energy;
-            if (energy > best) {
-                best = energy;
-                mo->direction[j] = r;
-            }
-        }
-        mo->platform_share[j] = share;
-    }
+    for (int j = 0; j < k; j++)
+        dm_modal_mode_platform_share(ms->Mb + (size_t)p * ms->nbound + p, ms->nbound,
+                                     an->reduced + (size_t)j * nr + p, &mo->platform_share[j],
+                                     &mo->direction[j]);
 }
 
 /* The pose from the members: the boundary's statics, the reduced modes
@@ -132,7 +120,7 @@ static int run_members(dm_analysis *an, int k, dm_pose_result *res, dm_error *er
         return rc;
     memcpy(res->static_error, bs.static_error, sizeof bs.static_error);
     memcpy(res->compliance, bs.compliance, sizeof bs.compliance);
-    res->coupling_index_log10 = bs.logdet_K / M_LN10;
+    res->coupling_index_log10 = dm_coupling_index_from_logdet(bs.logdet_K);
     double *lambda = an->lambda, sigma;
     rc = dm_boundary_eig_solve(an->eig, an->boundary, lambda, NULL, NULL, err);
     int reduced_count, whole_count;

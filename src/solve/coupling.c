@@ -16,8 +16,10 @@ struct dm_coupling {
 
 double dm_coupling_index_log10(const dm_static *factored)
 {
-    return dm_static_logdet(factored) / M_LN10;
+    return dm_coupling_index_from_logdet(dm_static_logdet(factored));
 }
+
+double dm_coupling_index_from_logdet(double logdet_K) { return logdet_K / M_LN10; }
 
 dm_coupling *dm_coupling_alloc(const dm_robot *robot, int na, int nb, dm_error *err)
 {

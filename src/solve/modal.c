@@ -1320,26 +1320,31 @@ int dm_modal_solve(dm_modal *ws, const dm_model *md, const dm_static *factor, in
 
 /* ---- shapes ----------------------------------------------------------------- */
 
+void dm_modal_mode_platform_share(const double *MP, int ld, const double *phiP, double *share,
+                                  int *direction)
+{
+    double best = -1;
+    *share = 0;
+    for (int r = 0; r < 6; r++) {
+        double row = 0;
+        for (int c = 0; c < 6; c++)
+            row += MP[(size_t)ld * c + r] * phiP[c];
+        double energy = phiP[r] * row; /* diagonal contribution by direction */
+        *share += energy;
+        if (energy > best) {
+            best = energy;
+            *direction = r;
+        }
+    }
+}
+
 void dm_modal_platform_share(dm_modal *ws, const dm_model *md)
 {
     dm_modes *mo = &ws->modes;
-    const double *MP = md->platform_mass;
-    for (int j = 0; j < mo->k; j++) {
-        const double *ph = mo->phi + (size_t)j * mo->n + md->platform_dof;
-        double share = 0, best = -1;
-        for (int r = 0; r < 6; r++) {
-            double row = 0;
-            for (int c = 0; c < 6; c++)
-                row += MP[6 * c + r] * ph[c];
-            double energy = ph[r] * row; /* diagonal contribution by direction */
-            share += energy;
-            if (energy > best) {
-                best = energy;
-                mo->direction[j] = r;
-            }
-        }
-        mo->platform_share[j] = share;
-    }
+    for (int j = 0; j < mo->k; j++)
+        dm_modal_mode_platform_share(md->platform_mass, 6,
+                                     mo->phi + (size_t)j * mo->n + md->platform_dof,
+                                     &mo->platform_share[j], &mo->direction[j]);
 }
 
 const char *dm_direction_name(int d)
