@@ -46,6 +46,13 @@ for n in 1 2 3 4; do
         grep -q "none of $n has work" "$TMP/info"; then ok; else bad "info on $n shards"; cat "$TMP/info"; fi
 done
 
+# 1b. the member engine too: 3 shards at once make the one process's store
+$SW --method members --out "$TMP/mref" >/dev/null || bad "members reference sweep"
+for k in 0 1 2; do start $SW --method members --out "$TMP/m3" --shard $k/3; done
+finish
+case "$codes" in *[1-9]*) bad "members shards: exit codes$codes"; cat "$TMP/log" ;; *) ok ;; esac
+if same "$TMP/mref" "$TMP/m3"; then ok; else bad "members: 3 shards differ from one process"; fi
+
 # 2. four processes at once, same arguments, no store yet: all succeed
 for i in 1 2 3 4; do start $SW --out "$TMP/same"; done
 finish
