@@ -114,6 +114,27 @@ static void sweep_options(dm_sweep_opts *o, int mesh, int k, int t0, int t1)
 #define SPEC "x=-0.3:1.2:7,y=-0.2:0.2:5,z=-0.6:-0.45:2"
 #define NPTS (7 * 5 * 2)
 
+/* A sweep's 6 frequencies (f), tracked families (tr) and static error
+ * (e) at point p against the one-pose analysis res there (10 modes). Both
+ * converge on residuals far below what 1e-9 needs (the sweep started from
+ * its anchor, the analysis from its own start): two converged solves
+ * differ by the rounding of their projections and what their residuals
+ * leave, ~1e-11 here on any BLAS kernels (test_modal.c's ritz_error).
+ * Each tracked value is one of the point's frequencies. */
+static void point_equals_analysis(const double *f, const double *tr, const double *e, int p,
+                                  const dm_pose_result *res)
+{
+    for (int j = 0; j < 6; j++) {
+        assert_rel(f[6 * p + j], res->modes->freq_hz[j], 1e-9, "point %d f%d", p, j + 1);
+        assert_abs(e[6 * p + j], res->static_error[j], 1e-9 * fabs(res->static_error[2]),
+                   "point %d error %d", p, j);
+        int found = 0;
+        for (int i = 0; i < 10; i++)
+            found |= fabs(tr[6 * p + j] - res->modes->freq_hz[i]) < 1e-8 * res->modes->freq_hz[i];
+        assert_true(found);
+    }
+}
+
 static void values_equal_single_pose_analysis(void **state)
 {
     (void)state;
@@ -149,22 +170,7 @@ static void values_equal_single_pose_analysis(void **state)
         }
         assert_int_equal(rc, 0);
         assert_int_equal(status[p], res.near_singular ? DM_POINT_NEAR_SINGULAR : DM_POINT_OK);
-        for (int j = 0; j < 6; j++) {
-            /* both converge on residuals far below what 1e-9 needs (the sweep
-             * warm-started along its tile, the analysis from its own start):
-             * two converged solves differ by the rounding of their
-             * projections and what their residuals leave, ~1e-11 here on any
-             * BLAS kernels (test_modal.c's ritz_error) */
-            assert_rel(f[6 * p + j], res.modes->freq_hz[j], 1e-9, "point %d f%d", p, j + 1);
-            assert_abs(e[6 * p + j], res.static_error[j], 1e-9 * fabs(res.static_error[2]),
-                       "point %d error %d", p, j);
-        }
-        for (int j = 0; j < 6; j++) { /* each tracked value is one of the point's frequencies */
-            int found = 0;
-            for (int i = 0; i < 10; i++)
-                found |= fabs(tr[6 * p + j] - res.modes->freq_hz[i]) < 1e-8 * res.modes->freq_hz[i];
-            assert_true(found);
-        }
+        point_equals_analysis(f, tr, e, p, &res);
         assert_rel(cm[p], res.compliance_max_m_per_n, 1e-10, "point %d compliance", p);
     }
     assert_true(unreachable > 0 && unreachable < NPTS);
@@ -320,16 +326,9 @@ static void member_engine_sweeps(void **state)
         }
         served += res.engine == DM_ENGINE_MEMBERS;
         assert_int_equal(res.engine, DM_ENGINE_MEMBERS);
-        for (int j = 0; j < 6; j++) {
-            assert_rel(f[6 * p + j], res.modes->freq_hz[j], 1e-9, "point %d f%d", p, j + 1);
+        point_equals_analysis(f, tr, e, p, &res);
+        for (int j = 0; j < 6; j++)
             assert_rel(f[6 * p + j], ff[6 * p + j], 1e-9, "point %d f%d (full)", p, j + 1);
-            assert_abs(e[6 * p + j], res.static_error[j], 1e-9 * fabs(res.static_error[2]),
-                       "point %d error %d", p, j);
-            int found = 0;
-            for (int i = 0; i < 10; i++)
-                found |= fabs(tr[6 * p + j] - res.modes->freq_hz[i]) < 1e-8 * res.modes->freq_hz[i];
-            assert_true(found);
-        }
         for (int d = 0; d < 3; d++)
             assert_rel(mp[3 * p + d], mpf[3 * p + d], 1e-7, "point %d move %d", p, d);
     }
