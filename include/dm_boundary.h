@@ -22,6 +22,7 @@
 
 #include "dm_error.h"
 #include "dm_kinematics.h"
+#include "dm_loads.h"
 #include "dm_members.h"
 #include "dm_model.h"
 #include "dm_static.h"
@@ -62,8 +63,8 @@ int dm_boundary_reduced_modes(dm_boundary *bw, int k, double *lambda, dm_error *
 /* The reduced problem's k lowest modes by a warm-started iteration
  * (src/solve/boundary_eig.c; docs/model-choices.md "Member bases"): in the
  * reduced coordinates K = diag(S, d) is block diagonal (d: the kept
- * fixed-interface eigenvalues and, once per robot diagonalised, the
- * residual vectors' stiffness) and M = [M_BB, B'; B, I] couples only
+ * fixed-interface eigenvalues and the residual vectors' stiffness, which
+ * the bases make K_ii-orthogonal) and M = [M_BB, B'; B, I] couples only
  * through the boundary, so A = K^-1 M is S^-1 and a division after two
  * nv x nB products. Chebyshev-filtered subspace iteration: the block
  * (k + guard vectors) is multiplied by a Chebyshev polynomial in A that
@@ -139,7 +140,16 @@ void dm_boundary_eig_count_point(const dm_boundary_eig *e, double *sigma, int *c
  * solve's pose: M-products of the model's shapes in reduced coordinates
  * (phi_a' M phi_b = y_a' M_red y_b exactly, the reduction being a
  * projection). */
-void dm_boundary_eig_mult_M(dm_boundary_eig *e, const double *Y, int ncol, double *MY);
+void dm_boundary_eig_mult_M(const dm_boundary_eig *e, const double *Y, int ncol, double *MY);
+
+/* KY = K_red Y (ncol <= k columns), and Y = K_red^-1 Y in place (any
+ * ncol), in the same coordinates at bw's last solve's pose (K_red =
+ * diag(S, the kept modes' eigenvalues, each member's R' K_ii R); the
+ * solve through S's Cholesky factor): the standard moves' operators on
+ * the reduced model (dm_standard_moves_reduced). */
+void dm_boundary_eig_mult_K(const dm_boundary_eig *e, const dm_boundary *bw, const double *Y, int ncol,
+                            double *KY);
+void dm_boundary_eig_solve_K(const dm_boundary_eig *e, const dm_boundary *bw, double *Y, int ncol);
 
 /* The last dm_boundary_reduced_modes' or dm_boundary_eig_solve's first k
  * reduced eigenvectors (nred x k, column-major, M-normalised). */
@@ -153,6 +163,10 @@ void dm_boundary_mode_shapes(dm_boundary *bw, int k, double *phi);
 
 /* The reduced problem's size: boundary DOFs + kept modes + residual vectors. */
 int dm_boundary_reduced_size(const dm_boundary *bw);
+
+/* The platform's first reduced coordinate: its 6 DOFs (translations,
+ * rotations; model axes) are reduced coordinates as they are. */
+int dm_boundary_platform_row(const dm_boundary *bw);
 
 /* The reduced pair at the last solve's pose, dense (nred x nred each,
  * column-major, both triangles): the check of the solvers against an
@@ -186,6 +200,18 @@ int dm_boundary_bounds(dm_boundary *bw, int k, const double *lambda, double *bou
 #define DM_BOUNDARY_CUT 100.0
 dm_members *dm_boundary_members_for_modes(const dm_model *model, const dm_pose *pose, int k,
                                           dm_error *err);
+
+/* T' G in the reduced coordinates (dm_boundary_reduced_vectors'; nred x q,
+ * column-major) for the inertial loads G of q rigid motions at `pose`,
+ * the last solve's (dm_loads: G_e = -M_e a_e along every link, the
+ * platform's and the elbows' masses), T the member bases: each member's
+ * accelerations in its frame are a combination of its unit loads, so its
+ * share is a few products with what the cache holds (dm_member_basis.G,
+ * Ghat, Gq), never the model's n-vector. The boundary rows are the exact
+ * condensation of G: S^-1 of them is the model's static response's
+ * boundary part. */
+void dm_boundary_inertial_loads(dm_boundary *bw, const dm_pose *pose,
+                                const dm_rigid_motion *motion, int q, double *G);
 
 /* The last solve's whole static displacement in the model's DOFs (n). */
 void dm_boundary_displacement(dm_boundary *bw, double *U);

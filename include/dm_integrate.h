@@ -24,6 +24,7 @@
 #ifndef DM_INTEGRATE_H
 #define DM_INTEGRATE_H
 
+#include "dm_boundary.h"
 #include "dm_model.h"
 #include "dm_modal.h"
 #include "dm_robot.h"
@@ -122,6 +123,23 @@ int dm_standard_move(dm_move_ws *ws, const dm_model *model, const dm_modes *mode
 int dm_standard_moves(dm_move_ws *ws, const dm_model *model, const dm_modes *modes, int k,
                       const dm_static *statics, const double (*dir)[3], int ndir,
                       const dm_move_opts *opts, dm_move_result *res, dm_error *err);
+
+/* The same on the member engine's reduced model (dm_boundary, issue 39):
+ * the k retained modes are the reduced eigenvectors Y (nred x k,
+ * dm_boundary_reduced_vectors' coordinates, M_red-normalised) with
+ * circular frequencies omega, at bw's last solve's pose (`pose`; eig the
+ * solver that served it, whose M_red and K_red products and K_red solves
+ * the preparation uses). The loads are T' G (dm_boundary_inertial_loads)
+ * and the platform's rows are reduced coordinates, so the retained modes'
+ * forces and platform shapes are the model's (phi = T y) and the static
+ * remainder's platform part is exact (K_red^-1's boundary block is S^-1,
+ * the exact condensation); the Ritz vectors are those of the reduced pair,
+ * a Rayleigh-Ritz of the model's (docs/model-choices.md). No n-vector of
+ * the model is formed. */
+int dm_standard_moves_reduced(dm_move_ws *ws, dm_boundary *bw, dm_boundary_eig *eig,
+                              const dm_robot *robot, const dm_pose *pose, const double *Y,
+                              const double *omega, int k, const double (*dir)[3], int ndir,
+                              const dm_move_opts *opts, dm_move_result *res, dm_error *err);
 
 /* ---- integrate_trajectory.c: trajectories --------------------------------- */
 

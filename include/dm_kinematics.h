@@ -93,6 +93,13 @@ typedef struct dm_link_motion {
     double rod_alpha[3][3];          /* rod angular acceleration per chain */
 } dm_link_motion;
 
+/* The accelerations of m (alpha_dot, alpha_ddot, aP, aB, rod_alpha) from
+ * given arm rates and accelerations and platform acceleration, nothing
+ * solved (dm_loads' rigid motions); the velocities are left as they are. */
+void dm_kin_link_accelerations(const dm_pose *pose, const double alpha_dot[3],
+                               const double alpha_ddot[3], const double aP[3],
+                               dm_link_motion *motion);
+
 int dm_kin_link_motion(const dm_robot *robot, const dm_pose *pose, const double v[3],
                        const double a[3], dm_link_motion *motion, dm_error *err);
 

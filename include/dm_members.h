@@ -46,6 +46,7 @@
 
 #define DM_MEMBERS_N 9       /* chain i: arm 3i, rods 3i + 1 (+d), 3i + 2 (-d) */
 #define DM_MEMBERS_MAX_BOUND 33 /* 3 elbows, 3 bases, the platform */
+#define DM_MEMBERS_LOADS 9   /* unit load cases per member (dm_member_basis.G) */
 
 /* A run of a member's interior DOFs that sits in the model's U: `count`
  * DOFs from model_dof, either the same numbers (rotate 0: own rotations,
@@ -62,22 +63,28 @@ typedef struct dm_member_basis {
     double element_m;       /* its elements' length at the build (the model's number) */
     int nb, ni, nm;         /* boundary DOFs (6 or 9), interior, nb + ni */
     double *K, *M;          /* nm x nm, column-major, boundary DOFs first */
-    double *G;              /* nm x 3: consistent load of a unit acceleration along local x, y, z */
+    double *G;              /* nm x DM_MEMBERS_LOADS: consistent loads (M times the nodal
+                             * accelerations) of unit accelerations in the member's frame:
+                             * columns 0-2 along local x, y, z at every node (gravity);
+                             * 3-5 the same growing from 0 at the first node to 1 at the
+                             * last (the affine field of dm_loads along a link); 6-8 about
+                             * local x, y, z at every node's rotations */
     double *Lii;            /* ni x ni: Cholesky factor of K_ii (lower) */
     double logdet_ii;       /* ln det K_ii */
     double *Psi;            /* ni x nb: constraint modes -K_ii^-1 K_ib */
     double *Khat;           /* nb x nb: K_bb + K_bi Psi */
-    double *Ghat;           /* nb x 3: G_b + Psi' G_i */
+    double *Ghat;           /* nb x DM_MEMBERS_LOADS: G_b + Psi' G_i */
+    double *Gq;             /* (nkeep + nres) x DM_MEMBERS_LOADS: [Phi_kept, R]' G_i */
     double *Ui;             /* ni x 3: K_ii^-1 G_i (clamped member under unit acceleration) */
     double *lambda;         /* ni: fixed-interface eigenvalues, ascending, rad^2/s^2 */
     double *Phi;            /* ni x ni: their modes, M_ii-orthonormal */
     int nkeep;              /* modes the rule keeps (lambda <= lambda_cut) */
-    int nres;               /* residual vectors (<= nb) */
+    int nres;               /* residual vectors (<= nb + 1: an arm's own rotation) */
     double *R;              /* ni x nres: M_ii-orthonormal, M_ii-orthogonal to the kept modes */
     double *Mhat;           /* nb x nb: [I; Psi]' M [I; Psi], the inertia of the constraint modes */
     double *Gam;            /* ni x nb: Phi' F, F = M_ib + M_ii Psi (every mode's coupling) */
     double *GamR;           /* nres x nb: R' F */
-    double *KR;             /* nres x nres: R' K_ii R */
+    double *kres;           /* nres: R' K_ii R, diagonal (R is K_ii-orthogonal), ascending */
     int nrun;
     dm_members_run *run;     /* where the interior sits in the model's U */
 } dm_member_basis;

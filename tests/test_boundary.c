@@ -11,6 +11,7 @@
 #include <stdlib.h>
 
 #include "dm_boundary.h"
+#include "dm_loads.h"
 #include "dm_members_fixtures.h"
 #include "dm_reference.h"
 
@@ -464,6 +465,111 @@ static void mode_shapes_match_the_reference(void **state)
     print_message("mode shapes from the members: worst 1 - cluster MAC %.2e\n", worst);
 }
 
+/* T' G by the definition: the model's inertial loads G (dm_loads, n),
+ * in (boundary, interiors) coordinates z = Q' G, then the boundary rows
+ * z_B + sum_m C_m' Psi_m' z_i and each member's [Phi_kept, R]' z_i. */
+static void loads_by_definition(const dm_members *ms, const dm_members_pose *mp, const double *G,
+                                double *out)
+{
+    int nB = ms->nbound, q0 = nB;
+    double *z = malloc(sizeof(double) * ms->n), C[9 * DM_MEMBERS_MAX_BOUND];
+    assert_non_null(z);
+    dm_members_gather(ms, mp, G, z);
+    memcpy(out, z, sizeof(double) * nB);
+    for (int m = 0; m < DM_MEMBERS_N; m++) {
+        const dm_member_basis *mb = &ms->member[m];
+        const double *zi = z + ms->interior0[m];
+        dm_members_coupling(ms, mp, m, C);
+        for (int r = 0; r < mb->nb; r++) {
+            double psi_z = 0;
+            for (int k = 0; k < mb->ni; k++)
+                psi_z += mb->Psi[(size_t)r * mb->ni + k] * zi[k];
+            for (int c = 0; c < nB; c++)
+                out[c] += C[(size_t)c * mb->nb + r] * psi_z;
+        }
+        for (int j = 0; j < mb->nkeep + mb->nres; j++) {
+            const double *v = j < mb->nkeep ? mb->Phi + (size_t)j * mb->ni
+                                            : mb->R + (size_t)(j - mb->nkeep) * mb->ni;
+            double s = 0;
+            for (int k = 0; k < mb->ni; k++)
+                s += v[k] * zi[k];
+            out[q0 + j] = s;
+        }
+        q0 += mb->nkeep + mb->nres;
+    }
+    free(z);
+}
+
+/* The reduced inertial loads (dm_boundary_inertial_loads: each member's
+ * unit loads combined) equal T' G of the model's own loads, for the
+ * standard move's three directions from rest and a motion with arm rates
+ * (centripetal terms), the three presets at meshes 1,1 and 4,4 without
+ * and with every pose-free effect, 3 random poses each. Both are the
+ * same few hundred products summed in other orders: 1e-12 of the largest
+ * entry's size is some hundred roundings of it. */
+static void inertial_loads_equal_the_projected_model(void **state)
+{
+    (void)state;
+    const char *presets[] = {"chen2018", "zheng2017", "han2011"};
+    dm_rng rng = {11};
+    double worst = 0;
+    for (int r = 0; r < 3; r++)
+        for (int mesh = 1; mesh <= 4; mesh += 3)
+            for (int fx = 0; fx < 2; fx++) {
+                dm_robot rb;
+                dm_pose pose;
+                load(&rb, presets[r], fx ? ALL_EFFECTS : NULL);
+                dm_model *md = dm_model_alloc(&rb, mesh, mesh, NULL);
+                assert_non_null(md);
+                assert_int_equal(dm_kin_pose(&rb, rb.home_m, &pose, NULL), 0);
+                assert_int_equal(dm_model_build(md, &pose, NULL), 0);
+                dm_members *ms = dm_boundary_members_for_modes(md, &pose, 10, NULL);
+                dm_boundary *bw = ms ? dm_boundary_alloc(ms, NULL) : NULL;
+                assert_non_null(bw);
+                int n = md->n, nr = dm_boundary_reduced_size(bw);
+                double *G = malloc(sizeof(double) * n * 4), *got = malloc(sizeof(double) * nr * 4);
+                double *want = malloc(sizeof(double) * nr);
+                for (int t = 0; t < 3; t++) {
+                    dm_boundary_statics st;
+                    dm_rigid_motion mo[4] = {{{0}, {0}, {1, 0, 0}}, {{0}, {0}, {0, 1, 0}},
+                                             {{0}, {0}, {0, 0, 1}}, {{0}, {0}, {0.3, -0.5, 0.8}}};
+                    const double v0[3] = {0, 0, 0}, v[3] = {0.4, 0.2, -0.3};
+                    random_pose(&rb, &rng, &pose);
+                    for (int l = 0; l < 4; l++)
+                        assert_int_equal(dm_kin_accelerations(&rb, &pose, l < 3 ? v0 : v,
+                                                              mo[l].aP, mo[l].alpha_ddot, NULL), 0);
+                    assert_int_equal(dm_kin_rates(&rb, &pose, v, mo[3].alpha_dot, NULL), 0);
+                    assert_int_equal(dm_model_build(md, &pose, NULL), 0);
+                    memset(G, 0, sizeof(double) * n * 4);
+                    dm_loads_add_inertial_many(md, mo, 4, G);
+                    assert_int_equal(dm_boundary_solve(bw, &pose, &st, NULL), 0);
+                    dm_boundary_inertial_loads(bw, &pose, mo, 4, got);
+                    dm_members_pose mp;
+                    assert_int_equal(dm_members_at(ms, &pose, &mp, NULL), 0);
+                    for (int l = 0; l < 4; l++) {
+                        loads_by_definition(ms, &mp, G + (size_t)l * n, want);
+                        double size = 0, err = 0;
+                        for (int i = 0; i < nr; i++)
+                            size = fmax(size, fabs(want[i]));
+                        for (int i = 0; i < nr; i++)
+                            err = fmax(err, fabs(got[(size_t)l * nr + i] - want[i]));
+                        assert_true(size > 0);
+                        worst = fmax(worst, err / size);
+                        if (!(err <= 1e-12 * size))
+                            fail_msg("%s mesh %d effects %d motion %d: T'G off by %.3e of %.3e",
+                                     presets[r], mesh, fx, l, err, size);
+                    }
+                }
+                free(G);
+                free(got);
+                free(want);
+                dm_boundary_free(bw);
+                dm_members_free(ms);
+                dm_model_free(md);
+            }
+    print_message("reduced inertial loads against T' G: worst %.2e of the largest entry\n", worst);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -472,6 +578,7 @@ int main(void)
         cmocka_unit_test(count_equals_dense_inertia),
         cmocka_unit_test(reduced_modes_are_certified),
         cmocka_unit_test(mode_shapes_match_the_reference),
+        cmocka_unit_test(inertial_loads_equal_the_projected_model),
     };
     return cmocka_run_group_tests_name("boundary", tests, NULL, NULL);
 }

@@ -162,8 +162,9 @@ static void changed_length_is_refused(void **state)
 }
 
 /* Phi' M_ii Phi = I and Phi' K_ii Phi = Lambda (LAPACK's dsygvd: 1e-12 of
- * the largest entry), the residual vectors M_ii-orthonormal and
- * M_ii-orthogonal to the kept modes, nkeep and nres as the rule says. */
+ * the largest entry), the residual vectors M_ii-orthonormal, M_ii-orthogonal
+ * to the kept modes and K_ii-orthogonal among themselves (kres, ascending),
+ * nkeep and nres as the rule says. */
 static void check_basis(const dm_member_basis *mb, double cut)
 {
     int ni = mb->ni, nb = mb->nb, nm = mb->nm;
@@ -184,10 +185,17 @@ static void check_basis(const dm_member_basis *mb, double cut)
             assert_abs(m, a == b, 1e-12, "x' M y, (%d, %d)", a, b);
             if (a < ni)
                 assert_abs(k, a == b ? mb->lambda[a] : 0, 1e-12 * mb->lambda[ni - 1], "x' K y");
+            else if (b >= ni) /* K_ii-orthogonal among themselves, kres their stiffness */
+                assert_abs(k, a == b ? mb->kres[a - ni] : 0, 1e-12 * mb->lambda[ni - 1],
+                           "r' K r, (%d, %d)", a - ni, b - ni);
         }
     for (int j = 0; j < ni; j++)
         assert_true((j < mb->nkeep) == (mb->lambda[j] <= cut));
-    assert_true(mb->nres <= nb && (mb->nkeep == ni) == (mb->nres == 0));
+    for (int j = 1; j < mb->nres; j++)
+        assert_true(mb->kres[j - 1] <= mb->kres[j]);
+    /* one per boundary DOF at most, and an arm's own rotation */
+    int most = nb + (mb->kind == DM_MEMBER_ARM);
+    assert_true(mb->nres <= most && (mb->nkeep == ni) == (mb->nres == 0));
 }
 
 /* A rod clamped at its boundary (its ends' translations) with its ends

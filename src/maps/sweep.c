@@ -60,14 +60,14 @@ static int worker_alloc(const sweep_ctx *c, sweep_worker *w, dm_error *err)
     w->an = dm_analysis_alloc(c->rb, c->na, c->nb, c->kc, DM_EIGEN_PARTIAL, err);
     if (!w->an)
         return err ? err->code : DM_ENOMEM;
-    if (c->members) { /* the moves read the model and the shapes */
+    if (c->members) { /* the moves run on the reduced model: no shapes, no model */
         int rc = dm_analysis_use_members(w->an, c->members, err);
         if (rc) {
             worker_free(w);
             memset(w, 0, sizeof *w);
             return rc;
         }
-        w->an->want_model = w->an->want_shapes = c->o.dynamic;
+        w->an->want_model = w->an->want_shapes = 0;
     }
     if (dm_effects_any(&c->rb->effects) && /* else the change is 0 */
         !(w->nominal = dm_coupling_alloc(c->rb, c->na, c->nb, err))) {
@@ -161,8 +161,14 @@ static void analyse_point(const sweep_ctx *c, sweep_worker *w, const int idx[3],
     if (c->o.dynamic) {
         static const double xyz[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
         dm_move_result mv[3];
-        if (dm_standard_moves(w->move, w->an->model, res.modes, c->k, w->an->statics, xyz, 3,
-                              &c->o.move, mv, NULL)) {
+        dm_analysis *a = w->an;
+        int rc = a->last_members
+                     ? dm_standard_moves_reduced(w->move, a->boundary, a->eig, c->rb, &res.pose,
+                                                 a->reduced, res.modes->omega_rad_s, c->k, xyz, 3,
+                                                 &c->o.move, mv, NULL)
+                     : dm_standard_moves(w->move, a->model, res.modes, c->k, a->statics, xyz, 3,
+                                         &c->o.move, mv, NULL);
+        if (rc) {
             r->status = DM_POINT_FAILED;
             return;
         }

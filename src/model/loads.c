@@ -5,20 +5,6 @@
 
 #include "dm_vec3.h"
 
-/* Acceleration of the elbow of chain i: the arm rotates about t_i through A_i. */
-static void elbow_acceleration(const dm_model *md, int i, const dm_rigid_motion *mo,
-                               double aB[3])
-{
-    const dm_pose *p = &md->pose;
-    double r[3], txr[3], txtxr[3];
-    dm_sub3(p->B[i], p->A[i], r);
-    dm_cross3(p->t[i], r, txr);
-    dm_cross3(p->t[i], txr, txtxr);
-    double w = mo->alpha_dot[i], wd = mo->alpha_ddot[i];
-    for (int k = 0; k < 3; k++)
-        aB[k] = wd * txr[k] + w * w * txtxr[k];
-}
-
 /* Rigid accelerations are affine along a straight link: interpolate its end
  * accelerations. Arms: 0 at A, aB at B; rods: aB at the top (the short bar
  * turns with the arm about t_i, so it adds nothing), aP at the bottom. */
@@ -29,24 +15,15 @@ static void node_acceleration(const dm_element *e, double s, const double aB[3],
         a[k] = e->member == DM_MEMBER_ARM ? s * aB[k] : (1 - s) * aB[k] + s * aP[k];
 }
 
-/* The link accelerations of one rigid motion: elbows and the angular
- * accelerations of arms and rods. */
-typedef struct {
-    double aB[3][3], ang[2][3][3]; /* [chain]; [arm|rod][chain] */
-} link_motion;
-
-static void link_accelerations(const dm_model *md, const dm_rigid_motion *mo, link_motion *lm)
+/* The links of one rigid motion (dm_kinematics), and the arms' angular
+ * accelerations (about t_i) beside the rods'. */
+static void links_of(const dm_model *md, const dm_rigid_motion *mo, dm_link_motion *lm,
+                     double ang[2][3][3])
 {
-    const dm_pose *p = &md->pose;
+    dm_kin_link_accelerations(&md->pose, mo->alpha_dot, mo->alpha_ddot, mo->aP, lm);
     for (int i = 0; i < 3; i++) {
-        double L[3], da[3], *rod = lm->ang[DM_MEMBER_ROD][i];
-        elbow_acceleration(md, i, mo, lm->aB[i]);
-        dm_scale3(mo->alpha_ddot[i], p->t[i], lm->ang[DM_MEMBER_ARM][i]);
-        /* rod: omega_dot = L x (aC - aB) / |L|^2, L = C - B (no spin) */
-        dm_sub3(p->C[i], p->B[i], L);
-        dm_sub3(mo->aP, lm->aB[i], da);
-        dm_cross3(L, da, rod);
-        dm_scale3(1.0 / dm_dot3(L, L), rod, rod);
+        dm_scale3(mo->alpha_ddot[i], md->pose.t[i], ang[DM_MEMBER_ARM][i]);
+        dm_copy3(lm->rod_alpha[i], ang[DM_MEMBER_ROD][i]);
     }
 }
 
@@ -55,9 +32,10 @@ static void link_accelerations(const dm_model *md, const dm_rigid_motion *mo, li
 void dm_loads_add_inertial_many(const dm_model *md, const dm_rigid_motion *mo, int q, double *F)
 {
     assert(q >= 1 && q <= MAX_MOTIONS);
-    link_motion lm[MAX_MOTIONS];
+    dm_link_motion lm[MAX_MOTIONS];
+    double ang[MAX_MOTIONS][2][3][3];
     for (int l = 0; l < q; l++)
-        link_accelerations(md, &mo[l], &lm[l]);
+        links_of(md, &mo[l], &lm[l], ang[l]);
     for (int k = 0; k < md->nelem; k++) {
         const dm_element *e = &md->elem[k];
         double a12[MAX_MOTIONS][12];
@@ -66,7 +44,7 @@ void dm_loads_add_inertial_many(const dm_model *md, const dm_rigid_motion *mo, i
             node_acceleration(e, e->s1, lm[l].aB[e->chain], mo[l].aP, a);
             node_acceleration(e, e->s2, lm[l].aB[e->chain], mo[l].aP, a + 6);
             for (int c = 0; c < 3; c++)
-                a[3 + c] = a[9 + c] = lm[l].ang[e->member][e->chain][c];
+                a[3 + c] = a[9 + c] = ang[l][e->member][e->chain][c];
             for (int c = 0; c < 12; c++)
                 a[c] = -a[c]; /* G_e = -M_e a_e */
         }

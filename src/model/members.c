@@ -120,9 +120,16 @@ static void assemble(const dm_model *md, dm_member_basis *mb, const member_map *
             if (ra < 0)
                 continue;
             for (int b = 0; b < 12; b++) {
-                int cb = mm->dof[6 * el + b];
-                if (b % 6 < 3) /* unit acceleration along local b % 6 at this node */
-                    mb->G[(b % 6) * nm + ra] += Me[12 * a + b];
+                int cb = mm->dof[6 * el + b], c = b % 6;
+                /* the node's fraction of the member's length: the
+                 * accelerations of dm_loads are affine along a link */
+                double s = (double)(el + b / 6) / mb->nel;
+                if (c < 3) { /* unit acceleration along local c, uniform and growing */
+                    mb->G[c * nm + ra] += Me[12 * a + b];
+                    mb->G[(3 + c) * nm + ra] += s * Me[12 * a + b];
+                } else { /* unit angular acceleration about local c - 3 */
+                    mb->G[(3 + c) * nm + ra] += Me[12 * a + b];
+                }
                 if (cb < 0)
                     continue;
                 mb->K[(size_t)cb * nm + ra] += Ke[12 * a + b];
@@ -184,7 +191,7 @@ static int condense(dm_member_basis *mb)
     for (int c = 0; c < nb; c++) /* symmetric to the last bit */
         for (int r = c + 1; r < nb; r++)
             mb->Khat[(size_t)c * nb + r] = mb->Khat[(size_t)r * nb + c];
-    for (int a = 0; a < 3; a++)
+    for (int a = 0; a < DM_MEMBERS_LOADS; a++)
         for (int r = 0; r < nb; r++) {
             double s = mb->G[(size_t)a * nm + r];
             for (int k = 0; k < ni; k++)
@@ -195,15 +202,18 @@ static int condense(dm_member_basis *mb)
 }
 
 /* R = Phi_d U_r: the left singular vectors of c = Lambda_d^-1 Phi_d' F
- * (dropped modes d) with sigma > 1e-12 sigma_max, so R is M_ii-orthonormal
- * and M_ii-orthogonal to the kept modes by construction. */
-static int residual_vectors(dm_member_basis *mb, const double *F, double *c, double *sv, double *U)
+ * (dropped modes d; F's nl load columns) with sigma > 1e-12 sigma_max, so
+ * R is M_ii-orthonormal and M_ii-orthogonal to the kept modes by
+ * construction; then turned within their span to be K_ii-orthogonal too
+ * (kres = R' K_ii R, diagonal, ascending). */
+static int residual_vectors(dm_member_basis *mb, const double *F, int nl, double *c, double *sv,
+                            double *U)
 {
-    int nb = mb->nb, ni = mb->ni, k0 = mb->nkeep, nd = ni - k0;
+    int ni = mb->ni, k0 = mb->nkeep, nd = ni - k0;
     mb->nres = 0;
     if (nd == 0)
         return DM_OK;
-    for (int j = 0; j < nb; j++)
+    for (int j = 0; j < nl; j++)
         for (int d = 0; d < nd; d++) {
             const double *phi = mb->Phi + (size_t)(k0 + d) * ni;
             double s = 0;
@@ -211,24 +221,37 @@ static int residual_vectors(dm_member_basis *mb, const double *F, double *c, dou
                 s += phi[r] * F[(size_t)j * ni + r];
             c[(size_t)j * nd + d] = s / mb->lambda[k0 + d];
         }
-    int mn = nd < nb ? nd : nb;
-    if (LAPACKE_dgesvd(LAPACK_COL_MAJOR, 'S', 'N', nd, nb, c, nd, sv, U, nd, NULL, 1, sv + mn))
+    int mn = nd < nl ? nd : nl;
+    if (LAPACKE_dgesvd(LAPACK_COL_MAJOR, 'S', 'N', nd, nl, c, nd, sv, U, nd, NULL, 1, sv + mn))
         return DM_ENUMERIC;
     while (mb->nres < mn && sv[mb->nres] > 1e-12 * sv[0])
         mb->nres++;
-    for (int j = 0; j < mb->nres; j++)
-        for (int r = 0; r < ni; r++) {
-            double s = 0;
-            for (int d = 0; d < nd; d++)
-                s += mb->Phi[(size_t)(k0 + d) * ni + r] * U[(size_t)j * nd + d];
-            mb->R[(size_t)j * ni + r] = s;
-        }
-    for (int a = 0; a < mb->nres; a++) /* KR = R' K_ii R = U' Lambda_d U */
-        for (int b = 0; b < mb->nres; b++) {
+    /* turned K_ii-orthogonal: U <- U W, W the eigenvectors of U' Lambda_d U
+     * (R' K_ii R), so the reduced K is diagonal inside every member */
+    int nr = mb->nres;
+    double *W = c; /* c is spent */
+    for (int a = 0; a < nr; a++)
+        for (int b = 0; b < nr; b++) {
             double s = 0;
             for (int d = 0; d < nd; d++)
                 s += U[(size_t)a * nd + d] * mb->lambda[k0 + d] * U[(size_t)b * nd + d];
-            mb->KR[(size_t)b * mb->nres + a] = s;
+            W[(size_t)b * nr + a] = s;
+        }
+    if (nr && LAPACKE_dsyev(LAPACK_COL_MAJOR, 'V', 'L', nr, W, nr, mb->kres))
+        return DM_ENUMERIC;
+    for (int j = 0; j < nr; j++)
+        if (!(mb->kres[j] > 0))
+            return DM_ENUMERIC;
+    for (int j = 0; j < nr; j++)
+        for (int r = 0; r < ni; r++) {
+            double s = 0;
+            for (int d = 0; d < nd; d++) {
+                double u = 0;
+                for (int a = 0; a < nr; a++)
+                    u += U[(size_t)a * nd + d] * W[(size_t)j * nr + a];
+                s += mb->Phi[(size_t)(k0 + d) * ni + r] * u;
+            }
+            mb->R[(size_t)j * ni + r] = s;
         }
     return DM_OK;
 }
@@ -277,9 +300,10 @@ static int fixed_interface_basis(dm_member_basis *mb, double cut)
         inertia_terms(mb, NULL);
         return DM_OK;
     }
-    double *B = malloc(sizeof(double) * ni * ni), *F = malloc(sizeof(double) * ni * nb);
-    double *c = malloc(sizeof(double) * ni * nb), *sv = malloc(sizeof(double) * 2 * (nb + ni));
-    double *U = malloc(sizeof(double) * ni * nb);
+    int arm = mb->kind == DM_MEMBER_ARM, nl = nb + arm;
+    double *B = malloc(sizeof(double) * ni * ni), *F = malloc(sizeof(double) * ni * nl);
+    double *c = malloc(sizeof(double) * ni * nl), *sv = malloc(sizeof(double) * 2 * (nl + ni));
+    double *U = malloc(sizeof(double) * ni * nl);
     if (!B || !F || !c || !sv || !U)
         rc = DM_ENOMEM;
     if (!rc) {
@@ -296,10 +320,20 @@ static int fixed_interface_basis(dm_member_basis *mb, double cut)
                 for (int r = 0; r < ni && p != 0; r++)
                     F[(size_t)j * ni + r] += mb->M[(size_t)(nb + k) * nm + nb + r] * p;
             }
+        /* an arm's own rotation about its actuator axis (local y) through
+         * its root, the nominal motion's load on it (dm_loads: -M a, a
+         * growing along -z to -L at the tip, rotations about y): not an
+         * inertia load of its boundary's accelerations when the root is
+         * held, so its static response joins the residual vectors'
+         * loads (then K^-1 G is exact in the bases; dm_standard_moves_
+         * reduced) */
+        for (int r = 0; arm && r < ni; r++)
+            F[(size_t)nb * ni + r] = -mb->nel * mb->element_m * mb->G[(size_t)5 * nm + nb + r] +
+                                     mb->G[(size_t)7 * nm + nb + r];
         mb->nkeep = 0;
         while (mb->nkeep < ni && mb->lambda[mb->nkeep] <= cut)
             mb->nkeep++;
-        rc = residual_vectors(mb, F, c, sv, U);
+        rc = residual_vectors(mb, F, nl, c, sv, U);
     }
     if (!rc)
         inertia_terms(mb, F);
@@ -311,25 +345,43 @@ static int fixed_interface_basis(dm_member_basis *mb, double cut)
     return rc;
 }
 
+/* The unit loads' parts along the basis: Gq = [Phi_kept, R]' G_i (the
+ * reduced coordinates of a member's interior, dm_boundary). */
+static void load_terms(dm_member_basis *mb)
+{
+    int ni = mb->ni, nm = mb->nm, nq = mb->nkeep + mb->nres;
+    for (int a = 0; a < DM_MEMBERS_LOADS; a++)
+        for (int j = 0; j < nq; j++) {
+            const double *v = j < mb->nkeep ? mb->Phi + (size_t)j * ni
+                                            : mb->R + (size_t)(j - mb->nkeep) * ni;
+            const double *g = mb->G + (size_t)a * nm + mb->nb;
+            double s = 0;
+            for (int r = 0; r < ni; r++)
+                s += v[r] * g[r];
+            mb->Gq[(size_t)a * nq + j] = s;
+        }
+}
+
 static int member_alloc(dm_member_basis *mb)
 {
     size_t nm = (size_t)mb->nm, ni = (size_t)mb->ni, nb = (size_t)mb->nb;
     int fail = 0;
     mb->K = new_array(nm * nm, &fail);
     mb->M = new_array(nm * nm, &fail);
-    mb->G = new_array(nm * 3, &fail);
+    mb->G = new_array(nm * DM_MEMBERS_LOADS, &fail);
     mb->Lii = new_array(ni * ni, &fail);
     mb->Psi = new_array(ni * nb, &fail);
     mb->Khat = new_array(nb * nb, &fail);
-    mb->Ghat = new_array(nb * 3, &fail);
+    mb->Ghat = new_array(nb * DM_MEMBERS_LOADS, &fail);
+    mb->Gq = new_array((ni + nb + 1) * DM_MEMBERS_LOADS, &fail);
     mb->Ui = new_array(ni * 3, &fail);
     mb->lambda = new_array(ni, &fail);
     mb->Phi = new_array(ni * ni, &fail);
-    mb->R = new_array(ni * nb, &fail);
+    mb->R = new_array(ni * (nb + 1), &fail); /* nres <= nb + 1 (an arm's rotation) */
     mb->Mhat = new_array(nb * nb, &fail);
     mb->Gam = new_array(ni * nb, &fail);
-    mb->GamR = new_array(nb * nb, &fail);
-    mb->KR = new_array(nb * nb, &fail);
+    mb->GamR = new_array((nb + 1) * nb, &fail);
+    mb->kres = new_array(nb + 1, &fail);
     return fail ? DM_ENOMEM : DM_OK;
 }
 
@@ -337,7 +389,7 @@ static void member_release(dm_member_basis *mb)
 {
     double *arrays[] = {mb->K,   mb->M,   mb->G,      mb->Lii, mb->Psi,  mb->Khat, mb->Ghat,
                         mb->Ui,  mb->lambda, mb->Phi, mb->R,   mb->Mhat, mb->Gam,  mb->GamR,
-                        mb->KR};
+                        mb->kres, mb->Gq};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; k++)
         free(arrays[k]);
     free(mb->run);
@@ -373,6 +425,8 @@ static int member_build(const dm_model *md, int m, double cut, dm_member_basis *
     }
     if (!rc)
         rc = fixed_interface_basis(mb, cut);
+    if (!rc)
+        load_terms(mb);
     free(mm.dof);
     return rc;
 }

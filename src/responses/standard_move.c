@@ -21,6 +21,7 @@
 #include <string.h>
 
 #include "standard_move_impl.h"
+#include "dm_boundary.h"
 #include "dm_integrate.h"
 #include "dm_kinematics.h"
 #include "dm_loads.h"
@@ -225,6 +226,21 @@ static void add_mode(carried *c, double om, double g, const double phiP[3], int 
  * one). Each direction's arithmetic is its own: the results do not depend
  * on which directions are prepared together. */
 
+/* The coordinates the moves are prepared in: the full model's DOFs (its
+ * products and K's factor) or the member engine's reduced coordinates
+ * (dm_boundary: K_red = diag(S, ...), M_red's apply), with the retained
+ * modes in them. Everything after the preparation reads only each
+ * carried mode's frequency, force and platform translation. */
+typedef struct {
+    int n, pd;                    /* coordinates; the platform's first translation */
+    const double *phi, *mphi;     /* the k retained modes (n x k), M times them (or NULL) */
+    const double *omega;          /* their circular frequencies */
+    const dm_model *md;           /* the full model and the factor of its K, */
+    const dm_static *st;
+    dm_boundary *bw;              /* or the reduced model's parts */
+    dm_boundary_eig *eig;
+} space;
+
 /* Column j of direction d's Krylov block, and M times it. */
 static double *krylov(const dm_move_ws *w, int d, int j)
 {
@@ -239,17 +255,41 @@ static double *m_krylov(const dm_move_ws *w, int d, int j)
 /* What a block operation does to the q vectors it is given. */
 typedef enum { OP_MULT_M, OP_MULT_K, OP_SOLVE } block_op;
 
-/* out[r] = op(in[r]) for r < q (in place when out[r] == in[r]): gathered
- * into one interleaved block, one kernel call, scattered back. The block
- * is padded with zero columns to a multiple of 4, the kernels' vector
- * slice (dm_arrow): 3 or 9 vectors cost more than 4 or 12 (a solve at the
- * default mesh 5.6 against 4.6 us, 10.7 against 7.6); columns are
- * independent, so the padding changes no bit of the others. */
-static void on_block(dm_move_ws *w, const dm_model *md, const dm_static *st, block_op op,
-                     const double *const *in, double *const *out, int q)
+/* The reduced model's operation on q vectors: gathered into one
+ * column-major block, one call, scattered back. */
+static void on_reduced_block(dm_move_ws *w, const space *sp, block_op op, const double *const *in,
+                             double *const *out, int q)
 {
-    int n = w->n, qp = (q + 3) & ~3;
+    int n = sp->n;
+    for (int r = 0; r < q; r++)
+        memcpy(w->X + (size_t)r * n, in[r], sizeof(double) * n);
+    const double *res = w->Y;
+    if (op == OP_SOLVE)
+        dm_boundary_eig_solve_K(sp->eig, sp->bw, w->X, q), res = w->X;
+    else if (op == OP_MULT_M)
+        dm_boundary_eig_mult_M(sp->eig, w->X, q, w->Y);
+    else
+        dm_boundary_eig_mult_K(sp->eig, sp->bw, w->X, q, w->Y);
+    for (int r = 0; r < q; r++)
+        memcpy(out[r], res + (size_t)r * n, sizeof(double) * n);
+}
+
+/* out[r] = op(in[r]) for r < q (in place when out[r] == in[r]). On the
+ * full model: gathered into one interleaved block, one kernel call,
+ * scattered back. The block is padded with zero columns to a multiple of
+ * 4, the kernels' vector slice (dm_arrow): 3 or 9 vectors cost more than
+ * 4 or 12 (a solve at the default mesh 5.6 against 4.6 us, 10.7 against
+ * 7.6); columns are independent, so the padding changes no bit of the
+ * others. */
+static void on_block(dm_move_ws *w, const space *sp, block_op op, const double *const *in,
+                     double *const *out, int q)
+{
+    int n = sp->n, qp = (q + 3) & ~3;
     assert(q >= 1 && qp <= MAXDIR * MAXRITZ);
+    if (sp->eig) {
+        on_reduced_block(w, sp, op, in, out, q);
+        return;
+    }
     for (int i = 0; i < n; i++) {
         double *xi = w->X + (size_t)i * qp;
         for (int r = 0; r < q; r++)
@@ -258,9 +298,9 @@ static void on_block(dm_move_ws *w, const dm_model *md, const dm_static *st, blo
             xi[r] = 0;
     }
     if (op == OP_SOLVE)
-        dm_arrow_chol_solve(dm_static_chol(st), w->X, qp);
+        dm_arrow_chol_solve(dm_static_chol(sp->st), w->X, qp);
     else
-        (op == OP_MULT_M ? dm_model_mult_M : dm_model_mult_K)(md, w->X, qp, w->Y);
+        (op == OP_MULT_M ? dm_model_mult_M : dm_model_mult_K)(sp->md, w->X, qp, w->Y);
     const double *res = op == OP_SOLVE ? w->X : w->Y;
     for (int i = 0; i < n; i++)
         for (int r = 0; r < q; r++)
@@ -289,30 +329,31 @@ static double dot(const double *a, const double *b, int n)
  * along them are then (M phi_j)' x, with no product with M of x itself.
  * The subspace solver hands it out with the modes (the products its last
  * check made: the same bits as these); else it is made here. */
-static const double *retained_m(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k)
+static const double *retained_m(dm_move_ws *w, const space *sp, int k)
 {
-    if (mo->mphi)
-        return mo->mphi;
+    if (sp->mphi)
+        return sp->mphi;
     const int most = MAXDIR * MAXRITZ; /* on_block's widest */
     for (int j0 = 0; j0 < k; j0 += most) {
         int q = k - j0 < most ? k - j0 : most;
         const double *in[MAXDIR * MAXRITZ];
         double *out[MAXDIR * MAXRITZ];
         for (int r = 0; r < q; r++) {
-            in[r] = mo->phi + (size_t)(j0 + r) * w->n;
-            out[r] = w->MPhi + (size_t)(j0 + r) * w->n;
+            in[r] = sp->phi + (size_t)(j0 + r) * sp->n;
+            out[r] = w->MPhi + (size_t)(j0 + r) * sp->n;
         }
-        on_block(w, md, NULL, OP_MULT_M, in, out, q);
+        on_block(w, sp, OP_MULT_M, in, out, q);
     }
     return w->MPhi;
 }
 
 /* x -= B c, c = (M B)' x: x's part in span(B) removed M-orthogonally, for
  * B's m columns M-orthonormal (n x m, M B beside it); c returned. */
-static void project_out(double *x, const double *B, const double *MB, int n, int m, double *c)
+static void project_out(double *x, const double *B, const double *MB, int n, int ldb, int m,
+                        double *c)
 {
-    cblas_dgemv(CblasColMajor, CblasTrans, n, m, 1.0, MB, n, x, 1, 0.0, c, 1);
-    cblas_dgemv(CblasColMajor, CblasNoTrans, n, m, -1.0, B, n, c, 1, 1.0, x, 1);
+    cblas_dgemv(CblasColMajor, CblasTrans, n, m, 1.0, MB, ldb, x, 1, 0.0, c, 1);
+    cblas_dgemv(CblasColMajor, CblasNoTrans, n, m, -1.0, B, ldb, c, 1, 1.0, x, 1);
 }
 
 /* M-orthonormalise Krylov column m of the directions in dirs[0..q) against
@@ -325,19 +366,19 @@ static void project_out(double *x, const double *B, const double *MB, int n, int
  * with M is needed after the projection only; its M-norm before it is
  * that after it plus the squares of the parts (Pythagoras: the basis is
  * M-orthonormal). */
-static void orthonormalise(dm_move_ws *w, const dm_model *md, const dm_modes *mo,
-                           const double *mphi, int k, int m, const int *dirs, int q, int *ok)
+static void orthonormalise(dm_move_ws *w, const space *sp, const double *mphi, int k, int m,
+                           const int *dirs, int q, int *ok)
 {
-    int n = w->n;
+    int n = sp->n;
     double *x[MAXDIR], *mx[MAXDIR], removed[MAXDIR], *c = w->coef;
     for (int r = 0; r < q; r++) {
         x[r] = krylov(w, dirs[r], m), mx[r] = m_krylov(w, dirs[r], m);
-        project_out(x[r], mo->phi, mphi, n, k, c);
+        project_out(x[r], sp->phi, mphi, n, n, k, c);
         if (m > 0)
-            project_out(x[r], krylov(w, dirs[r], 0), m_krylov(w, dirs[r], 0), n, m, c + k);
+            project_out(x[r], krylov(w, dirs[r], 0), m_krylov(w, dirs[r], 0), n, w->n, m, c + k);
         removed[r] = dot(c, c, k + m);
     }
-    on_block(w, md, NULL, OP_MULT_M, (const double *const *)x, mx, q);
+    on_block(w, sp, OP_MULT_M, (const double *const *)x, mx, q);
     for (int r = 0; r < q; r++) {
         double after = dot(x[r], mx[r], n);
         ok[dirs[r]] = after > 1e-20 * (after + removed[r]) && after > 0;
@@ -353,10 +394,10 @@ static void orthonormalise(dm_move_ws *w, const dm_model *md, const dm_modes *mo
 
 /* The Krylov blocks span(r, A r, ...) (A = K^-1 M) of the directions,
  * nritz[d] columns at most (0: none); nkept[d] columns kept. */
-static void krylov_blocks(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
-                          const dm_static *st, int ndir, const int *nritz, int *nkept)
+static void krylov_blocks(dm_move_ws *w, const space *sp, int k, int ndir, const int *nritz,
+                          int *nkept)
 {
-    int n = w->n, active[MAXDIR], ok[MAXDIR], q = 0;
+    int n = sp->n, active[MAXDIR], ok[MAXDIR], q = 0;
     for (int d = 0; d < ndir; d++) {
         nkept[d] = 0;
         if (nritz[d] > 0) {
@@ -364,9 +405,9 @@ static void krylov_blocks(dm_move_ws *w, const dm_model *md, const dm_modes *mo,
             active[q++] = d;
         }
     }
-    const double *mphi = q > 0 ? retained_m(w, md, mo, k) : NULL;
+    const double *mphi = q > 0 ? retained_m(w, sp, k) : NULL;
     for (int m = 0; q > 0; m++) {
-        orthonormalise(w, md, mo, mphi, k, m, active, q, ok);
+        orthonormalise(w, sp, mphi, k, m, active, q, ok);
         int still = 0;
         double *from[MAXDIR], *to[MAXDIR];
         for (int r = 0; r < q; r++) {
@@ -380,23 +421,22 @@ static void krylov_blocks(dm_move_ws *w, const dm_model *md, const dm_modes *mo,
             }
         }
         if ((q = still) > 0)
-            on_block(w, md, st, OP_SOLVE, (const double *const *)from, to, q);
+            on_block(w, sp, OP_SOLVE, (const double *const *)from, to, q);
     }
 }
 
 /* The Ritz modes of each direction's Krylov block: Rayleigh-Ritz with K
  * (the blocks are M-orthonormal). */
-static void ritz_modes(dm_move_ws *w, const dm_model *md, const dm_static *st, int ndir,
-                       const int *nkept)
+static void ritz_modes(dm_move_ws *w, const space *sp, int ndir, const int *nkept)
 {
-    int n = w->n, pd = md->platform_dof, q = 0;
+    int n = sp->n, pd = sp->pd, q = 0;
     double *x[MAXDIR * MAXRITZ], *kx[MAXDIR * MAXRITZ];
     for (int d = 0; d < ndir; d++)
         for (int j = 0; j < nkept[d]; j++, q++)
             x[q] = krylov(w, d, j), kx[q] = w->KR + (size_t)q * n;
     if (!q)
         return;
-    on_block(w, md, st, OP_MULT_K, (const double *const *)x, kx, q);
+    on_block(w, sp, OP_MULT_K, (const double *const *)x, kx, q);
     q = 0;
     for (int d = 0; d < ndir; d++) {
         int m = nkept[d];
@@ -428,29 +468,35 @@ static void ritz_modes(dm_move_ws *w, const dm_model *md, const dm_static *st, i
     }
 }
 
-/* Load of a unit acceleration along each direction, and the retained
- * modes' forces and platform shapes. */
-static int direction_loads(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
-                           const double (*dir)[3], int ndir, dm_error *err)
+/* Load of a unit acceleration along each direction (in the space's
+ * coordinates: the model's G, or T' G), and the retained modes' forces
+ * and platform shapes. */
+static int direction_loads(dm_move_ws *w, const space *sp, const dm_robot *rb,
+                           const dm_pose *pose, int k, const double (*dir)[3], int ndir,
+                           dm_error *err)
 {
-    int n = md->n, pd = md->platform_dof;
+    int n = sp->n, pd = sp->pd;
     const double v0[3] = {0, 0, 0};
     dm_rigid_motion m[MAXDIR];
     for (int d = 0; d < ndir; d++) {
         m[d] = (dm_rigid_motion){{0, 0, 0}, {0, 0, 0}, {dir[d][0], dir[d][1], dir[d][2]}};
-        int rc = dm_kin_accelerations(md->robot, &md->pose, v0, dir[d], m[d].alpha_ddot, err);
+        int rc = dm_kin_accelerations(rb, pose, v0, dir[d], m[d].alpha_ddot, err);
         if (rc)
             return rc;
     }
-    memset(w->G, 0, sizeof(double) * n * ndir);
-    dm_loads_add_inertial_many(md, m, ndir, w->G);
+    if (sp->bw)
+        dm_boundary_inertial_loads(sp->bw, pose, m, ndir, w->G);
+    else {
+        memset(w->G, 0, sizeof(double) * n * ndir);
+        dm_loads_add_inertial_many(sp->md, m, ndir, w->G);
+    }
     for (int d = 0; d < ndir; d++) {
         carried *c = &w->dir[d];
         const double *G = w->G + (size_t)d * n;
         c->nm = 0;
         for (int j = 0; j < k; j++) {
-            const double *ph = mo->phi + (size_t)j * n;
-            add_mode(c, mo->omega_rad_s[j], dot(ph, G, n), ph + pd, j);
+            const double *ph = sp->phi + (size_t)j * n;
+            add_mode(c, sp->omega[j], dot(ph, G, n), ph + pd, j);
         }
         memset(c->rP, 0, sizeof c->rP);
     }
@@ -460,25 +506,24 @@ static int direction_loads(dm_move_ws *w, const dm_model *md, const dm_modes *mo
 /* The modes each direction carries (retained, then Ritz) with their modal
  * forces and platform shapes; what stays static of the dropped modes'
  * response. */
-static int prepare(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
-                   const dm_static *st, const double (*dir)[3], int ndir,
-                   const dm_move_opts *o, dm_error *err)
+static int prepare(dm_move_ws *w, const space *sp, const dm_robot *rb, const dm_pose *pose,
+                   int k, const double (*dir)[3], int ndir, const dm_move_opts *o, dm_error *err)
 {
-    int n = md->n, pd = md->platform_dof;
-    int rc = direction_loads(w, md, mo, k, dir, ndir, err);
+    int n = sp->n, pd = sp->pd;
+    int rc = direction_loads(w, sp, rb, pose, k, dir, ndir, err);
     if (rc || !o->quasi_static)
         return rc;
     /* r = K^-1 G - sum_j phi_j g_j / omega_j^2, all directions in one solve */
     double *r[MAXDIR], *G[MAXDIR];
     for (int d = 0; d < MAXDIR; d++)
         r[d] = w->r + (size_t)d * n, G[d] = w->G + (size_t)d * n;
-    on_block(w, md, st, OP_SOLVE, (const double *const *)G, r, ndir);
+    on_block(w, sp, OP_SOLVE, (const double *const *)G, r, ndir);
     int nritz[MAXDIR], nkept[MAXDIR];
     for (int d = 0; d < ndir; d++) {
         carried *c = &w->dir[d];
         double sr[3] = {0, 0, 0};
         for (int j = 0; j < k; j++) {
-            const double *ph = mo->phi + (size_t)j * n;
+            const double *ph = sp->phi + (size_t)j * n;
             double f = c->g[j] / (c->om[j] * c->om[j]);
             for (int i = 0; i < n; i++)
                 r[d][i] -= f * ph[i];
@@ -494,8 +539,8 @@ static int prepare(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
         nritz[d] = dm_norm3(c->rP) > 5e-4 * dm_norm3(sr) ? o->ritz_vectors : 0;
         nritz[d] = nritz[d] < MAXRITZ ? nritz[d] : MAXRITZ;
     }
-    krylov_blocks(w, md, mo, k, st, ndir, nritz, nkept);
-    ritz_modes(w, md, st, ndir, nkept);
+    krylov_blocks(w, sp, k, ndir, nritz, nkept);
+    ritz_modes(w, sp, ndir, nkept);
     for (int d = 0; d < ndir; d++) {
         carried *c = &w->dir[d];
         for (int j = k; j < c->nm; j++) { /* what the Ritz modes carry statically */
@@ -1146,21 +1191,42 @@ static void one_move(dm_move_ws *w, carried *c, double alpha, double beta, const
     res->settling_s = damped ? settling(&win, &sw) : INFINITY;
 }
 
-int dm_standard_moves(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
-                      const dm_static *st, const double (*dir)[3], int ndir,
-                      const dm_move_opts *o, dm_move_result *res, dm_error *err)
+/* The moves once the space is set: prepared, then each direction's. */
+static int moves_in(dm_move_ws *w, const space *sp, const dm_robot *rb, const dm_pose *pose,
+                    int k, const double (*dir)[3], int ndir, const dm_move_opts *o,
+                    dm_move_result *res, dm_error *err)
 {
-    if (k > w->kmax || k > mo->k || ndir < 1 || ndir > MAXDIR)
-        return dm_fail(err, DM_EINVAL, "standard move: %d modes, workspace holds %d", k, w->kmax);
-    int rc = prepare(w, md, mo, k, st, dir, ndir, o, err);
+    if (k > w->kmax || ndir < 1 || ndir > MAXDIR || sp->n > w->n)
+        return dm_fail(err, DM_EINVAL, "standard move: %d modes of %d coordinates, workspace "
+                       "holds %d of %d", k, sp->n, w->kmax, w->n);
+    int rc = prepare(w, sp, rb, pose, k, dir, ndir, o, err);
     if (rc)
         return rc;
     memset(w->rhave, 0, sizeof w->rhave); /* this pose's modes */
     for (int d = 0; d < ndir; d++)
         sort_by_frequency(&w->dir[d]);
     for (int d = 0; d < ndir; d++)
-        one_move(w, &w->dir[d], md->robot->rayleigh_alpha, md->robot->rayleigh_beta, o, &res[d]);
+        one_move(w, &w->dir[d], rb->rayleigh_alpha, rb->rayleigh_beta, o, &res[d]);
     return DM_OK;
+}
+
+int dm_standard_moves(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,
+                      const dm_static *st, const double (*dir)[3], int ndir,
+                      const dm_move_opts *o, dm_move_result *res, dm_error *err)
+{
+    if (k > mo->k)
+        return dm_fail(err, DM_EINVAL, "standard move: %d modes of %d", k, mo->k);
+    space sp = {md->n, md->platform_dof, mo->phi, mo->mphi, mo->omega_rad_s, md, st, NULL, NULL};
+    return moves_in(w, &sp, md->robot, &md->pose, k, dir, ndir, o, res, err);
+}
+
+int dm_standard_moves_reduced(dm_move_ws *w, dm_boundary *bw, dm_boundary_eig *eig,
+                              const dm_robot *rb, const dm_pose *pose, const double *Y,
+                              const double *omega, int k, const double (*dir)[3], int ndir,
+                              const dm_move_opts *o, dm_move_result *res, dm_error *err)
+{
+    space sp = {dm_boundary_reduced_size(bw), dm_boundary_platform_row(bw), Y, NULL, omega, NULL, NULL, bw, eig};
+    return moves_in(w, &sp, rb, pose, k, dir, ndir, o, res, err);
 }
 
 int dm_standard_move(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int k,

@@ -341,35 +341,48 @@ int dm_kin_accelerations(const dm_robot *rb, const dm_pose *p, const double v[3]
     return DM_OK;
 }
 
+void dm_kin_link_accelerations(const dm_pose *p, const double alpha_dot[3],
+                               const double alpha_ddot[3], const double aP[3], dm_link_motion *m)
+{
+    dm_copy3(alpha_dot, m->alpha_dot);
+    dm_copy3(alpha_ddot, m->alpha_ddot);
+    dm_copy3(aP, m->aP);
+    for (int i = 0; i < 3; i++) {
+        double b1[3], b2[3], L[3], da[3];
+        elbow_derivatives(p, i, b1, b2);
+        double w = alpha_dot[i], wd = alpha_ddot[i];
+        for (int k = 0; k < 3; k++)
+            m->aB[i][k] = wd * b1[k] + w * w * b2[k];
+        /* Rods swing without spin: omega = L x (vC - vB)/|L|^2, L = C - B;
+         * its rate is L x (aC - aB)/|L|^2 since L_dot x L_dot = 0. */
+        dm_sub3(p->C[i], p->B[i], L);
+        dm_sub3(aP, m->aB[i], da);
+        dm_cross3(L, da, m->rod_alpha[i]);
+        dm_scale3(1.0 / dm_dot3(L, L), m->rod_alpha[i], m->rod_alpha[i]);
+    }
+}
+
 int dm_kin_link_motion(const dm_robot *rb, const dm_pose *p, const double v[3],
                        const double a[3], dm_link_motion *m, dm_error *err)
 {
     memset(m, 0, sizeof *m);
-    int rc = dm_kin_rates(rb, p, v, m->alpha_dot, err);
+    double w[3], wd[3];
+    int rc = dm_kin_rates(rb, p, v, w, err);
     if (!rc)
-        rc = dm_kin_accelerations(rb, p, v, a, m->alpha_ddot, err);
+        rc = dm_kin_accelerations(rb, p, v, a, wd, err);
     if (rc)
         return rc;
+    dm_kin_link_accelerations(p, w, wd, a, m);
     dm_copy3(v, m->vP);
-    dm_copy3(a, m->aP);
     for (int i = 0; i < 3; i++) {
-        double b1[3], b2[3], L[3], dv[3], da[3];
+        double b1[3], b2[3], L[3], dv[3];
         elbow_derivatives(p, i, b1, b2);
-        double w = m->alpha_dot[i], wd = m->alpha_ddot[i];
-        for (int k = 0; k < 3; k++) {
-            m->vB[i][k] = w * b1[k];
-            m->aB[i][k] = wd * b1[k] + w * w * b2[k];
-        }
-        /* Rods swing without spin: omega = L x (vC - vB)/|L|^2, L = C - B;
-         * its rate is L x (aC - aB)/|L|^2 since L_dot x L_dot = 0. */
+        for (int k = 0; k < 3; k++)
+            m->vB[i][k] = w[i] * b1[k];
         dm_sub3(p->C[i], p->B[i], L);
-        double L2 = dm_dot3(L, L);
         dm_sub3(v, m->vB[i], dv);
-        dm_sub3(a, m->aB[i], da);
         dm_cross3(L, dv, m->rod_omega[i]);
-        dm_cross3(L, da, m->rod_alpha[i]);
-        dm_scale3(1.0 / L2, m->rod_omega[i], m->rod_omega[i]);
-        dm_scale3(1.0 / L2, m->rod_alpha[i], m->rod_alpha[i]);
+        dm_scale3(1.0 / dm_dot3(L, L), m->rod_omega[i], m->rod_omega[i]);
     }
     return DM_OK;
 }

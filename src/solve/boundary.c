@@ -190,3 +190,73 @@ int dm_boundary_statics_or_full(dm_boundary *bw, dm_model *md, dm_static *st,
         res->logdet_K = dm_static_logdet(st);
     return rc;
 }
+
+/* Member m's share of T' G for one rigid motion: its nodal accelerations
+ * in its frame as the coefficients of its unit loads (dm_member_basis.G:
+ * uniform, growing along it, rotational; dm_loads' affine field along a
+ * link), their inertia -G c condensed onto the boundary (C' Ghat c) and
+ * projected on its kept modes and residual vectors (Gq c, from row q0). */
+static void member_inertial_load(dm_boundary *bw, int m, const dm_link_motion *lm,
+                                 const double ang_arm[3], int q0, double *g)
+{
+    const dm_member_basis *mb = &bw->ms->member[m];
+    const double *L = bw->mp.lambda[m];
+    int i = mb->chain, nb = mb->nb, nq = mb->nkeep + mb->nres, arm = mb->kind == DM_MEMBER_ARM;
+    double glob[3][3], c[DM_MEMBERS_LOADS], f[9];
+    for (int k = 0; k < 3; k++) { /* uniform, growing, rotational (global axes) */
+        glob[0][k] = arm ? 0 : lm->aB[i][k];
+        glob[1][k] = arm ? lm->aB[i][k] : lm->aP[k] - lm->aB[i][k];
+        glob[2][k] = arm ? ang_arm[k] : lm->rod_alpha[i][k];
+    }
+    for (int part = 0; part < 3; part++) /* into the member's frame, negated: -M a */
+        for (int r = 0; r < 3; r++)
+            c[3 * part + r] = -(L[3 * r] * glob[part][0] + L[3 * r + 1] * glob[part][1] +
+                                L[3 * r + 2] * glob[part][2]);
+    for (int r = 0; r < nb; r++) {
+        f[r] = 0;
+        for (int a = 0; a < DM_MEMBERS_LOADS; a++)
+            f[r] += mb->Ghat[(size_t)a * nb + r] * c[a];
+    }
+    dm_members_coupling(bw->ms, &bw->mp, m, bw->C);
+    for (int col = 0; col < bw->nB; col++)
+        for (int r = 0; r < nb; r++)
+            g[col] += bw->C[(size_t)col * nb + r] * f[r];
+    for (int j = 0; j < nq; j++) {
+        double s = 0;
+        for (int a = 0; a < DM_MEMBERS_LOADS; a++)
+            s += mb->Gq[(size_t)a * nq + j] * c[a];
+        g[q0 + j] = s;
+    }
+}
+
+void dm_boundary_inertial_loads(dm_boundary *bw, const dm_pose *pose,
+                                const dm_rigid_motion *motion, int q, double *G)
+{
+    const dm_members *ms = bw->ms;
+    int nB = bw->nB, nr = bw->nred;
+    for (int l = 0; l < q; l++) {
+        const dm_rigid_motion *mo = &motion[l];
+        double *g = G + (size_t)l * nr, aB[DM_MEMBERS_MAX_BOUND] = {0}, ang[3][3];
+        dm_link_motion lm;
+        dm_kin_link_accelerations(pose, mo->alpha_dot, mo->alpha_ddot, mo->aP, &lm);
+        for (int i = 0; i < 3; i++) { /* the boundary's rigid accelerations */
+            for (int k = 0; k < 3; k++) {
+                ang[i][k] = mo->alpha_ddot[i] * pose->t[i][k];
+                aB[ms->belbow[i] + k] = lm.aB[i][k];
+                aB[ms->belbow[i] + 3 + k] = ang[i][k];
+            }
+        }
+        for (int k = 0; k < 3; k++)
+            aB[ms->bplat + k] = mo->aP[k];
+        for (int r = 0; r < nB; r++) { /* what acts on the boundary alone: -M_b a_B */
+            double s = 0;
+            for (int c = 0; c < nB; c++)
+                s += ms->Mb[(size_t)c * nB + r] * aB[c];
+            g[r] = -s;
+        }
+        for (int m = 0, q0 = nB; m < DM_MEMBERS_N; m++) {
+            member_inertial_load(bw, m, &lm, ang[ms->member[m].chain], q0, g);
+            q0 += ms->member[m].nkeep + ms->member[m].nres;
+        }
+    }
+}

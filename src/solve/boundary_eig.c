@@ -18,9 +18,8 @@ enum { GUARD = 6, MAX_GROW = 4, MAX_ROUNDS = 20, MAX_DEGREE = 12, MAX_RESTARTS =
 struct dm_boundary_eig {
     const dm_members *ms;
     int k, p, pmax, nr, nB, nv; /* p: the block's columns, growing to pmax */
-    int q0[DM_MEMBERS_N], v0[DM_MEMBERS_N]; /* member's first interior coordinate, its V */
+    int q0[DM_MEMBERS_N];  /* each member's first interior coordinate */
     double *d;           /* nv: K's interior diagonal */
-    double *V;           /* each member's residual rotation (KR's eigenvectors) */
     double *B, *Mbb, *D; /* nv x nB: M_qB at the pose; nB x nB: M_BB; count scratch */
     double *Bt, *Qt;     /* B' (nB x nv); times()'s Q' (p x p) */
     double *X, *KX, *MX, *W, *KW, *MW, *T; /* nr x p (W, KW, MW, T: nr x 2p) */
@@ -41,7 +40,7 @@ void dm_boundary_eig_free(dm_boundary_eig *e)
 {
     if (!e)
         return;
-    double *a[] = {e->d,  e->V,  e->B, e->Mbb, e->D, e->X,   e->KX,   e->MX,   e->W,   e->KW, e->MW,
+    double *a[] = {e->d,  e->B, e->Mbb, e->D, e->X,   e->KX,   e->MX,   e->W,   e->KW, e->MW,
                    e->T,  e->H,  e->Z, e->w,   e->s, e->est, e->work, e->Sinv, e->dinv, e->Bt, e->Qt};
     for (size_t i = 0; i < sizeof a / sizeof *a; i++)
         free(a[i]);
@@ -49,27 +48,20 @@ void dm_boundary_eig_free(dm_boundary_eig *e)
     free(e);
 }
 
-/* d and V: the kept modes' eigenvalues, and each member's residual block
- * KR = V diag(omega) V' turned diagonal once (pose-independent). */
-static int interior_stiffness(dm_boundary_eig *e, const dm_members *ms)
+/* d: the kept modes' eigenvalues and the residual vectors' stiffness (each
+ * member's basis is K_ii-orthogonal: dm_member_basis.kres). */
+static void interior_stiffness(dm_boundary_eig *e, const dm_members *ms)
 {
-    int q = 0, v = 0;
+    int q = 0;
     for (int m = 0; m < DM_MEMBERS_N; m++) {
         const dm_member_basis *mb = &ms->member[m];
-        e->q0[m] = q, e->v0[m] = v;
+        e->q0[m] = q;
         for (int j = 0; j < mb->nkeep; j++)
             e->d[q++] = mb->lambda[j];
-        int nr = mb->nres;
-        memcpy(e->V + v, mb->KR, sizeof(double) * nr * nr);
-        if (nr && LAPACKE_dsyev(LAPACK_COL_MAJOR, 'V', 'L', nr, e->V + v, nr, e->d + q))
-            return -1;
-        for (int j = 0; j < nr; j++)
-            if (!(e->d[q + j] > 0))
-                return -1;
-        q += nr, v += nr * nr;
+        for (int j = 0; j < mb->nres; j++)
+            e->d[q++] = mb->kres[j];
     }
     assert(q == e->nv);
-    return 0;
 }
 
 dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
@@ -85,13 +77,11 @@ dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
     e->ms = bw->ms, e->k = k, e->pmax = p, e->p = k + GUARD < p ? k + GUARD : p, e->nr = nr, e->nB = nB, e->nv = nr - nB;
     e->rng.state = 0x39e1;
     e->lwork = 26 * q + q * q, e->liwork = 10 * q;
-    size_t vsz = 1, n2 = (size_t)nr * q;
-    for (int m = 0; m < DM_MEMBERS_N; m++)
-        vsz += (size_t)bw->ms->member[m].nres * bw->ms->member[m].nres;
-    double **a[] = {&e->d,  &e->V, &e->B, &e->Mbb, &e->D, &e->X,    &e->KX,
+    size_t n2 = (size_t)nr * q;
+    double **a[] = {&e->d,  &e->B, &e->Mbb, &e->D, &e->X,    &e->KX,
                     &e->MX, &e->W, &e->KW, &e->MW, &e->T, &e->H,    &e->Z,
                     &e->w,  &e->s, &e->est, &e->work, &e->Sinv, &e->dinv, &e->Bt, &e->Qt};
-    size_t sz[] = {e->nv, vsz, (size_t)e->nv * nB, (size_t)nB * nB, (size_t)nB * nB,
+    size_t sz[] = {e->nv, (size_t)e->nv * nB, (size_t)nB * nB, (size_t)nB * nB,
                    (size_t)nr * p, (size_t)nr * p, (size_t)nr * p, n2, n2, n2, n2,
                    (size_t)q * q, (size_t)q * q, q, q, q, e->lwork, (size_t)nB * nB, e->nv,
                    (size_t)nB * e->nv, (size_t)p * p};
@@ -99,23 +89,21 @@ dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
     for (size_t i = 0; i < sizeof sz / sizeof *sz; i++)
         fail |= !(*a[i] = malloc(sizeof(double) * sz[i]));
     fail |= !(e->iwork = malloc(sizeof(lapack_int) * (e->liwork + 2 * q)));
-    if (fail || interior_stiffness(e, bw->ms)) {
+    if (fail) {
         dm_boundary_eig_free(e);
-        dm_fail(err, fail ? DM_ENOMEM : DM_ENUMERIC,
-                fail ? "out of memory for the reduced eigensolver"
-                     : "member bases: a residual block is not positive definite");
+        dm_fail(err, DM_ENOMEM, "out of memory for the reduced eigensolver");
         return NULL;
     }
+    interior_stiffness(e, bw->ms);
     return e;
 }
 
-/* B = M_qB at the pose: C' Gam' rows for the kept modes, V' C' GamR' for
- * the residual vectors (rotated); and M_BB. */
+/* B = M_qB at the pose: C' Gam' rows for the kept modes, C' GamR' for
+ * the residual vectors; and M_BB. */
 static void pose_mass(dm_boundary_eig *e, dm_boundary *bw)
 {
     const dm_members *ms = bw->ms;
     int nB = e->nB, nv = e->nv;
-    double g[9 * DM_MEMBERS_MAX_BOUND];
     dm_boundary_mass(bw, e->Mbb, nB);
     for (int m = 0; m < DM_MEMBERS_N; m++) {
         const dm_member_basis *mb = &ms->member[m];
@@ -123,24 +111,14 @@ static void pose_mass(dm_boundary_eig *e, dm_boundary *bw)
         dm_members_coupling(ms, &bw->mp, m, bw->C);
         for (int c = 0; c < nB; c++) {
             const double *Cc = bw->C + (size_t)c * nb;
-            for (int j = 0; j < mb->nkeep; j++) {
+            for (int j = 0; j < mb->nkeep + nres; j++) {
+                int keep = j < mb->nkeep;
                 double v = 0;
                 for (int r = 0; r < nb; r++)
-                    v += Cc[r] * mb->Gam[(size_t)r * ni + j];
+                    v += Cc[r] * (keep ? mb->Gam[(size_t)r * ni + j]
+                                       : mb->GamR[(size_t)r * nres + j - mb->nkeep]);
                 e->B[(size_t)c * nv + q + j] = v;
                 e->Bt[(size_t)(q + j) * nB + c] = v;
-            }
-            for (int a = 0; a < nres; a++) {
-                g[a] = 0;
-                for (int r = 0; r < nb; r++)
-                    g[a] += Cc[r] * mb->GamR[(size_t)r * nres + a];
-            }
-            for (int b = 0; b < nres; b++) {
-                double v = 0;
-                for (int a = 0; a < nres; a++)
-                    v += e->V[e->v0[m] + (size_t)b * nres + a] * g[a];
-                e->B[(size_t)c * nv + q + mb->nkeep + b] = v;
-                e->Bt[(size_t)(q + mb->nkeep + b) * nB + c] = v;
             }
         }
     }
@@ -409,33 +387,12 @@ static void random_columns(dm_boundary_eig *e, const dm_boundary *bw, int from)
     solve_K(e, bw, X, nc);
 }
 
-/* Between the member's residual coordinates as stored (dm_boundary_reduced_
- * vectors) and rotated (diagonal K): y_rot = V' y (to 1) or y = V y_rot. */
-static void rotate(const dm_boundary_eig *e, const dm_members *ms, double *y, int to_rotated)
-{
-    double t[DM_MEMBERS_MAX_BOUND];
-    for (int m = 0; m < DM_MEMBERS_N; m++) {
-        const dm_member_basis *mb = &ms->member[m];
-        int nres = mb->nres;
-        double *q = y + e->nB + e->q0[m] + mb->nkeep;
-        const double *V = e->V + e->v0[m];
-        for (int b = 0; b < nres; b++) {
-            t[b] = 0;
-            for (int a = 0; a < nres; a++)
-                t[b] += to_rotated ? V[(size_t)b * nres + a] * q[a] : V[(size_t)a * nres + b] * q[a];
-        }
-        memcpy(q, t, sizeof(double) * nres);
-    }
-}
-
 void dm_boundary_eig_start(dm_boundary_eig *e, const double *Y, int ncol)
 {
     assert(ncol >= 0 && ncol <= e->pmax);
     if (ncol > e->k) /* the block is these columns */
         e->p = ncol;
     memcpy(e->X, Y, sizeof(double) * e->nr * ncol);
-    for (int j = 0; j < ncol; j++)
-        rotate(e, e->ms, e->X + (size_t)j * e->nr, 1);
     e->nstart = ncol;
 }
 
@@ -586,10 +543,7 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
         if (estimate)
             estimate[j] = e->est[j];
     }
-    for (int j = 0; j < e->p; j++) { /* the modes in dm_boundary's coordinates */
-        memcpy(bw->Kr + (size_t)j * e->nr, e->X + (size_t)j * e->nr, sizeof(double) * e->nr);
-        rotate(e, e->ms, bw->Kr + (size_t)j * e->nr, 0);
-    }
+    memcpy(bw->Kr, e->X, sizeof(double) * e->nr * e->p); /* for dm_boundary_mode_shapes */
     e->nstart = e->p;
     return DM_OK;
 }
@@ -606,14 +560,18 @@ void dm_boundary_eig_count_point(const dm_boundary_eig *e, double *sigma, int *c
     *sigma = e->sigma, *count = e->count;
 }
 
-void dm_boundary_eig_mult_M(dm_boundary_eig *e, const double *Y, int ncol, double *MY)
+void dm_boundary_eig_mult_M(const dm_boundary_eig *e, const double *Y, int ncol, double *MY)
 {
-    assert(ncol <= 2 * e->p);
-    for (int j = 0; j < ncol; j++) { /* into the rotated coordinates, where B lives */
-        memcpy(e->W + (size_t)j * e->nr, Y + (size_t)j * e->nr, sizeof(double) * e->nr);
-        rotate(e, e->ms, e->W + (size_t)j * e->nr, 1);
-    }
-    apply_M(e, e->W, ncol, MY);
-    for (int j = 0; j < ncol; j++)
-        rotate(e, e->ms, MY + (size_t)j * e->nr, 0);
+    apply_M(e, Y, ncol, MY);
+}
+
+void dm_boundary_eig_mult_K(const dm_boundary_eig *e, const dm_boundary *bw, const double *Y, int ncol,
+                            double *KY)
+{
+    apply_K(e, bw, Y, ncol, KY);
+}
+
+void dm_boundary_eig_solve_K(const dm_boundary_eig *e, const dm_boundary *bw, double *Y, int ncol)
+{
+    solve_K(e, bw, Y, ncol);
 }

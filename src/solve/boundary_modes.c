@@ -143,7 +143,7 @@ int dm_boundary_count(dm_boundary *bw, double sigma, int *count, dm_error *err)
 }
 
 /* The reduced pair in (x_B, each member's kept modes q and residual
- * vectors r): K = diag(S, Lambda_keep, KR), M = [M_BB, C' Gam'; ., I]. */
+ * vectors r): K = diag(S, Lambda_keep, kres), M = [M_BB, C' Gam'; ., I]. */
 static void reduced_matrices(dm_boundary *bw)
 {
     const dm_members *ms = bw->ms;
@@ -160,9 +160,7 @@ static void reduced_matrices(dm_boundary *bw)
         dm_members_coupling(ms, &bw->mp, m, bw->C);
         for (int j = 0; j < nv; j++, at++) {
             int keep = j < mb->nkeep, a = j - mb->nkeep;
-            K[(size_t)at * nr + at] = keep ? mb->lambda[j] : 0;
-            for (int b = 0; keep == 0 && b < mb->nres; b++)
-                K[(size_t)(at - a + b) * nr + at] = mb->KR[(size_t)b * mb->nres + a];
+            K[(size_t)at * nr + at] = keep ? mb->lambda[j] : mb->kres[a];
             M[(size_t)at * nr + at] = 1;
             for (int c = 0; c < nB; c++) { /* M_B,j = C' gam_j */
                 double v = 0;
@@ -259,6 +257,8 @@ dm_members *dm_boundary_members_for_modes(const dm_model *md, const dm_pose *pos
 }
 
 int dm_boundary_reduced_size(const dm_boundary *bw) { return bw->nred; }
+
+int dm_boundary_platform_row(const dm_boundary *bw) { return bw->ms->bplat; }
 
 void dm_boundary_reduced_pair(dm_boundary *bw, double *K, double *M)
 {
