@@ -716,7 +716,7 @@ static void members_row(const char *preset, int mesh)
     dm_model_build(md, &pose, NULL);
     double t0 = now_s();
     dm_members *ms = dm_members_build(md, 0, NULL);
-    double tbuild = now_s() - t0, t[9] = {0};
+    double tbuild = now_s() - t0, t[11] = {0};
     dm_boundary *bw = dm_boundary_alloc(ms, NULL);
     t0 = now_s();
     dm_members *mr = dm_boundary_members_for_modes(md, &pose, 14, NULL);
@@ -730,6 +730,10 @@ static void members_row(const char *preset, int mesh)
     double *Y = malloc(sizeof(double) * nred * BLOCK), est[14];
     const dm_modes *modes;
     void *seed = malloc(dm_modal_seed_size(mo));
+    static const double XYZ[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    dm_move_ws *mw = dm_move_alloc(n, 10, NULL);
+    dm_move_opts mopt;
+    dm_move_opts_default(&mopt);
     for (int j = 0; j < NPOSE; j++) {
         double P[3], u6[6], C[36], best[4] = {INFINITY, INFINITY, INFINITY, INFINITY};
         dm_boundary_statics bs;
@@ -799,6 +803,21 @@ static void members_row(const char *preset, int mesh)
         }
         dm_boundary_reduced_vectors(be, BLOCK, Y);
         t[8] += best3 / NPOSE;
+        /* the standard moves (10 modes, X Y Z) on the reduced model and on
+         * the full model, the same pose and modes count */
+        double om[14], best5[2] = {INFINITY, INFINITY};
+        for (int j = 0; j < 14; j++)
+            om[j] = sqrt(lam[j]);
+        for (int r = 0; r < REPS; r++) {
+            dm_move_result mv[3];
+            double a = now_s();
+            dm_standard_moves_reduced(mw, be, eig, &rb, &pose, Y, om, 10, XYZ, 3, &mopt, mv, NULL);
+            double b = now_s();
+            dm_standard_moves(mw, md, modes, 10, st, XYZ, 3, &mopt, mv, NULL);
+            double c = now_s();
+            best5[0] = fmin(best5[0], b - a), best5[1] = fmin(best5[1], c - b);
+        }
+        t[9] += best5[0] / NPOSE, t[10] += best5[1] / NPOSE;
         for (int k = 0; k < 4; k++)
             t[k] += best[k] / NPOSE;
     }
@@ -818,6 +837,10 @@ static void members_row(const char *preset, int mesh)
            "projections and %.2f applications of K^-1 M a pose\n",
            DM_BOUNDARY_EIG_TOL, t[8] * us, t[8] / t[3], (double)steps / NPOSE,
            (double)apps / NPOSE);
+    printf("          standard moves (10 modes, X Y Z): on the reduced model %6.1f us = %6.4f x "
+           "dsygvx(10) | on the full model %6.1f us = %6.4f x\n",
+           t[9] * us, t[9] / t[3], t[10] * us, t[10] / t[3]);
+    dm_move_free(mw);
     free(Y);
     free(seed);
     dm_boundary_eig_free(eig);

@@ -28,9 +28,9 @@ dm_boundary *dm_boundary_alloc(const dm_members *ms, dm_error *err)
         bw->lwork = 1 + 6 * bw->nred + 2 * bw->nred * bw->nred;
         bw->liwork = 3 + 5 * bw->nred;
         double **arrays[] = {&bw->S,  &bw->Sk,  &bw->D,   &bw->F,    &bw->X6,
-                             &bw->C,  &bw->z,   &bw->Kr,  &bw->Mr,   &bw->wr,
+                             &bw->Mbb, &bw->z,   &bw->Kr,  &bw->Mr,   &bw->wr,
                              &bw->work, &bw->wsy, &bw->wcount, &bw->shW, &bw->shZt, &bw->shZ};
-        size_t sizes[] = {nB * nB, nB * nB, nB * nB, nB, nB * 6, nB * 9,
+        size_t sizes[] = {nB * nB, nB * nB, nB * nB, nB, nB * 6, nB * nB,
                           (size_t)ms->n, nr * nr, nr * nr, nr, (size_t)bw->lwork, nB * 64, nimax,
                           ncmax * nr, nr * nimax, (size_t)ms->n * nr};
         for (size_t k = 0; k < sizeof sizes / sizeof *sizes; k++)
@@ -50,7 +50,7 @@ void dm_boundary_free(dm_boundary *bw)
 {
     if (!bw)
         return;
-    double *arrays[] = {bw->S,    bw->Sk,  bw->D,      bw->F,   bw->X6,   bw->C,
+    double *arrays[] = {bw->S,    bw->Sk,  bw->D,      bw->F,   bw->X6,   bw->Mbb,
                         bw->z,    bw->Kr,  bw->Mr,     bw->wr,  bw->work, bw->wsy,
                         bw->wcount, bw->shW, bw->shZt, bw->shZ};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; k++)
@@ -59,18 +59,28 @@ void dm_boundary_free(dm_boundary *bw)
     free(bw);
 }
 
-/* S += Cc' Khat Cc and F += Cc' Ghat (lambda g) for member m, Cc the
- * columns of C the member reaches. */
+/* Each member's coupling at the pose, on the columns it reaches. */
+static void pose_couplings(dm_boundary *bw)
+{
+    double C[9 * DM_MEMBERS_MAX_BOUND];
+    for (int m = 0; m < DM_MEMBERS_N; m++) {
+        int nb = bw->ms->member[m].nb, nc = dm_members_columns(bw->ms, m, bw->cols[m]);
+        dm_members_coupling(bw->ms, &bw->mp, m, C);
+        for (int a = 0; a < nc; a++)
+            memcpy(bw->Cc[m] + a * nb, C + (size_t)bw->cols[m][a] * nb, sizeof(double) * nb);
+        bw->nc[m] = nc;
+    }
+    bw->have_mbb = 0;
+}
+
+/* S += Cc' Khat Cc and F += Cc' Ghat (lambda g) for member m. */
 static void add_member(dm_boundary *bw, int m)
 {
     const dm_member_basis *mb = &bw->ms->member[m];
-    const double *L = bw->mp.lambda[m], *g = bw->mp.gravity;
-    int nb = mb->nb, nB = bw->nB, cols[12];
-    int nc = dm_members_columns(bw->ms, m, cols);
-    double Cc[9 * 12], KC[9 * 12], f[9];
-    dm_members_coupling(bw->ms, &bw->mp, m, bw->C);
-    for (int a = 0; a < nc; a++)
-        memcpy(Cc + a * nb, bw->C + (size_t)cols[a] * nb, sizeof(double) * nb);
+    const double *L = bw->mp.lambda[m], *g = bw->mp.gravity, *Cc = bw->Cc[m];
+    const int *cols = bw->cols[m];
+    int nb = mb->nb, nB = bw->nB, nc = bw->nc[m];
+    double KC[9 * 12], f[9];
     for (int r = 0; r < 3; r++)
         bw->gl[m][r] = L[3 * r] * g[0] + L[3 * r + 1] * g[1] + L[3 * r + 2] * g[2];
     for (int r = 0; r < nb; r++) {
@@ -107,6 +117,7 @@ int dm_boundary_solve(dm_boundary *bw, const dm_pose *pose, dm_boundary_statics 
     int nB = bw->nB, p = ms->bplat, rc = dm_members_at(ms, pose, &bw->mp, err);
     if (rc)
         return rc;
+    pose_couplings(bw);
     memcpy(bw->S, ms->Kb, sizeof(double) * nB * nB);
     memcpy(bw->F, ms->Fb, sizeof(double) * nB);
     res->logdet_K = 0;
@@ -137,16 +148,14 @@ int dm_boundary_solve(dm_boundary *bw, const dm_pose *pose, dm_boundary_statics 
     return DM_OK;
 }
 
-/* Member m's boundary displacements x_b = C y from the boundary vector y
- * (its coupling C left in bw->C). */
+/* Member m's boundary displacements x_b = C y from the boundary vector y. */
 void dm_boundary_member_dofs(dm_boundary *bw, int m, const double *y, double *xb)
 {
     int nb = bw->ms->member[m].nb;
-    dm_members_coupling(bw->ms, &bw->mp, m, bw->C);
     for (int r = 0; r < nb; r++) {
         xb[r] = 0;
-        for (int c = 0; c < bw->nB; c++)
-            xb[r] += bw->C[(size_t)c * nb + r] * y[c];
+        for (int a = 0; a < bw->nc[m]; a++)
+            xb[r] += bw->Cc[m][a * nb + r] * y[bw->cols[m][a]];
     }
 }
 
@@ -217,10 +226,9 @@ static void member_inertial_load(dm_boundary *bw, int m, const dm_link_motion *l
         for (int a = 0; a < DM_MEMBERS_LOADS; a++)
             f[r] += mb->Ghat[(size_t)a * nb + r] * c[a];
     }
-    dm_members_coupling(bw->ms, &bw->mp, m, bw->C);
-    for (int col = 0; col < bw->nB; col++)
+    for (int a = 0; a < bw->nc[m]; a++)
         for (int r = 0; r < nb; r++)
-            g[col] += bw->C[(size_t)col * nb + r] * f[r];
+            g[bw->cols[m][a]] += bw->Cc[m][a * nb + r] * f[r];
     for (int j = 0; j < nq; j++) {
         double s = 0;
         for (int a = 0; a < DM_MEMBERS_LOADS; a++)

@@ -105,12 +105,14 @@ static void pose_mass(dm_boundary_eig *e, dm_boundary *bw)
     const dm_members *ms = bw->ms;
     int nB = e->nB, nv = e->nv;
     dm_boundary_mass(bw, e->Mbb, nB);
+    memset(e->B, 0, sizeof(double) * nv * nB);
+    memset(e->Bt, 0, sizeof(double) * nv * nB);
     for (int m = 0; m < DM_MEMBERS_N; m++) {
         const dm_member_basis *mb = &ms->member[m];
         int nb = mb->nb, ni = mb->ni, nres = mb->nres, q = e->q0[m];
-        dm_members_coupling(ms, &bw->mp, m, bw->C);
-        for (int c = 0; c < nB; c++) {
-            const double *Cc = bw->C + (size_t)c * nb;
+        for (int a = 0; a < bw->nc[m]; a++) { /* the columns the member reaches */
+            int c = bw->cols[m][a];
+            const double *Cc = bw->Cc[m] + a * nb;
             for (int j = 0; j < mb->nkeep + nres; j++) {
                 int keep = j < mb->nkeep;
                 double v = 0;

@@ -16,7 +16,13 @@ struct dm_boundary {
     double *D;      /* nB x nB: the boundary's dynamic stiffness at a shift */
     double *F;      /* nB: condensed gravity load, then x_B */
     double *X6;     /* nB x 6: S^-1 on the platform's unit loads */
-    double *C;      /* 9 x nB: one member's coupling */
+    /* each member's coupling at the pose on the boundary columns it
+     * reaches (C's non-zero columns: Cc nb x nc, cols), and M_BB
+     * (dm_boundary_mass), made once a pose */
+    double Cc[DM_MEMBERS_N][9 * 12];
+    int cols[DM_MEMBERS_N][12], nc[DM_MEMBERS_N];
+    double *Mbb;
+    int have_mbb;
     double *z;      /* n: (boundary, interiors) */
     double gl[DM_MEMBERS_N][3]; /* gravity in each member's frame */
     int nred;       /* reduced DOFs: boundary + each member's kept modes and residual vectors */
@@ -31,11 +37,11 @@ struct dm_boundary {
 };
 
 /* The boundary's mass through the clamped members, M_b + sum C' Mhat C,
- * into T (leading dimension ld). */
+ * into T (leading dimension ld); made once a pose. */
 void dm_boundary_mass(dm_boundary *bw, double *T, int ld);
 
 /* Member m's boundary displacements x_b = C y from the boundary vector y
- * (nB); its coupling C is left in bw->C. */
+ * (nB). */
 void dm_boundary_member_dofs(dm_boundary *bw, int m, const double *y, double *xb);
 
 /* Negative eigenvalues of the symmetric n x n D (lower triangle,

@@ -8,19 +8,6 @@
 
 #include "boundary_impl.h"
 
-/* T[cols, cols] += s Cc' X Cc (both triangles), X nb x nb, Cc the
- * columns of member m's coupling C that it reaches. */
-/* Member m's coupling at the pose on the boundary columns it reaches
- * (C's non-zero columns: Cc, nb x nc). Returns nc. */
-static int member_coupling(dm_boundary *bw, int m, double *Cc, int cols[12])
-{
-    int nb = bw->ms->member[m].nb, nc = dm_members_columns(bw->ms, m, cols);
-    dm_members_coupling(bw->ms, &bw->mp, m, bw->C);
-    for (int a = 0; a < nc; a++)
-        memcpy(Cc + a * nb, bw->C + (size_t)cols[a] * nb, sizeof(double) * nb);
-    return nc;
-}
-
 /* T (nB x nB) += s Cc' X Cc on the columns cols (X: nb x nb). */
 static void congruence(const double *Cc, const int *cols, int nc, int nb, const double *X,
                        double s, double *T, int nB)
@@ -42,22 +29,25 @@ static void congruence(const double *Cc, const int *cols, int nc, int nb, const 
         }
 }
 
-static void add_congruence(dm_boundary *bw, int m, const double *X, double s, double *T)
+/* M_BB at the pose, made at its first use. */
+static const double *pose_mass(dm_boundary *bw)
 {
-    double Cc[9 * 12];
-    int cols[12], nc = member_coupling(bw, m, Cc, cols);
-    congruence(Cc, cols, nc, bw->ms->member[m].nb, X, s, T, bw->nB);
+    int nB = bw->nB;
+    if (!bw->have_mbb) {
+        memcpy(bw->Mbb, bw->ms->Mb, sizeof(double) * nB * nB);
+        for (int m = 0; m < DM_MEMBERS_N; m++)
+            congruence(bw->Cc[m], bw->cols[m], bw->nc[m], bw->ms->member[m].nb,
+                       bw->ms->member[m].Mhat, 1.0, bw->Mbb, nB);
+        bw->have_mbb = 1;
+    }
+    return bw->Mbb;
 }
 
 void dm_boundary_mass(dm_boundary *bw, double *T, int ld)
 {
-    int nB = bw->nB;
-    double *X = bw->D; /* scratch, nB x nB */
-    memcpy(X, bw->ms->Mb, sizeof(double) * nB * nB);
-    for (int m = 0; m < DM_MEMBERS_N; m++)
-        add_congruence(bw, m, bw->ms->member[m].Mhat, 1.0, X);
-    for (int c = 0; c < nB; c++)
-        memcpy(T + (size_t)c * ld, X + (size_t)c * nB, sizeof(double) * nB);
+    const double *Mbb = pose_mass(bw);
+    for (int c = 0; c < bw->nB; c++)
+        memcpy(T + (size_t)c * ld, Mbb + (size_t)c * bw->nB, sizeof(double) * bw->nB);
 }
 
 /* Sylvester's inertia from D's Bunch-Kaufman factor. */
@@ -82,20 +72,15 @@ int dm_boundary_negatives(dm_boundary *bw, double *D, int n)
     return neg;
 }
 
-/* What every count at one pose shares: M_BB and each member's coupling
- * (computed once for the many shifts of dm_boundary_bounds). */
+/* What every count at one pose shares: M_BB (the members' couplings are
+ * the pose's, dm_boundary_solve's). */
 typedef struct count_pose {
     const double *Mbb; /* nB x nB */
-    double Cc[DM_MEMBERS_N][9 * 12];
-    int cols[DM_MEMBERS_N][12], nc[DM_MEMBERS_N];
 } count_pose;
 
 static void count_prepare(dm_boundary *bw, count_pose *cp)
 {
-    dm_boundary_mass(bw, bw->Mr, bw->nB); /* Mr as scratch: M_BB */
-    cp->Mbb = bw->Mr;
-    for (int m = 0; m < DM_MEMBERS_N; m++)
-        cp->nc[m] = member_coupling(bw, m, cp->Cc[m], cp->cols[m]);
+    cp->Mbb = pose_mass(bw);
 }
 
 static int count_at(dm_boundary *bw, const count_pose *cp, double sigma, int *count,
@@ -126,7 +111,7 @@ static int count_at(dm_boundary *bw, const count_pose *cp, double sigma, int *co
                     v += gc[j] * gr[j] * w[j];
                 G[c * nb + r] = G[r * nb + c] = v;
             }
-        congruence(cp->Cc[m], cp->cols[m], cp->nc[m], nb, G, -sigma * sigma, bw->D, nB);
+        congruence(bw->Cc[m], bw->cols[m], bw->nc[m], nb, G, -sigma * sigma, bw->D, nB);
     }
     int neg = dm_boundary_negatives(bw, bw->D, nB);
     if (neg < 0)
@@ -157,15 +142,15 @@ static void reduced_matrices(dm_boundary *bw)
     for (int m = 0; m < DM_MEMBERS_N; m++) {
         const dm_member_basis *mb = &ms->member[m];
         int nb = mb->nb, ni = mb->ni, nv = mb->nkeep + mb->nres;
-        dm_members_coupling(ms, &bw->mp, m, bw->C);
         for (int j = 0; j < nv; j++, at++) {
             int keep = j < mb->nkeep, a = j - mb->nkeep;
             K[(size_t)at * nr + at] = keep ? mb->lambda[j] : mb->kres[a];
             M[(size_t)at * nr + at] = 1;
-            for (int c = 0; c < nB; c++) { /* M_B,j = C' gam_j */
+            for (int b = 0; b < bw->nc[m]; b++) { /* M_B,j = C' gam_j */
+                int c = bw->cols[m][b];
                 double v = 0;
                 for (int r = 0; r < nb; r++)
-                    v += bw->C[(size_t)c * nb + r] *
+                    v += bw->Cc[m][b * nb + r] *
                          (keep ? mb->Gam[(size_t)r * ni + j] : mb->GamR[(size_t)r * mb->nres + a]);
                 M[(size_t)at * nr + c] = M[(size_t)c * nr + at] = v;
             }
@@ -274,15 +259,14 @@ void dm_boundary_reduced_pair(dm_boundary *bw, double *K, double *M)
 static void member_coefficients(dm_boundary *bw, int m, int k, int q0)
 {
     const dm_member_basis *mb = &bw->ms->member[m];
-    int nb = mb->nb, nq = mb->nkeep + mb->nres, nc = nb + nq, nB = bw->nB, nr = bw->nred;
-    dm_members_coupling(bw->ms, &bw->mp, m, bw->C); /* once for all k modes */
+    int nb = mb->nb, nq = mb->nkeep + mb->nres, nc = nb + nq, nr = bw->nred;
     for (int j = 0; j < k; j++) {
         const double *y = bw->Kr + (size_t)j * nr;
         double *w = bw->shW + (size_t)j * nc;
         for (int r = 0; r < nb; r++) {
             double s = 0;
-            for (int c = 0; c < nB; c++)
-                s += bw->C[(size_t)c * nb + r] * y[c];
+            for (int a = 0; a < bw->nc[m]; a++)
+                s += bw->Cc[m][a * nb + r] * y[bw->cols[m][a]];
             w[r] = s;
         }
         memcpy(w + nb, y + q0, sizeof(double) * nq);
