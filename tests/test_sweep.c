@@ -275,9 +275,11 @@ static void threads_resume_and_refusal(void **state)
  * values on other tiles; every point's values those of the member
  * analysis at its pose (to 1e-9, as the full sweep's are the full
  * analysis's) and within 1e-9 of the full model's frequencies; the
- * standard moves' peaks within 1e-7 of the full sweep's (their inputs
- * differ by ~1e-10 in frequency, which the peak's phase over the window,
- * omega t ~ 100, multiplies: 1.3e-8 measured); a robot the members cannot
+ * standard moves' peaks (on the reduced model: dm_standard_moves_reduced)
+ * within 1e-7 of the full sweep's (their inputs differ by ~1e-10 in
+ * frequency, which the peak's phase over the window, omega t ~ 100,
+ * multiplies; the further Ritz vectors are the reduced pair's,
+ * test_integrate: 1.3e-10 measured); a robot the members cannot
  * serve is refused, and so is resuming a store of the full model. */
 static void member_engine_sweeps(void **state)
 {
