@@ -12,7 +12,12 @@
  * (Wilson): r, A r, A^2 r, ... (A = K^-1 M) are M- and K-orthogonal to the
  * retained modes, so a Rayleigh-Ritz on them adds a few modes that carry
  * exactly r in the static limit and the dominant dropped dynamics besides;
- * their static remainder (zero to round-off) is added quasi-statically. */
+ * their static remainder (zero to round-off) is added quasi-statically.
+ *
+ * All of it is prepared either in the full model's DOFs or in the member
+ * engine's reduced coordinates (dm_standard_moves_reduced; `space` below):
+ * what follows the preparation reads only each carried mode's frequency,
+ * force and platform translation. */
 #include <assert.h>
 #include <cblas.h>
 #include <math.h>
