@@ -242,15 +242,21 @@ static int residual_vectors(dm_member_basis *mb, const double *F, int nl, double
     for (int j = 0; j < nr; j++)
         if (!(mb->kres[j] > 0))
             return DM_ENUMERIC;
-    for (int j = 0; j < nr; j++)
+    for (int d = 0; d < nd; d++) { /* U <- U W, row by row */
+        double t[DM_MEMBERS_MAX_BOUND + 1];
+        for (int j = 0; j < nr; j++) {
+            t[j] = 0;
+            for (int a = 0; a < nr; a++)
+                t[j] += U[(size_t)a * nd + d] * W[(size_t)j * nr + a];
+        }
+        for (int j = 0; j < nr; j++)
+            U[(size_t)j * nd + d] = t[j];
+    }
+    for (int j = 0; j < nr; j++) /* R = Phi_d U */
         for (int r = 0; r < ni; r++) {
             double s = 0;
-            for (int d = 0; d < nd; d++) {
-                double u = 0;
-                for (int a = 0; a < nr; a++)
-                    u += U[(size_t)a * nd + d] * W[(size_t)j * nr + a];
-                s += mb->Phi[(size_t)(k0 + d) * ni + r] * u;
-            }
+            for (int d = 0; d < nd; d++)
+                s += mb->Phi[(size_t)(k0 + d) * ni + r] * U[(size_t)j * nd + d];
             mb->R[(size_t)j * ni + r] = s;
         }
     return DM_OK;
