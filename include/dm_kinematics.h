@@ -91,9 +91,11 @@ typedef struct dm_link_motion {
     double vP[3], aP[3];             /* platform */
     double rod_omega[3][3];          /* rod angular velocity per chain */
     double rod_alpha[3][3];          /* rod angular acceleration per chain */
+    double arm_alpha[3][3];          /* arm angular acceleration per chain (about t_i) */
 } dm_link_motion;
 
-/* The accelerations of m (alpha_dot, alpha_ddot, aP, aB, rod_alpha) from
+/* The accelerations of m (alpha_dot, alpha_ddot, aP, aB, rod_alpha,
+ * arm_alpha) from
  * given arm rates and accelerations and platform acceleration, nothing
  * solved (dm_loads' rigid motions); the velocities are left as they are. */
 void dm_kin_link_accelerations(const dm_pose *pose, const double alpha_dot[3],

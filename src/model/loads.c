@@ -3,8 +3,6 @@
 
 #include <assert.h>
 
-#include "dm_vec3.h"
-
 /* Rigid accelerations are affine along a straight link: interpolate its end
  * accelerations. Arms: 0 at A, aB at B; rods: aB at the top (the short bar
  * turns with the arm about t_i, so it adds nothing), aP at the bottom. */
@@ -15,27 +13,14 @@ static void node_acceleration(const dm_element *e, double s, const double aB[3],
         a[k] = e->member == DM_MEMBER_ARM ? s * aB[k] : (1 - s) * aB[k] + s * aP[k];
 }
 
-/* The links of one rigid motion (dm_kinematics), and the arms' angular
- * accelerations (about t_i) beside the rods'. */
-static void links_of(const dm_model *md, const dm_rigid_motion *mo, dm_link_motion *lm,
-                     double ang[2][3][3])
-{
-    dm_kin_link_accelerations(&md->pose, mo->alpha_dot, mo->alpha_ddot, mo->aP, lm);
-    for (int i = 0; i < 3; i++) {
-        dm_scale3(mo->alpha_ddot[i], md->pose.t[i], ang[DM_MEMBER_ARM][i]);
-        dm_copy3(lm->rod_alpha[i], ang[DM_MEMBER_ROD][i]);
-    }
-}
-
 #define MAX_MOTIONS 8
 
 void dm_loads_add_inertial_many(const dm_model *md, const dm_rigid_motion *mo, int q, double *F)
 {
     assert(q >= 1 && q <= MAX_MOTIONS);
     dm_link_motion lm[MAX_MOTIONS];
-    double ang[MAX_MOTIONS][2][3][3];
     for (int l = 0; l < q; l++)
-        links_of(md, &mo[l], &lm[l], ang[l]);
+        dm_kin_link_accelerations(&md->pose, mo[l].alpha_dot, mo[l].alpha_ddot, mo[l].aP, &lm[l]);
     for (int k = 0; k < md->nelem; k++) {
         const dm_element *e = &md->elem[k];
         double a12[MAX_MOTIONS][12];
@@ -43,8 +28,10 @@ void dm_loads_add_inertial_many(const dm_model *md, const dm_rigid_motion *mo, i
             double *a = a12[l];
             node_acceleration(e, e->s1, lm[l].aB[e->chain], mo[l].aP, a);
             node_acceleration(e, e->s2, lm[l].aB[e->chain], mo[l].aP, a + 6);
+            const double *ang = e->member == DM_MEMBER_ARM ? lm[l].arm_alpha[e->chain]
+                                                           : lm[l].rod_alpha[e->chain];
             for (int c = 0; c < 3; c++)
-                a[3 + c] = a[9 + c] = ang[l][e->member][e->chain][c];
+                a[3 + c] = a[9 + c] = ang[c];
             for (int c = 0; c < 12; c++)
                 a[c] = -a[c]; /* G_e = -M_e a_e */
         }

@@ -351,8 +351,10 @@ void dm_kin_link_accelerations(const dm_pose *p, const double alpha_dot[3],
         double b1[3], b2[3], L[3], da[3];
         elbow_derivatives(p, i, b1, b2);
         double w = alpha_dot[i], wd = alpha_ddot[i];
-        for (int k = 0; k < 3; k++)
+        for (int k = 0; k < 3; k++) {
             m->aB[i][k] = wd * b1[k] + w * w * b2[k];
+            m->arm_alpha[i][k] = wd * p->t[i][k];
+        }
         /* Rods swing without spin: omega = L x (vC - vB)/|L|^2, L = C - B;
          * its rate is L x (aC - aB)/|L|^2 since L_dot x L_dot = 0. */
         dm_sub3(p->C[i], p->B[i], L);

@@ -205,8 +205,8 @@ int dm_boundary_statics_or_full(dm_boundary *bw, dm_model *md, dm_static *st,
  * uniform, growing along it, rotational; dm_loads' affine field along a
  * link), their inertia -G c condensed onto the boundary (C' Ghat c) and
  * projected on its kept modes and residual vectors (Gq c, from row q0). */
-static void member_inertial_load(dm_boundary *bw, int m, const dm_link_motion *lm,
-                                 const double ang_arm[3], int q0, double *g)
+static void member_inertial_load(dm_boundary *bw, int m, const dm_link_motion *lm, int q0,
+                                 double *g)
 {
     const dm_member_basis *mb = &bw->ms->member[m];
     const double *L = bw->mp.lambda[m];
@@ -215,7 +215,7 @@ static void member_inertial_load(dm_boundary *bw, int m, const dm_link_motion *l
     for (int k = 0; k < 3; k++) { /* uniform, growing, rotational (global axes) */
         glob[0][k] = arm ? 0 : lm->aB[i][k];
         glob[1][k] = arm ? lm->aB[i][k] : lm->aP[k] - lm->aB[i][k];
-        glob[2][k] = arm ? ang_arm[k] : lm->rod_alpha[i][k];
+        glob[2][k] = arm ? lm->arm_alpha[i][k] : lm->rod_alpha[i][k];
     }
     for (int part = 0; part < 3; part++) /* into the member's frame, negated: -M a */
         for (int r = 0; r < 3; r++)
@@ -244,16 +244,14 @@ void dm_boundary_inertial_loads(dm_boundary *bw, const dm_pose *pose,
     int nB = bw->nB, nr = bw->nred;
     for (int l = 0; l < q; l++) {
         const dm_rigid_motion *mo = &motion[l];
-        double *g = G + (size_t)l * nr, aB[DM_MEMBERS_MAX_BOUND] = {0}, ang[3][3];
+        double *g = G + (size_t)l * nr, aB[DM_MEMBERS_MAX_BOUND] = {0};
         dm_link_motion lm;
         dm_kin_link_accelerations(pose, mo->alpha_dot, mo->alpha_ddot, mo->aP, &lm);
-        for (int i = 0; i < 3; i++) { /* the boundary's rigid accelerations */
+        for (int i = 0; i < 3; i++) /* the boundary's rigid accelerations */
             for (int k = 0; k < 3; k++) {
-                ang[i][k] = mo->alpha_ddot[i] * pose->t[i][k];
                 aB[ms->belbow[i] + k] = lm.aB[i][k];
-                aB[ms->belbow[i] + 3 + k] = ang[i][k];
+                aB[ms->belbow[i] + 3 + k] = lm.arm_alpha[i][k];
             }
-        }
         for (int k = 0; k < 3; k++)
             aB[ms->bplat + k] = mo->aP[k];
         for (int r = 0; r < nB; r++) { /* what acts on the boundary alone: -M_b a_B */
@@ -263,7 +261,7 @@ void dm_boundary_inertial_loads(dm_boundary *bw, const dm_pose *pose,
             g[r] = -s;
         }
         for (int m = 0, q0 = nB; m < DM_MEMBERS_N; m++) {
-            member_inertial_load(bw, m, &lm, ang[ms->member[m].chain], q0, g);
+            member_inertial_load(bw, m, &lm, q0, g);
             q0 += ms->member[m].nkeep + ms->member[m].nres;
         }
     }
