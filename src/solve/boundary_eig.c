@@ -95,18 +95,20 @@ dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
         return NULL;
     }
     interior_stiffness(e, bw->ms);
+    /* B's columns a member does not reach stay zero at every pose */
+    memset(e->B, 0, sizeof(double) * e->nv * nB);
+    memset(e->Bt, 0, sizeof(double) * e->nv * nB);
     return e;
 }
 
 /* B = M_qB at the pose: C' Gam' rows for the kept modes, C' GamR' for
- * the residual vectors; and M_BB. */
+ * the residual vectors, on the boundary columns each member reaches (the
+ * others are zero, set at the allocation); and M_BB. */
 static void pose_mass(dm_boundary_eig *e, dm_boundary *bw)
 {
     const dm_members *ms = bw->ms;
     int nB = e->nB, nv = e->nv;
     dm_boundary_mass(bw, e->Mbb, nB);
-    memset(e->B, 0, sizeof(double) * nv * nB);
-    memset(e->Bt, 0, sizeof(double) * nv * nB);
     for (int m = 0; m < DM_MEMBERS_N; m++) {
         const dm_member_basis *mb = &ms->member[m];
         int nb = mb->nb, ni = mb->ni, nres = mb->nres, q = e->q0[m];
