@@ -36,7 +36,9 @@ typedef struct dm_analysis {
     int last_members;         /* the members served the last run */
     dm_error member_error;    /* else why not (code 0: they were not asked) */
     int want_model;           /* the member engine also builds and factors the
-                                 full model (the standard moves read it) */
+                                 full model (for consumers of the model's DOFs:
+                                 `modes`' shape outputs, a CVODE reference; the
+                                 standard moves need it not: dm_standard_moves_reduced) */
     int want_shapes;          /* and recovers the shapes in the model's DOFs
                                  (default 1; 0: member_modes.phi is NULL) */
 } dm_analysis;
