@@ -135,15 +135,15 @@ void dm_boundary_eig_forget(dm_boundary_eig *e);
  * larger than this one means the member bases miss a mode there. */
 void dm_boundary_eig_count_point(const dm_boundary_eig *e, double *sigma, int *count);
 
-/* MY = M_red Y for ncol <= k reduced vectors (nred each, the coordinates
+/* MY = M_red Y for any ncol reduced vectors (nred each, the coordinates
  * of dm_boundary_reduced_vectors) with the reduced mass at the last
  * solve's pose: M-products of the model's shapes in reduced coordinates
  * (phi_a' M phi_b = y_a' M_red y_b exactly, the reduction being a
  * projection). */
 void dm_boundary_eig_mult_M(const dm_boundary_eig *e, const double *Y, int ncol, double *MY);
 
-/* KY = K_red Y (ncol <= k columns), and Y = K_red^-1 Y in place (any
- * ncol), in the same coordinates at bw's last solve's pose (K_red =
+/* KY = K_red Y, and Y = K_red^-1 Y in place (any ncol), in the same
+ * coordinates at bw's last solve's pose (K_red =
  * diag(S, the kept modes' eigenvalues, each member's R' K_ii R); the
  * solve through S's Cholesky factor): the standard moves' operators on
  * the reduced model (dm_standard_moves_reduced). */
