@@ -19,6 +19,9 @@ struct dm_boundary_eig {
     const dm_members *ms;
     int k, p, pmax, nr, nB, nv; /* p: the block's columns, growing to pmax */
     int q0[DM_MEMBERS_N];  /* each member's first interior coordinate */
+    /* B's non-zero blocks: runs of boundary columns (the first c0, count
+     * nc) whose rows are one range (the first r0, count nrow) */
+    int nrun, *run;        /* 4 ints a run: c0, nc, r0, nrow */
     double *d;           /* nv: K's interior diagonal */
     double *B, *Mbb, *D; /* nv x nB: M_qB at the pose; nB x nB: M_BB; count scratch */
     double *Bt, *Qt;     /* B' (nB x nv); times()'s Q' (p x p) */
@@ -45,6 +48,7 @@ void dm_boundary_eig_free(dm_boundary_eig *e)
     for (size_t i = 0; i < sizeof a / sizeof *a; i++)
         free(a[i]);
     free(e->iwork);
+    free(e->run);
     free(e);
 }
 
@@ -62,6 +66,40 @@ static void interior_stiffness(dm_boundary_eig *e, const dm_members *ms)
             e->d[q++] = mb->kres[j];
     }
     assert(q == e->nv);
+}
+
+/* The runs of B's columns (see the struct): a column's rows span the
+ * interiors of the members that reach it (each member's are contiguous);
+ * neighbouring columns with the same span share a run. A chain's elbow
+ * is reached by its arm and rods alone, the platform by every rod: four
+ * runs, half of B's entries. */
+static void column_runs(dm_boundary_eig *e, const dm_members *ms)
+{
+    int nB = e->nB, lo[nB], hi[nB];
+    for (int c = 0; c < nB; c++)
+        lo[c] = e->nv, hi[c] = 0;
+    for (int m = 0; m < DM_MEMBERS_N; m++) {
+        int cols[12], nc = dm_members_columns(ms, m, cols);
+        int r0 = e->q0[m], r1 = r0 + ms->member[m].nkeep + ms->member[m].nres;
+        for (int a = 0; a < nc; a++) {
+            int c = cols[a];
+            lo[c] = lo[c] < r0 ? lo[c] : r0;
+            hi[c] = hi[c] > r1 ? hi[c] : r1;
+        }
+    }
+    e->nrun = 0;
+    for (int c = 0; c < nB; c++) {
+        if (hi[c] <= lo[c])
+            continue; /* no member reaches it: B's column is zero */
+        int *r = e->run + 4 * (e->nrun - 1);
+        if (e->nrun && r[0] + r[1] == c && r[2] == lo[c] && r[3] == hi[c] - lo[c]) {
+            r[1]++;
+            continue;
+        }
+        r += 4;
+        r[0] = c, r[1] = 1, r[2] = lo[c], r[3] = hi[c] - lo[c];
+        e->nrun++;
+    }
 }
 
 dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
@@ -89,12 +127,14 @@ dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
     for (size_t i = 0; i < sizeof sz / sizeof *sz; i++)
         fail |= !(*a[i] = malloc(sizeof(double) * sz[i]));
     fail |= !(e->iwork = malloc(sizeof(lapack_int) * (e->liwork + 2 * q)));
+    fail |= !(e->run = malloc(sizeof(int) * 4 * nB));
     if (fail) {
         dm_boundary_eig_free(e);
         dm_fail(err, DM_ENOMEM, "out of memory for the reduced eigensolver");
         return NULL;
     }
     interior_stiffness(e, bw->ms);
+    column_runs(e, bw->ms);
     /* B's columns a member does not reach stay zero at every pose */
     memset(e->B, 0, sizeof(double) * e->nv * nB);
     memset(e->Bt, 0, sizeof(double) * e->nv * nB);
@@ -138,12 +178,18 @@ static void apply_M(const dm_boundary_eig *e, const double *X, int ncol, double 
      * symmetric; B' is kept beside B. */
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nB, ncol, nB, 1, e->Mbb, nB, X, nr, 0,
                 Y, nr);
-    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nB, ncol, nv, 1, e->B, nv, X + nB, nr, 1,
-                Y, nr);
+    for (int a = 0; a < e->nrun; a++) { /* B's runs alone (column_runs) */
+        const int *r = e->run + 4 * a;
+        cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, r[1], ncol, r[3], 1,
+                    e->B + (size_t)r[0] * nv + r[2], nv, X + nB + r[2], nr, 1, Y + r[0], nr);
+    }
     for (int c = 0; c < ncol; c++)
         memcpy(Y + (size_t)c * nr + nB, X + (size_t)c * nr + nB, sizeof(double) * nv);
-    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nv, ncol, nB, 1, e->Bt, nB, X, nr, 1,
-                Y + nB, nr);
+    for (int a = 0; a < e->nrun; a++) {
+        const int *r = e->run + 4 * a;
+        cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, r[3], ncol, r[1], 1,
+                    e->Bt + (size_t)r[2] * nB + r[0], nB, X + r[0], nr, 1, Y + nB + r[2], nr);
+    }
 }
 
 /* Y = diag(A, v) X: A (nB x nB, both triangles) on the boundary rows, v
