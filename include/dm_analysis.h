@@ -34,6 +34,7 @@ typedef struct dm_analysis {
     double *reduced;          /* nred x kmax: their reduced vectors */
     double *lambda, *shapes;  /* kmax: their eigenvalues; n x kmax: their shapes */
     int last_members;         /* the members served the last run */
+    dm_boundary_eig_info member_info; /* and how its reduced solve went */
     dm_error member_error;    /* else why not (code 0: they were not asked) */
     int want_model;           /* the member engine also builds and factors the
                                  full model (for consumers of the model's DOFs:

@@ -102,6 +102,9 @@ typedef struct dm_sweep_stats {
     long points_total, points_ok, points_unreachable, points_near_singular, points_failed;
     long points_full_model; /* opts.members: points the members could not serve (the full
                                model did; their families untracked) */
+    long members_applications; /* opts.members: applications of K^-1 M the reduced solves
+                                  of the points the members served took, in all (a
+                                  count, unlike the time: make bench) */
     double seconds;
     int interrupted;
     int store_refused;  /* out holds another sweep's store (opts.force replaces it) */

@@ -304,9 +304,10 @@ static void accuracy(const char *preset, int mesh)
 static volatile sig_atomic_t never;
 
 /* poses/s of a chen2018 sweep: the full model or the members, with or
- * without the standard moves. */
+ * without the standard moves; *apps (may be NULL): the members' reduced
+ * solves' applications of K^-1 M a point they served. */
 static double sweep_rate_with(const char *grid_spec, int mesh, int threads, int members,
-                              int dynamic, long *points)
+                              int dynamic, long *points, double *apps)
 {
     dm_robot rb;
     dm_grid g;
@@ -330,12 +331,16 @@ static double sweep_rate_with(const char *grid_spec, int mesh, int threads, int 
     snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
     if (system(cmd)) {}
     *points = st.points_total;
+    if (apps) {
+        long served = st.points_ok + st.points_near_singular - st.points_full_model;
+        *apps = served > 0 ? (double)st.members_applications / served : 0;
+    }
     return st.points_total / dt;
 }
 
 static double sweep_rate(const char *grid_spec, int mesh, int threads, long *points)
 {
-    return sweep_rate_with(grid_spec, mesh, threads, 0, 1, points);
+    return sweep_rate_with(grid_spec, mesh, threads, 0, 1, points, NULL);
 }
 
 
@@ -683,16 +688,20 @@ static void members_sweep_rows(int mesh)
     long pts;
     double x = bare_dsygvx_on_grid("chen2018", mesh);
     for (int dynamic = 1; dynamic >= 0; dynamic--) {
-        double r[2][2];
+        double r[2][2], apps[2];
         for (int members = 0; members < 2; members++)
             for (int t = 1; t <= 2; t++)
-                r[members][t - 1] = sweep_rate_with(SWEEP_GRID, mesh, t, members, dynamic, &pts);
+                r[members][t - 1] = sweep_rate_with(SWEEP_GRID, mesh, t, members, dynamic, &pts,
+                                                    members ? &apps[t - 1] : NULL);
         printf("   sweep chen2018 %d,%d, %ld points, %s: full model %6.0f us a pose = %.3f x "
                "dsygvx(10), %5.0f poses/s on 2 threads | members %6.0f us = %.3f x, %5.0f "
                "poses/s on 2 threads (%.2f x one; 1e6 poses %.1f min), %.2f x faster\n",
                mesh, mesh, pts, dynamic ? "standard moves" : "--no-dynamic  ",
                1e6 / r[0][0], 1 / r[0][0] / x, r[0][1], 1e6 / r[1][0], 1 / r[1][0] / x,
                r[1][1], r[1][1] / r[1][0], 1e6 / r[1][1] / 60, r[1][1] / r[0][1]);
+        printf("      members' reduced solves: %.2f applications of K^-1 M a point (a count: "
+               "robust to this machine's load)%s\n",
+               apps[0], apps[0] == apps[1] ? "" : " -- NOT the same on 2 threads");
     }
 }
 

@@ -131,6 +131,9 @@ static void analyse_point(const sweep_ctx *c, sweep_worker *w, const int idx[3],
         dm_modal_forget(w->an->modal); /* no anchor reached: cold */
     int rc = dm_analysis_run(w->an, P, c->kc, &res, NULL);
     w->served_full = c->members && !rc && res.engine != DM_ENGINE_MEMBERS;
+    w->applications = c->members && !rc && res.engine == DM_ENGINE_MEMBERS
+                          ? w->an->member_info.applications
+                          : 0;
     if (rc) {
         int unreachable = rc == DM_EUNREACHABLE;
         point_nan(r, unreachable ? DM_POINT_UNREACHABLE : DM_POINT_FAILED);
@@ -271,8 +274,9 @@ static void store_point(const sweep_ctx *c, sweep_worker *w, size_t off, const d
 }
 
 /* counts: points ok, unreachable, near-singular, failed, and (o.members)
- * served by the full model */
-static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts[5], dm_error *err)
+ * served by the full model, and the applications of K^-1 M of those the
+ * members served */
+static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts[6], dm_error *err)
 {
     int64_t tc[4];
     tile_coords(c, t, tc);
@@ -296,6 +300,7 @@ static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts
                 store_point(c, w, ((size_t)i0 * c->tile[1] + i1) * c->tile[2] + i2, &r);
                 counts[r.status == DM_POINT_NOT_COMPUTED ? 3 : r.status]++;
                 counts[4] += w->served_full;
+                counts[5] += w->applications;
             }
     /* status last: a reader sees a tile's status only once its data is there */
     assert(!strcmp(dm_sweep_arrays[0].name, "status"));
@@ -466,7 +471,7 @@ static int plan_tiles(const sweep_ctx *c, tile_plan *p, dm_error *err)
 }
 
 typedef struct {
-    long done, counts[5];
+    long done, counts[6];
     int rc;
     dm_error err;
 } tile_result;
@@ -482,7 +487,7 @@ static void run_tiles(const sweep_ctx *c, tile_plan *p, volatile sig_atomic_t *s
         sweep_worker w;
         dm_error werr = {0};
         int wrc = worker_alloc(c, &w, &werr);
-        long local[5] = {0};
+        long local[6] = {0};
 #pragma omp for schedule(dynamic, 1)
         for (long t = 0; t < p->total; t++) {
             if (wrc || !p->pending[t] || *stop)
@@ -507,7 +512,7 @@ static void run_tiles(const sweep_ctx *c, tile_plan *p, volatile sig_atomic_t *s
         }
 #pragma omp critical(dm_sweep_progress)
         {
-            for (int s = 0; s < 5; s++)
+            for (int s = 0; s < 6; s++)
                 res->counts[s] += local[s];
             if (wrc && !res->rc) {
                 res->rc = wrc;
@@ -551,6 +556,7 @@ static void fill_stats(const tile_plan *p, const tile_result *r, const dm_grid *
     stats->points_near_singular = r->counts[2];
     stats->points_failed = r->counts[3];
     stats->points_full_model = r->counts[4];
+    stats->members_applications = r->counts[5];
 }
 
 int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, const char *out,

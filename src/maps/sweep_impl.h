@@ -113,6 +113,7 @@ typedef struct sweep_worker {
     double *shapes;     /* families' vectors at the point (dim x k) */
     int served_full;    /* the last point: the full model served it, the members
                          * (o.members) could not */
+    int applications;   /* the last point: K^-1 M applications of its members' solve */
     struct dm_coupling *nominal; /* the robot without effects (NULL: it has none) */
     int nbuf;
     void **buf;         /* a chunk of each of the store's data arrays (nbuf) */

@@ -122,7 +122,7 @@ static int run_members(dm_analysis *an, int k, dm_pose_result *res, dm_error *er
     memcpy(res->compliance, bs.compliance, sizeof bs.compliance);
     res->coupling_index_log10 = dm_coupling_index_from_logdet(bs.logdet_K);
     double *lambda = an->lambda, sigma;
-    rc = dm_boundary_eig_solve(an->eig, an->boundary, lambda, NULL, NULL, err);
+    rc = dm_boundary_eig_solve(an->eig, an->boundary, lambda, NULL, &an->member_info, err);
     int reduced_count, whole_count;
     if (!rc) {
         dm_boundary_eig_count_point(an->eig, &sigma, &reduced_count);
