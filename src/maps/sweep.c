@@ -273,10 +273,13 @@ static void store_point(const sweep_ctx *c, sweep_worker *w, size_t off, const d
     }
 }
 
-/* counts: points ok, unreachable, near-singular, failed, and (o.members)
- * served by the full model, and the applications of K^-1 M of those the
- * members served */
-static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts[6], dm_error *err)
+/* A run's counts: points by status (dm_point_status: ok, unreachable,
+ * near-singular, failed), then with o.members the points the full model
+ * served and the applications of K^-1 M of those the members served. */
+enum { COUNT_FULL_MODEL = DM_POINT_FAILED + 1, COUNT_APPLICATIONS, NCOUNTS };
+
+static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts[NCOUNTS],
+                        dm_error *err)
 {
     int64_t tc[4];
     tile_coords(c, t, tc);
@@ -298,9 +301,9 @@ static int compute_tile(const sweep_ctx *c, sweep_worker *w, long t, long counts
                 dm_grid_position(c->grid, idx, P);
                 compute_point(c, w, idx, P, &r);
                 store_point(c, w, ((size_t)i0 * c->tile[1] + i1) * c->tile[2] + i2, &r);
-                counts[r.status == DM_POINT_NOT_COMPUTED ? 3 : r.status]++;
-                counts[4] += w->served_full;
-                counts[5] += w->applications;
+                counts[r.status == DM_POINT_NOT_COMPUTED ? DM_POINT_FAILED : r.status]++;
+                counts[COUNT_FULL_MODEL] += w->served_full;
+                counts[COUNT_APPLICATIONS] += w->applications;
             }
     /* status last: a reader sees a tile's status only once its data is there */
     assert(!strcmp(dm_sweep_arrays[0].name, "status"));
@@ -471,7 +474,7 @@ static int plan_tiles(const sweep_ctx *c, tile_plan *p, dm_error *err)
 }
 
 typedef struct {
-    long done, counts[6];
+    long done, counts[NCOUNTS];
     int rc;
     dm_error err;
 } tile_result;
@@ -487,7 +490,7 @@ static void run_tiles(const sweep_ctx *c, tile_plan *p, volatile sig_atomic_t *s
         sweep_worker w;
         dm_error werr = {0};
         int wrc = worker_alloc(c, &w, &werr);
-        long local[6] = {0};
+        long local[NCOUNTS] = {0};
 #pragma omp for schedule(dynamic, 1)
         for (long t = 0; t < p->total; t++) {
             if (wrc || !p->pending[t] || *stop)
@@ -512,7 +515,7 @@ static void run_tiles(const sweep_ctx *c, tile_plan *p, volatile sig_atomic_t *s
         }
 #pragma omp critical(dm_sweep_progress)
         {
-            for (int s = 0; s < 6; s++)
+            for (int s = 0; s < NCOUNTS; s++)
                 res->counts[s] += local[s];
             if (wrc && !res->rc) {
                 res->rc = wrc;
@@ -551,12 +554,12 @@ static void fill_stats(const tile_plan *p, const tile_result *r, const dm_grid *
     stats->tiles_present = p->present;
     stats->tiles_computed = r->done;
     stats->points_total = dm_grid_points(g);
-    stats->points_ok = r->counts[0];
-    stats->points_unreachable = r->counts[1];
-    stats->points_near_singular = r->counts[2];
-    stats->points_failed = r->counts[3];
-    stats->points_full_model = r->counts[4];
-    stats->members_applications = r->counts[5];
+    stats->points_ok = r->counts[DM_POINT_OK];
+    stats->points_unreachable = r->counts[DM_POINT_UNREACHABLE];
+    stats->points_near_singular = r->counts[DM_POINT_NEAR_SINGULAR];
+    stats->points_failed = r->counts[DM_POINT_FAILED];
+    stats->points_full_model = r->counts[COUNT_FULL_MODEL];
+    stats->members_applications = r->counts[COUNT_APPLICATIONS];
 }
 
 int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, const char *out,
