@@ -14,6 +14,9 @@ enum { GUARD = 6, MAX_GROW = 4, MAX_ROUNDS = 20, MAX_DEGREE = 12, MAX_RESTARTS =
 #define CLUSTER 1e-3 /* Ritz values within 0.1 % share one block bound */
 #define COUNT_SHIFT 1e-9
 #define SKEW_MAX 1e6
+/* What a filter plans the first-order estimates down to: a hundredth of
+ * the tolerance (degree_for, and plan_next's degrees to spare) */
+#define FILTER_TARGET (1e-2 * DM_BOUNDARY_EIG_TOL)
 
 struct dm_boundary_eig {
     const dm_members *ms;
@@ -393,7 +396,7 @@ static int filter(dm_boundary_eig *e, int degree, double b, double theta1)
 static int degree_for(const dm_boundary_eig *e, int top)
 {
     double t = 2 * e->w[e->p - 1] / e->w[top] - 1;
-    double need = sqrt(fmax(e->ahead / (1e-2 * DM_BOUNDARY_EIG_TOL), 1.0));
+    double need = sqrt(fmax(e->ahead / FILTER_TARGET, 1.0));
     if (!(t > 1 + 1e-6) || !isfinite(need))
         return MAX_DEGREE;
     int d = (int)ceil(acosh(need) / acosh(t));
@@ -545,7 +548,7 @@ static void plan_next(dm_boundary_eig *e, int top, const dm_boundary_eig_info *i
         return;
     }
     int spare = 0; /* each degree fewer: the first-order estimate x g^2 */
-    for (double a = e->ahead * g * g; spare < e->plan - 1 && a <= 1e-2 * DM_BOUNDARY_EIG_TOL;
+    for (double a = e->ahead * g * g; spare < e->plan - 1 && a <= FILTER_TARGET;
          a *= g * g)
         spare++;
     e->plan -= spare;
