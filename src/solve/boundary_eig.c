@@ -405,7 +405,10 @@ static int degree_for(const dm_boundary_eig *e, int top)
 
 /* Wittrick-Williams for the reduced pair: interior coordinates below
  * sigma plus the negative eigenvalues of
- *   S - sigma M_BB - sigma^2 B' (d - sigma)^-1 B.  -1 when singular. */
+ *   S - sigma M_BB - sigma^2 B' (d - sigma)^-1 B.  -1 when singular.
+ * The product runs over B's runs (column_runs): the block of columns of
+ * run a and b gets the rows both reach; only its lower triangle is made,
+ * all that dm_boundary_negatives reads (the runs ascend by column). */
 static int count_reduced(dm_boundary_eig *e, dm_boundary *bw, double sigma, int *count)
 {
     int nB = e->nB, nv = e->nv, below = 0;
@@ -415,13 +418,27 @@ static int count_reduced(dm_boundary_eig *e, dm_boundary *bw, double sigma, int 
         if (f == 0)
             return -1;
         below += f < 0;
-        for (int c = 0; c < nB; c++)
-            e->T[(size_t)c * nv + i] = e->B[(size_t)c * nv + i] / f;
+    }
+    for (int a = 0; a < e->nrun; a++) { /* T = (d - sigma)^-1 B on the runs */
+        const int *r = e->run + 4 * a;
+        for (int c = r[0]; c < r[0] + r[1]; c++)
+            for (int i = r[2]; i < r[2] + r[3]; i++)
+                e->T[(size_t)c * nv + i] = e->B[(size_t)c * nv + i] / (e->d[i] - sigma);
     }
     for (size_t a = 0; a < (size_t)nB * nB; a++)
         e->D[a] = bw->Sk[a] - sigma * e->Mbb[a];
-    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, nB, nB, nv, -sigma * sigma, e->B, nv,
-                e->T, nv, 1, e->D, nB);
+    for (int a = 0; a < e->nrun; a++)
+        for (int b = a; b < e->nrun; b++) {
+            const int *ra = e->run + 4 * a, *rb = e->run + 4 * b;
+            int i0 = ra[2] > rb[2] ? ra[2] : rb[2];
+            int i1 = ra[2] + ra[3] < rb[2] + rb[3] ? ra[2] + ra[3] : rb[2] + rb[3];
+            if (i1 <= i0)
+                continue; /* no member reaches both */
+            cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, rb[1], ra[1], i1 - i0,
+                        -sigma * sigma, e->T + (size_t)rb[0] * nv + i0, nv,
+                        e->B + (size_t)ra[0] * nv + i0, nv, 1, e->D + (size_t)ra[0] * nB + rb[0],
+                        nB);
+        }
     int neg = dm_boundary_negatives(bw, e->D, nB);
     *count = below + neg;
     return neg < 0 ? -1 : 0;
