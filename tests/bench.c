@@ -19,9 +19,11 @@
  *      assembly + arrow factor + the same outputs, both against bare
  *      dsygvx(10) at the same poses, min of 5 timings per pose; the 14
  *      lowest modes from the rule's bases (reduced eigenproblem, certified
- *      bounds) beside today's eigen solve.
- * Section 1's rows and section 3's per-pose sweep line are measured on
- * every kernel path the CPU has (include/dm_isa.h), each in a child
+ *      bounds) beside today's eigen solve; then the whole engine in
+ *      sweeps of each preset's map at meshes 4,4 and 8,8 against the full
+ *      model, bare dsygvx(10) and dsygvd, on every kernel path.
+ * Section 1's rows, section 3's per-pose sweep line and section 5's
+ * sweeps are measured on every kernel path the CPU has (include/dm_isa.h), each in a child
  * process of its own (a process runs one path) with DELTAMAP_ISA set;
  * the rest runs on the path in use (the best, or DELTAMAP_ISA's), which
  * the header names with the CPU. Nothing is asserted: timings are not
@@ -303,11 +305,11 @@ static void accuracy(const char *preset, int mesh)
 
 static volatile sig_atomic_t never;
 
-/* poses/s of a chen2018 sweep: the full model or the members, with or
- * without the standard moves; *apps (may be NULL): the members' reduced
- * solves' applications of K^-1 M a point they served. */
-static double sweep_rate_with(const char *grid_spec, int mesh, int threads, int members,
-                              int dynamic, long *points, double *apps)
+/* poses/s of a sweep of the preset: the full model or the members, with
+ * or without the standard moves; *apps (may be NULL): the members'
+ * reduced solves' applications of K^-1 M a point they served. */
+static double sweep_rate_with(const char *preset, const char *grid_spec, int mesh, int threads,
+                              int members, int dynamic, long *points, double *apps)
 {
     dm_robot rb;
     dm_grid g;
@@ -315,7 +317,7 @@ static double sweep_rate_with(const char *grid_spec, int mesh, int threads, int 
     dm_sweep_stats st;
     dm_error err;
     char dir[] = "/tmp/dm_bench_XXXXXX", cmd[64];
-    dm_robot_load("chen2018", &rb, NULL);
+    dm_robot_load(preset, &rb, NULL);
     dm_grid_parse(grid_spec, &g, NULL);
     dm_sweep_opts_default(&o);
     o.na = o.nb = mesh;
@@ -340,33 +342,42 @@ static double sweep_rate_with(const char *grid_spec, int mesh, int threads, int 
 
 static double sweep_rate(const char *grid_spec, int mesh, int threads, long *points)
 {
-    return sweep_rate_with(grid_spec, mesh, threads, 0, 1, points, NULL);
+    return sweep_rate_with("chen2018", grid_spec, mesh, threads, 0, 1, points, NULL);
 }
 
 
-/* Bare dsygvx(10) (seconds, the mean) at poses of a sweep's grid: the
- * model built at 8 of its points spread over the map, as section 1 times
- * it along a tile's path. */
-static double bare_dsygvx_on_grid(const char *preset, int mesh)
+/* Bare dsygvx(10) and dsygvd (seconds, the means) at poses of a sweep's
+ * map: the model built at 8 of its grid points spread over it (4 along
+ * x, 2 along y), as section 1 times them along a tile's path; three times
+ * each (a single call's time scatters by 10-40 % on a shared machine). */
+static double bare_lapack_on_grid(const char *preset, const char *grid_spec, int mesh,
+                                  double *dsygvd)
 {
     dm_robot rb;
+    dm_grid g;
     dm_robot_load(preset, &rb, NULL);
+    dm_grid_parse(grid_spec, &g, NULL);
     dm_model *md = dm_model_alloc(&rb, mesh, mesh, NULL);
     int n = md->n, count = 0;
     double *A = malloc(sizeof(double) * n * n), *B = malloc(sizeof(double) * n * n);
     double *w = malloc(sizeof(double) * n), *Z = malloc(sizeof(double) * n * 10);
     lapack_int *ifail = malloc(sizeof(lapack_int) * n);
-    double tx = 0;
+    double tx = 0, td = 0;
     for (int j = 0; j < 8; j++) {
-        double P[3] = {-0.25 + 0.5 * (j % 4) / 3, -0.2 + 0.4 * (j / 4), -0.5};
+        int idx[3] = {(g.axis[0].count - 1) * (j % 4) / 3, (g.axis[1].count - 1) * (1 + 2 * (j / 4)) / 4,
+                      (g.axis[2].count - 1) / 2};
+        double P[3];
         dm_pose pose;
+        dm_grid_position(&g, idx, P);
         if (dm_kin_inverse(&rb, P, &pose, NULL) || dm_model_build(md, &pose, NULL))
             continue;
-        tx += bare_dsygvx(md, A, B, w, Z, ifail);
-        count++;
+        for (int r = 0; r < 3; r++, count++)
+            bare_lapack(md, A, B, w, Z, ifail, &tx, &td);
     }
     free(A), free(B), free(w), free(Z), free(ifail);
     dm_model_free(md);
+    if (dsygvd)
+        *dsygvd = count ? td / count : 0;
     return count ? tx / count : 0;
 }
 
@@ -623,7 +634,7 @@ static double sweep_one_thread(void)
     /* 16 tiles of 16 x 16: with 9 (a 48 x 48 grid, used before) two
      * threads share them 5 : 4, which caps their ratio at 1.8 whatever
      * the code; a map of 1e6 poses has ~4000 tiles */
-    double r = sweep_rate(SWEEP_GRID, 4, 1, &pts), x = bare_dsygvx_on_grid("chen2018", 4);
+    double r = sweep_rate(SWEEP_GRID, 4, 1, &pts), x = bare_lapack_on_grid("chen2018", SWEEP_GRID, 4, NULL);
     const char *isa = dm_isa_name(dm_isa_active());
     printf("   sweep chen2018 mesh 4,4: %ld points in 16 tiles, 1 thread , path %-7s: %7.1f "
            "poses/s (1e6 poses: %.1f min)\n",
@@ -634,7 +645,7 @@ static double sweep_one_thread(void)
     return r;
 }
 
-/* JOB ("row PRESET MESH" or "sweep") on kernel path isa, in a child
+/* JOB ("row PRESET MESH", "members PRESET MESH" or "sweep") on kernel path isa, in a child
  * process with DELTAMAP_ISA set (the path is chosen once a process). */
 static void on_path(dm_isa isa, const char *job)
 {
@@ -651,6 +662,8 @@ static void on_path(dm_isa isa, const char *job)
         fprintf(stderr, "bench: %s on path %s failed\n", job, dm_isa_name(isa));
 }
 
+static void members_sweep_rows(const char *preset, int mesh);
+
 /* A child's job (DM_BENCH_JOB): 0 when there was none. */
 static int run_job(const char *job)
 {
@@ -660,6 +673,8 @@ static int run_job(const char *job)
         return 0;
     if (sscanf(job, "row %31s %d", preset, &mesh) == 2)
         pose_row(preset, mesh);
+    else if (sscanf(job, "members %31s %d", preset, &mesh) == 2)
+        members_sweep_rows(preset, mesh);
     else if (!strcmp(job, "sweep"))
         sweep_one_thread();
     return 1;
@@ -679,26 +694,41 @@ static void on_every_path(const char *job)
     }
 }
 
+/* Section 5's whole engine on each preset's map: 64 x 64 points around
+ * home, every one reachable (chen2018's is section 3's). */
+static const char *members_map(const char *preset)
+{
+    if (!strcmp(preset, "zheng2017"))
+        return "x=-0.15:0.15:64,y=-0.15:0.15:64,z=-0.4";
+    if (!strcmp(preset, "han2011"))
+        return "x=-0.2:0.2:64,y=-0.2:0.2:64,z=0.96";
+    return SWEEP_GRID;
+}
+
 /* Section 5's whole engine: a sweep (anchors, tile I/O, tracking
  * included) with the members against the full model in the same run, per
- * pose on one thread against bare dsygvx(10) at the map's poses, and
- * poses/s on 1 and 2 threads, with and without the standard moves. */
-static void members_sweep_rows(int mesh)
+ * pose on one thread against bare dsygvx(10) and dsygvd at the map's
+ * poses, and poses/s on 1 and 2 threads, with and without the standard
+ * moves; on the path in use (a child process runs it on each other). */
+static void members_sweep_rows(const char *preset, int mesh)
 {
     long pts;
-    double x = bare_dsygvx_on_grid("chen2018", mesh);
+    const char *grid = members_map(preset);
+    double d, x = bare_lapack_on_grid(preset, grid, mesh, &d);
     for (int dynamic = 1; dynamic >= 0; dynamic--) {
         double r[2][2], apps[2];
         for (int members = 0; members < 2; members++)
             for (int t = 1; t <= 2; t++)
-                r[members][t - 1] = sweep_rate_with(SWEEP_GRID, mesh, t, members, dynamic, &pts,
+                r[members][t - 1] = sweep_rate_with(preset, grid, mesh, t, members, dynamic, &pts,
                                                     members ? &apps[t - 1] : NULL);
-        printf("   sweep chen2018 %d,%d, %ld points, %s: full model %6.0f us a pose = %.3f x "
-               "dsygvx(10), %5.0f poses/s on 2 threads | members %6.0f us = %.3f x, %5.0f "
-               "poses/s on 2 threads (%.2f x one; 1e6 poses %.1f min), %.2f x faster\n",
-               mesh, mesh, pts, dynamic ? "standard moves" : "--no-dynamic  ",
-               1e6 / r[0][0], 1 / r[0][0] / x, r[0][1], 1e6 / r[1][0], 1 / r[1][0] / x,
-               r[1][1], r[1][1] / r[1][0], 1e6 / r[1][1] / 60, r[1][1] / r[0][1]);
+        printf("   sweep %-9s %d,%d, %ld points, %s, path %-7s: full model %6.0f us a pose = "
+               "%.3f x dsygvx(10), %5.0f poses/s on 2 threads | members %6.0f us = %.3f x "
+               "dsygvx(10) = %.4f x dsygvd, %5.0f poses/s on 2 threads (%.2f x one; 1e6 poses "
+               "%.1f min), %.2f x faster | bare dsygvx(10) %.0f us, dsygvd %.0f us\n",
+               preset, mesh, mesh, pts, dynamic ? "standard moves" : "--no-dynamic  ",
+               dm_isa_name(dm_isa_active()), 1e6 / r[0][0], 1 / r[0][0] / x, r[0][1],
+               1e6 / r[1][0], 1 / r[1][0] / x, 1 / r[1][0] / d, r[1][1], r[1][1] / r[1][0],
+               1e6 / r[1][1] / 60, r[1][1] / r[0][1], 1e6 * x, 1e6 * d);
         printf("      members' reduced solves: %.2f applications of K^-1 M a point (a count: "
                "robust to this machine's load)%s\n",
                apps[0], apps[0] == apps[1] ? "" : " -- NOT the same on 2 threads");
@@ -900,7 +930,7 @@ int main(int argc, char **argv)
     for (int i = 0; i < DM_ISA_COUNT; i++)
         if (dm_isa_available((dm_isa)i))
             printf(" %s", dm_isa_name((dm_isa)i));
-    printf(" (section 1's rows and the sweep's per-pose line on each)\n\n");
+    printf(" (section 1's rows, the sweep's per-pose line and section 5's sweeps on each)\n\n");
     if (wanted(argc, argv, "1"))
         printf("1. per pose, one thread: the sweep's pipeline along a tile's path (10 modes + 4 "
                "for tracking, 3 moves), parts in us, on each kernel path\n");
@@ -959,15 +989,21 @@ int main(int argc, char **argv)
         printf("   %5d points: %6.1f MB max RSS   (10x the grid: ratio %.2f)\n", 51 * 51, m2, m2 / m1);
     }
     if (wanted(argc, argv, "5"))
-        printf("\n5. member bases (issue 39), one thread, path %s (no kernels of their own): the "
-               "statics of a pose from the members against today's, along a tile's path, min of 5 "
-               "back-to-back timings per part and pose\n",
+        printf("\n5. member bases (issue 39), one thread, path %s: the statics of a pose from the "
+               "members against today's, along a tile's path, min of 5 back-to-back timings per "
+               "part and pose; then the whole engine in sweeps, on each path\n",
                dm_isa_name(dm_isa_active()));
     for (int m = 0; m < 3 && wanted(argc, argv, "5"); m++)
         for (int p = 0; p < 3; p++)
             if (wanted(argc, argv, presets[p]))
                 members_row(presets[p], meshes[m]);
-    for (int m = 1; m < 3 && wanted(argc, argv, "5") && wanted(argc, argv, "chen2018"); m++)
-        members_sweep_rows(meshes[m]);
+    for (int m = 1; m < 3 && wanted(argc, argv, "5"); m++)
+        for (int p = 0; p < 3; p++) {
+            if (!wanted(argc, argv, presets[p]))
+                continue;
+            char job[64];
+            snprintf(job, sizeof job, "members %s %d", presets[p], meshes[m]);
+            on_every_path(job);
+        }
     return 0;
 }
