@@ -13,7 +13,14 @@
 enum { GUARD = 6, MAX_GROW = 4, MAX_ROUNDS = 20, MAX_DEGREE = 12, MAX_RESTARTS = 3 };
 #define CLUSTER 1e-3 /* Ritz values within 0.1 % share one block bound */
 #define COUNT_SHIFT 1e-9
-#define SKEW_MAX 1e6
+/* How far apart the filter lets the block's columns drift before a
+ * Cholesky QR (filter): Y'MY's condition stays below SKEW_MAX^2 = 1e14,
+ * a factor 45 under 1 / eps where dpotrf may fail. (1e6 until 2026-12-07:
+ * two rescales a solve in a chen2018 4,4 sweep, g1 ~ 240 an application;
+ * 1e7 takes 1.52 with the same applications and bits of the figures of
+ * test_boundary_eig; 1e8 would take 1.05 but lets the condition reach
+ * 1 / eps.) */
+#define SKEW_MAX 1e7
 /* What a filter plans the first-order estimates down to: a hundredth of
  * the tolerance (degree_for, and plan_next's degrees to spare) */
 #define FILTER_TARGET (1e-2 * DM_BOUNDARY_EIG_TOL)
@@ -360,9 +367,9 @@ static int rescale(dm_boundary_eig *e, double *Y, double *MY, double *Yp)
  * mode (mu_1 = 1 / theta_1) grows fastest, by up to g1 = t + sqrt(t^2 - 1)
  * an application, t = 2 mu_1 / b - 1, over the damped columns; a Cholesky
  * QR (rescale) before the block's columns drift further apart than
- * SKEW_MAX keeps them apart (Y'MY's condition below SKEW_MAX^2 = 1e12:
- * Cholesky QR is safe, and every rescale costs as much as an
- * application). -1 when the block collapses all the same. */
+ * SKEW_MAX keeps them apart (Y'MY's condition below SKEW_MAX^2: Cholesky
+ * QR is safe; every rescale costs more than an application). -1 when the
+ * block collapses all the same. */
 static int filter(dm_boundary_eig *e, int degree, double b, double theta1)
 {
     size_t np = (size_t)e->nr * e->p;
