@@ -35,7 +35,9 @@ struct dm_boundary_eig {
     double *d;           /* nv: K's interior diagonal */
     double *B, *Mbb, *D; /* nv x nB: M_qB at the pose; nB x nB: M_BB; count scratch */
     double *Bt, *Qt;     /* B' (nB x nv); times()'s Q' (p x p) */
-    double *X, *KX, *MX, *W, *KW, *MW, *T; /* nr x p (W, KW, MW, T: nr x 2p) */
+    double *X, *W, *KW, *MW, *T; /* nr x 2p each (X and T trade buffers: rotate_block) */
+    double *KX, *MX;     /* K and M times the block before its Ritz rotation, side by
+                            side in one buffer of nr x 2p (MX = KX + nr p) */
     double *H, *Z, *w, *s, *est, *work; /* projected problem (2p x 2p), residual norms */
     double ahead;        /* estimates(): the wanted clusters' worst first-order estimate */
     double *Sinv, *dinv; /* K^-1 explicitly for the filter: S^-1 (nB x nB), 1/d (nv) */
@@ -52,7 +54,7 @@ void dm_boundary_eig_free(dm_boundary_eig *e)
 {
     if (!e)
         return;
-    double *a[] = {e->d,  e->B, e->Mbb, e->D, e->X,   e->KX,   e->MX,   e->W,   e->KW, e->MW,
+    double *a[] = {e->d,  e->B, e->Mbb, e->D, e->X,   e->KX,   e->W,   e->KW, e->MW,
                    e->T,  e->H,  e->Z, e->w,   e->s, e->est, e->work, e->Sinv, e->dinv, e->Bt, e->Qt};
     for (size_t i = 0; i < sizeof a / sizeof *a; i++)
         free(a[i]);
@@ -126,10 +128,10 @@ dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
     e->lwork = 26 * q + q * q, e->liwork = 10 * q;
     size_t n2 = (size_t)nr * q;
     double **a[] = {&e->d,  &e->B, &e->Mbb, &e->D, &e->X,    &e->KX,
-                    &e->MX, &e->W, &e->KW, &e->MW, &e->T, &e->H,    &e->Z,
+                    &e->W, &e->KW, &e->MW, &e->T, &e->H,    &e->Z,
                     &e->w,  &e->s, &e->est, &e->work, &e->Sinv, &e->dinv, &e->Bt, &e->Qt};
     size_t sz[] = {e->nv, (size_t)e->nv * nB, (size_t)nB * nB, (size_t)nB * nB,
-                   (size_t)nr * p, (size_t)nr * p, (size_t)nr * p, n2, n2, n2, n2,
+                   n2, n2, n2, n2, n2, n2,
                    (size_t)q * q, (size_t)q * q, q, q, q, e->lwork, (size_t)nB * nB, e->nv,
                    (size_t)nB * e->nv, (size_t)p * p};
     int fail = 0;
@@ -257,24 +259,29 @@ static void inverse_K_times(const dm_boundary_eig *e, const double *X, int ncol,
     block_diag_times(e, e->Sinv, e->dinv, X, ncol, Y);
 }
 
-/* A = A Q for A nr x p, Q p x p (ld q), through T. */
-static void times(dm_boundary_eig *e, double *A, const double *Q, int q)
+/* X = X Q for Q p x p (ld q): made into T, whose buffer X then takes
+ * (both hold nr x 2 pmax). */
+static void rotate_block(dm_boundary_eig *e, const double *Q, int q)
 {
     int p = e->p;
     for (int c = 0; c < p; c++) /* through Q': see apply_M for why */
         for (int r = 0; r < p; r++)
             e->Qt[(size_t)r * p + c] = Q[(size_t)c * q + r];
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, e->nr, p, p, 1, A, e->nr, e->Qt, p, 0,
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, e->nr, p, p, 1, e->X, e->nr, e->Qt, p, 0,
                 e->T, e->nr);
-    memcpy(A, e->T, sizeof(double) * e->nr * e->p);
+    double *old = e->X;
+    e->X = e->T, e->T = old;
 }
 
-/* Rayleigh-Ritz on the block X alone (a start): X, KX, MX become
- * M-orthonormal Ritz vectors, w their values. -1 if X'MX is singular. */
+/* Rayleigh-Ritz on the block X alone (a start): X becomes M-orthonormal
+ * Ritz vectors, w their values; KX and MX (the products of the block
+ * before, side by side: MX = KX + nr p) and the eigenvectors Q (in H)
+ * are kept for the residuals. -1 if X'MX is singular. */
 static int ritz_on_start(dm_boundary_eig *e, const dm_boundary *bw)
 {
     int nr = e->nr, p = e->p;
     double *G = e->Z;
+    e->MX = e->KX + (size_t)nr * p;
     apply_K(e, bw, e->X, p, e->KX);
     apply_M(e, e->X, p, e->MX);
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, p, p, nr, 1, e->X, nr, e->KX, nr, 0, e->H,
@@ -283,22 +290,26 @@ static int ritz_on_start(dm_boundary_eig *e, const dm_boundary *bw)
     if (LAPACKE_dsygv_work(LAPACK_COL_MAJOR, 1, 'V', 'L', p, e->H, p, G, p, e->w, e->work,
                            e->lwork))
         return -1;
-    times(e, e->X, e->H, p);
-    times(e, e->KX, e->H, p);
-    times(e, e->MX, e->H, p);
+    rotate_block(e, e->H, p);
     return 0;
 }
 
-/* Residuals R = KX - MX Theta into T, preconditioned W = K^-1 R, and
+/* Residuals R = K X - M X Theta of the Ritz vectors into T, as
+ * [KX MX] [Q; -Q Theta] from the products ritz_on_start kept (one
+ * product instead of rotating both); preconditioned W = K^-1 R, and
  * s_j = r_j' K^-1 r_j. */
 static void residuals(dm_boundary_eig *e, const dm_boundary *bw)
 {
     int nr = e->nr, p = e->p;
+    double *Ct = e->Z; /* [Q; -Q Theta]' (p x 2p); X'MX's factor is done with */
     for (int j = 0; j < p; j++)
-        for (int i = 0; i < nr; i++) {
-            size_t a = (size_t)j * nr + i;
-            e->T[a] = e->KX[a] - e->w[j] * e->MX[a];
+        for (int i = 0; i < p; i++) {
+            double q = e->H[(size_t)j * p + i];
+            Ct[(size_t)i * p + j] = q;
+            Ct[(size_t)(p + i) * p + j] = -e->w[j] * q;
         }
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasTrans, nr, p, 2 * p, 1, e->KX, nr, Ct, p, 0,
+                e->T, nr);
     memcpy(e->W, e->T, sizeof(double) * nr * p);
     solve_K(e, bw, e->W, p);
     for (int j = 0; j < p; j++)
