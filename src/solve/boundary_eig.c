@@ -394,9 +394,14 @@ static int filter(dm_boundary_eig *e, int degree, double b, double theta1)
             skew = 1;
         }
         inverse_K_times(e, MY, e->p, Yn);
-        double s = j ? 2 / c : 1 / c; /* T_1 = t, T_j+1 = 2 t T_j - T_j-1 */
-        for (size_t a = 0; a < np; a++)
-            Yn[a] = s * (Yn[a] - c * Y[a]) - (j ? Yp[a] : 0);
+        /* T_1 = t, T_j+1 = 2 t T_j - T_j-1; two loops, so that neither
+         * tests j at every entry (the tested one was not vectorised) */
+        if (j)
+            for (size_t a = 0; a < np; a++)
+                Yn[a] = 2 / c * (Yn[a] - c * Y[a]) - Yp[a];
+        else
+            for (size_t a = 0; a < np; a++)
+                Yn[a] = 1 / c * (Yn[a] - c * Y[a]);
         double *old = Yp;
         Yp = Y, Y = Yn, Yn = old;
     }
