@@ -135,6 +135,14 @@ void dm_boundary_eig_forget(dm_boundary_eig *e);
  * larger than this one means the member bases miss a mode there. */
 void dm_boundary_eig_count_point(const dm_boundary_eig *e, double *sigma, int *count);
 
+/* The reduced problem's eigenvalues below sigma at the last solve's pose,
+ * by the Wittrick-Williams count the solver certifies itself with
+ * (interior coordinates below sigma plus the negative eigenvalues of the
+ * boundary's dynamic stiffness); DM_ENUMERIC when sigma is an interior
+ * coordinate's eigenvalue or the boundary matrix is singular there. */
+int dm_boundary_eig_count(dm_boundary_eig *e, dm_boundary *bw, double sigma, int *count,
+                          dm_error *err);
+
 /* MY = M_red Y for any ncol reduced vectors (nred each, the coordinates
  * of dm_boundary_reduced_vectors) with the reduced mass at the last
  * solve's pose: M-products of the model's shapes in reduced coordinates

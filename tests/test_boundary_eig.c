@@ -12,12 +12,13 @@
 #include "dm_boundary.h"
 #include "dm_members_fixtures.h"
 #include "dm_reference.h"
+#include "dm_rng.h"
 
 enum { K14 = 14, STEPS = 6 };
 
 typedef struct tally {
     double iter, dense, sens, bound_ratio, ref, ref_dense;
-    int iters_cold, iters_warm, apps_warm, warm_solves, restarts;
+    int iters_cold, iters_warm, apps_warm, warm_solves, restarts, counts;
 } tally;
 
 /* The long-double eigenvalues of the pair (K, M) (n), LAPACK's rounding
@@ -56,6 +57,43 @@ static void against_dense(dm_boundary *bw, const double *lam, const double *est,
         ty->dense = fmax(ty->dense, fabs(dense[j] - x) / x);
         ty->sens = fmax(ty->sens, dm_sygv_eerrbd(&sb, x) / x);
         ty->bound_ratio = fmax(ty->bound_ratio, est[j] / DM_BOUNDARY_EIG_TOL);
+    }
+    free(K);
+    free(M);
+}
+
+/* The solver's reduced count (dm_boundary_eig_count, its product over B's
+ * runs) against the long-double eigenvalues of the same reduced pair:
+ * just below and above each of the lowest K14 + 6 (1e-6 relative from
+ * it) and at 20 random shifts up to 1.5 times the highest of them; a
+ * shift within 1e-8 of an eigenvalue (relative) or above the highest one
+ * computed is skipped, since the count resolves ~1e-11 and the pair's own
+ * rounding ~1e-8 with the soft actuators. The count is an integer: it
+ * must be exact. */
+static void count_against_dense(dm_boundary_eig *e, dm_boundary *bw, dm_rng *rng, tally *ty)
+{
+    enum { NL = K14 + 6, NREF = NL + 2, NRAND = 20 };
+    int nr = dm_boundary_reduced_size(bw);
+    double *K = malloc(sizeof(double) * nr * nr), *M = malloc(sizeof(double) * nr * nr);
+    ldbl ref[NREF];
+    dm_boundary_reduced_pair(bw, K, M);
+    assert_int_equal(dm_reference_eigen(K, M, nr, NREF, ref, NULL), 0);
+    for (int t = 0; t < 2 * NL + NRAND; t++) {
+        double sigma = t < 2 * NL ? (double)ref[t / 2] * (t % 2 ? 1 + 1e-6 : 1 - 1e-6)
+                                  : 1.5 * (double)ref[NL - 1] * dm_rng_uniform(rng);
+        int expect = 0, skip = !(sigma < (double)ref[NREF - 1] * (1 - 1e-8)), count = -1;
+        for (int j = 0; j < NREF; j++) {
+            expect += (double)ref[j] < sigma;
+            skip |= fabs(sigma - (double)ref[j]) <= 1e-8 * (double)ref[j];
+        }
+        if (skip)
+            continue;
+        assert_int_equal(dm_boundary_eig_count(e, bw, sigma, &count, NULL), 0);
+        if (count != expect)
+            print_error("reduced count at %.17g: %d, the pair has %d below\n", sigma, count,
+                        expect);
+        assert_int_equal(count, expect);
+        ty->counts++;
     }
     free(K);
     free(M);
@@ -130,6 +168,7 @@ static void one_robot(const char *preset, int mesh, int effects, tally *ty)
     dm_boundary_statics st;
     double lam[K14], est[K14];
     dm_boundary_eig_info info;
+    dm_rng rng = {0x5eed + 97 * mesh + effects};
     load(&rb, preset, effects ? ALL_EFFECTS : NULL);
     dm_model *md = dm_model_alloc(&rb, mesh, mesh, NULL);
     assert_non_null(md);
@@ -154,6 +193,7 @@ static void one_robot(const char *preset, int mesh, int effects, tally *ty)
         if (s == 0 || s == STEPS) {
             assert_int_equal(dm_model_build(md, &pose, NULL), 0);
             against_reference(bw, md, lam, ty);
+            count_against_dense(e, bw, &rng, ty);
         }
         against_dense(bw, lam, est, ty);
         if (s)
@@ -183,10 +223,10 @@ static void iteration_matches_dense_and_reference(void **state)
                   "%.2e (rounding bound %.2e); worst estimate %.2f x tol; iteration against the "
                   "full model's reference %.2e (dsygvd of the reduced pair %.2e); projections "
                   "cold <= %d, warm mean %.2f (applications of K^-1 M %.2f); %d missed modes "
-                  "caught by the count and recovered\n",
+                  "caught by the count and recovered; %d reduced counts exact\n",
                   ty.iter, ty.dense, ty.sens, ty.bound_ratio, ty.ref, ty.ref_dense, ty.iters_cold,
                   (double)ty.iters_warm / ty.warm_solves, (double)ty.apps_warm / ty.warm_solves,
-                  ty.restarts);
+                  ty.restarts, ty.counts);
 }
 
 /* Solves P from `seed` after whatever `e` did before: out = the values,

@@ -660,6 +660,14 @@ void dm_boundary_eig_count_point(const dm_boundary_eig *e, double *sigma, int *c
     *sigma = e->sigma, *count = e->count;
 }
 
+int dm_boundary_eig_count(dm_boundary_eig *e, dm_boundary *bw, double sigma, int *count,
+                          dm_error *err)
+{
+    if (count_reduced(e, bw, sigma, count))
+        return dm_fail(err, DM_ENUMERIC, "reduced count: the shift %.17g is singular", sigma);
+    return DM_OK;
+}
+
 void dm_boundary_eig_mult_M(const dm_boundary_eig *e, const double *Y, int ncol, double *MY)
 {
     apply_M(e, Y, ncol, MY);
