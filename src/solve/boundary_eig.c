@@ -34,10 +34,10 @@ struct dm_boundary_eig {
     int nrun, *run;        /* 4 ints a run: c0, nc, r0, nrow */
     double *d;           /* nv: K's interior diagonal */
     double *B, *Mbb, *D; /* nv x nB: M_qB at the pose; nB x nB: M_BB; count scratch */
-    double *Bt, *Qt;     /* B' (nB x nv); times()'s Q' (p x p) */
+    double *Bt, *Qt;     /* B' (nB x nv); rotate_block's Q' (p x p) */
     double *X, *W, *KW, *MW, *T; /* nr x 2p each (X and T trade buffers: rotate_block) */
-    double *KX, *MX;     /* K and M times the block before its Ritz rotation, side by
-                            side in one buffer of nr x 2p (MX = KX + nr p) */
+    double *KX;          /* K and M times the block before its Ritz rotation, side by
+                            side: nr x 2p (ritz_on_start, for residuals) */
     double *H, *Z, *w, *s, *est, *work; /* projected problem (2p x 2p), residual norms */
     double ahead;        /* estimates(): the wanted clusters' worst first-order estimate */
     double *Sinv, *dinv; /* K^-1 explicitly for the filter: S^-1 (nB x nB), 1/d (nv) */
@@ -274,19 +274,18 @@ static void rotate_block(dm_boundary_eig *e, const double *Q, int q)
 }
 
 /* Rayleigh-Ritz on the block X alone (a start): X becomes M-orthonormal
- * Ritz vectors, w their values; KX and MX (the products of the block
- * before, side by side: MX = KX + nr p) and the eigenvectors Q (in H)
- * are kept for the residuals. -1 if X'MX is singular. */
+ * Ritz vectors, w their values; [KX MX] (the products of the block
+ * before) and the eigenvectors Q (in H) are kept for the residuals. -1 if
+ * X'MX is singular. */
 static int ritz_on_start(dm_boundary_eig *e, const dm_boundary *bw)
 {
     int nr = e->nr, p = e->p;
-    double *G = e->Z;
-    e->MX = e->KX + (size_t)nr * p;
+    double *G = e->Z, *MX = e->KX + (size_t)nr * p;
     apply_K(e, bw, e->X, p, e->KX);
-    apply_M(e, e->X, p, e->MX);
+    apply_M(e, e->X, p, MX);
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, p, p, nr, 1, e->X, nr, e->KX, nr, 0, e->H,
                 p);
-    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, p, p, nr, 1, e->X, nr, e->MX, nr, 0, G, p);
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, p, p, nr, 1, e->X, nr, MX, nr, 0, G, p);
     if (LAPACKE_dsygv_work(LAPACK_COL_MAJOR, 1, 'V', 'L', p, e->H, p, G, p, e->w, e->work,
                            e->lwork))
         return -1;
