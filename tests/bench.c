@@ -364,8 +364,8 @@ static double bare_lapack_on_grid(const char *preset, const char *grid_spec, int
     lapack_int *ifail = malloc(sizeof(lapack_int) * n);
     double tx = 0, td = 0;
     for (int j = 0; j < 8; j++) {
-        int idx[3] = {(g.axis[0].count - 1) * (j % 4) / 3, (g.axis[1].count - 1) * (1 + 2 * (j / 4)) / 4,
-                      (g.axis[2].count - 1) / 2};
+        int idx[3] = {(g.axis[0].count - 1) * (j % 4) / 3,
+                      (g.axis[1].count - 1) * (1 + 2 * (j / 4)) / 4, (g.axis[2].count - 1) / 2};
         double P[3];
         dm_pose pose;
         dm_grid_position(&g, idx, P);
@@ -634,7 +634,8 @@ static double sweep_one_thread(void)
     /* 16 tiles of 16 x 16: with 9 (a 48 x 48 grid, used before) two
      * threads share them 5 : 4, which caps their ratio at 1.8 whatever
      * the code; a map of 1e6 poses has ~4000 tiles */
-    double r = sweep_rate(SWEEP_GRID, 4, 1, &pts), x = bare_lapack_on_grid("chen2018", SWEEP_GRID, 4, NULL);
+    double r = sweep_rate(SWEEP_GRID, 4, 1, &pts);
+    double x = bare_lapack_on_grid("chen2018", SWEEP_GRID, 4, NULL);
     const char *isa = dm_isa_name(dm_isa_active());
     printf("   sweep chen2018 mesh 4,4: %ld points in 16 tiles, 1 thread , path %-7s: %7.1f "
            "poses/s (1e6 poses: %.1f min)\n",
@@ -645,8 +646,9 @@ static double sweep_one_thread(void)
     return r;
 }
 
-/* JOB ("row PRESET MESH", "members PRESET MESH" or "sweep") on kernel path isa, in a child
- * process with DELTAMAP_ISA set (the path is chosen once a process). */
+/* JOB ("row PRESET MESH", "members PRESET MESH" or "sweep") on kernel
+ * path isa, in a child process with DELTAMAP_ISA set (the path is chosen
+ * once a process). */
 static void on_path(dm_isa isa, const char *job)
 {
     fflush(stdout);

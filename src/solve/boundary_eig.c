@@ -54,8 +54,8 @@ void dm_boundary_eig_free(dm_boundary_eig *e)
 {
     if (!e)
         return;
-    double *a[] = {e->d,  e->B, e->Mbb, e->D, e->X,   e->KX,   e->W,   e->KW, e->MW,
-                   e->T,  e->H,  e->Z, e->w,   e->s, e->est, e->work, e->Sinv, e->dinv, e->Bt, e->Qt};
+    double *a[] = {e->d, e->B, e->Mbb, e->D,   e->X,    e->KX,   e->W,    e->KW, e->MW, e->T,
+                   e->H, e->Z, e->w,   e->s,   e->est,  e->work, e->Sinv, e->dinv, e->Bt, e->Qt};
     for (size_t i = 0; i < sizeof a / sizeof *a; i++)
         free(a[i]);
     free(e->iwork);
@@ -127,9 +127,9 @@ dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
     e->rng.state = 0x39e1;
     e->lwork = 26 * q + q * q, e->liwork = 10 * q;
     size_t n2 = (size_t)nr * q;
-    double **a[] = {&e->d,  &e->B, &e->Mbb, &e->D, &e->X,    &e->KX,
-                    &e->W, &e->KW, &e->MW, &e->T, &e->H,    &e->Z,
-                    &e->w,  &e->s, &e->est, &e->work, &e->Sinv, &e->dinv, &e->Bt, &e->Qt};
+    double **a[] = {&e->d, &e->B, &e->Mbb, &e->D,   &e->X,    &e->KX,   &e->W,
+                    &e->KW, &e->MW, &e->T, &e->H,   &e->Z,    &e->w,    &e->s,
+                    &e->est, &e->work, &e->Sinv, &e->dinv, &e->Bt, &e->Qt};
     size_t sz[] = {e->nv, (size_t)e->nv * nB, (size_t)nB * nB, (size_t)nB * nB,
                    n2, n2, n2, n2, n2, n2,
                    (size_t)q * q, (size_t)q * q, q, q, q, e->lwork, (size_t)nB * nB, e->nv,
