@@ -896,6 +896,24 @@ static void members_row(const char *preset, int mesh)
     dm_model_free(md);
 }
 
+static int wanted(int argc, char **argv, const char *what);
+
+/* JOB "KIND PRESET MESH" (run_job's) for each mesh given and each preset
+ * wanted, on every kernel path, mesh by mesh. */
+static void jobs_on_every_path(int argc, char **argv, const char *kind, const int *meshes,
+                               int nmesh)
+{
+    const char *presets[] = {"chen2018", "zheng2017", "han2011"};
+    for (int m = 0; m < nmesh; m++)
+        for (int p = 0; p < 3; p++) {
+            if (!wanted(argc, argv, presets[p]))
+                continue;
+            char job[64];
+            snprintf(job, sizeof job, "%s %s %d", kind, presets[p], meshes[m]);
+            on_every_path(job);
+        }
+}
+
 /* `bench` runs every section; `bench 1 3` only those, and in section 1
  * `bench 1 chen2018` only that preset (to iterate on one figure). */
 static int wanted(int argc, char **argv, const char *what)
@@ -938,14 +956,8 @@ int main(int argc, char **argv)
                "for tracking, 3 moves), parts in us, on each kernel path\n");
     const char *presets[] = {"chen2018", "zheng2017", "han2011"};
     const int meshes[] = {1, 4, 8};
-    for (int m = 0; m < 3 && wanted(argc, argv, "1"); m++)
-        for (int p = 0; p < 3; p++) {
-            if (!wanted(argc, argv, presets[p]))
-                continue;
-            char job[64];
-            snprintf(job, sizeof job, "row %s %d", presets[p], meshes[m]);
-            on_every_path(job);
-        }
+    if (wanted(argc, argv, "1"))
+        jobs_on_every_path(argc, argv, "row", meshes, 3);
     if (wanted(argc, argv, "2"))
         printf("\n2. accuracy against an extended-precision reference (tests/dm_reference.h)\n");
     for (int m = 1; m < 3 && wanted(argc, argv, "2"); m++)
@@ -999,13 +1011,7 @@ int main(int argc, char **argv)
         for (int p = 0; p < 3; p++)
             if (wanted(argc, argv, presets[p]))
                 members_row(presets[p], meshes[m]);
-    for (int m = 1; m < 3 && wanted(argc, argv, "5"); m++)
-        for (int p = 0; p < 3; p++) {
-            if (!wanted(argc, argv, presets[p]))
-                continue;
-            char job[64];
-            snprintf(job, sizeof job, "members %s %d", presets[p], meshes[m]);
-            on_every_path(job);
-        }
+    if (wanted(argc, argv, "5"))
+        jobs_on_every_path(argc, argv, "members", meshes + 1, 2);
     return 0;
 }
