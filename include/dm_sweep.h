@@ -44,16 +44,24 @@ typedef struct dm_sweep_progress {
 
 enum { DM_SWEEP_ANCHORS = 0, DM_SWEEP_TILES = 1 };
 
+enum { DM_SWEEP_FULL_MODEL = 0, DM_SWEEP_MEMBERS = 1, DM_SWEEP_AUTO = 2 };
+
 typedef struct dm_sweep_opts {
     int k;              /* frequencies per point (default 10) */
     int na, nb;         /* mesh (0: the robot's) */
     int tile[3];        /* tile shape (0: automatic) */
     int threads;        /* 0: OpenMP default */
     int dynamic;        /* standard moves along X, Y, Z (default 1) */
-    /* members: every point served by the member bases (dm_analysis_use_
-     * members, built once and shared by the threads; a pose they cannot
-     * serve by the full model, and its families untracked); refused for a
-     * robot they cannot serve at all. Part of the fingerprint. */
+    /* The eigen engine, part of the fingerprint. DM_SWEEP_MEMBERS: every
+     * point served by the member bases (dm_analysis_use_members, built
+     * once and shared by the threads; a pose they cannot serve by the full
+     * model, and its families untracked); refused for a robot they cannot
+     * serve at all. DM_SWEEP_FULL_MODEL: the full model at every point, as
+     * `deltamap modes`. DM_SWEEP_AUTO (the default): a store of this very
+     * sweep being resumed keeps the engine it was made with; otherwise the
+     * members where they serve the robot at the sweep's mesh and modes
+     * (faster at every preset and mesh measured: make bench section 5),
+     * else the full model. dm_sweep_stats says which ran, and why. */
     int members;
     dm_move_opts move;
     int replace;        /* replace a store of another robot/grid/options */
@@ -100,11 +108,13 @@ typedef struct dm_sweep_stats {
     long tiles_mine;                   /* this shard's (all without shards) */
     long tiles_present, tiles_computed; /* of this shard's */
     long points_total, points_ok, points_unreachable, points_near_singular, points_failed;
-    long points_full_model; /* opts.members: points the members could not serve (the full
+    long points_full_model; /* with the members: points they could not serve (the full
                                model did; their families untracked) */
-    long members_applications; /* opts.members: applications of K^-1 M the reduced solves
+    long members_applications; /* with the members: applications of K^-1 M the reduced solves
                                   of the points the members served took, in all (a
                                   count, unlike the time: make bench) */
+    int members;        /* the engine that ran: DM_SWEEP_MEMBERS or DM_SWEEP_FULL_MODEL */
+    char engine_why[200]; /* DM_SWEEP_AUTO: why it is the full model ("" otherwise) */
     double seconds;
     int interrupted;
     int store_refused;  /* out holds another sweep's store (opts.force replaces it) */

@@ -45,7 +45,7 @@ for robot in chen2018 zheng2017 han2011; do
     for g in 16 32; do
         rm -rf "$TMP/s"
         eval "n$g=\$(allocations sweep --robot $robot --grid x=-0.15:0.15:$g,y=-0.15:0.15:$((2 * g)),z=-0.5 \
-            --tile $g,$g,1 --threads 2 --progress none --out $TMP/s)"
+            --tile $g,$g,1 --threads 2 --method partial --progress none --out $TMP/s)"
     done
     same "sweep $robot" "$n16" "$n32"
 done

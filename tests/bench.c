@@ -340,9 +340,10 @@ static double sweep_rate_with(const char *preset, const char *grid_spec, int mes
     return st.points_total / dt;
 }
 
+/* ... with the default engine (DM_SWEEP_AUTO: the members, for chen2018) */
 static double sweep_rate(const char *grid_spec, int mesh, int threads, long *points)
 {
-    return sweep_rate_with("chen2018", grid_spec, mesh, threads, 0, 1, points, NULL);
+    return sweep_rate_with("chen2018", grid_spec, mesh, threads, DM_SWEEP_AUTO, 1, points, NULL);
 }
 
 
@@ -637,8 +638,8 @@ static double sweep_one_thread(void)
     double r = sweep_rate(SWEEP_GRID, 4, 1, &pts);
     double x = bare_lapack_on_grid("chen2018", SWEEP_GRID, 4, NULL);
     const char *isa = dm_isa_name(dm_isa_active());
-    printf("   sweep chen2018 mesh 4,4: %ld points in 16 tiles, 1 thread , path %-7s: %7.1f "
-           "poses/s (1e6 poses: %.1f min)\n",
+    printf("   sweep chen2018 mesh 4,4, default engine: %ld points in 16 tiles, 1 thread , path "
+           "%-7s: %7.1f poses/s (1e6 poses: %.1f min)\n",
            pts, isa, r, 1e6 / r / 60);
     printf("   a sweep's pose on one thread (anchors and tile I/O included), path %-7s: %.0f us = "
            "%.3f x bare dsygvx(10) at its poses (%.0f us)\n",
@@ -983,15 +984,15 @@ int main(int argc, char **argv)
             if (dm_isa_available((dm_isa)i) && (dm_isa)i != dm_isa_active())
                 on_path((dm_isa)i, "sweep");
         double r1 = sweep_one_thread(), r2 = sweep_rate(SWEEP_GRID, 4, 2, &pts);
-        printf("   sweep chen2018 mesh 4,4: %ld points in 16 tiles, 2 threads, path %-7s: %7.1f "
-               "poses/s (1e6 poses: %.1f min)\n",
+        printf("   sweep chen2018 mesh 4,4, default engine: %ld points in 16 tiles, 2 threads, "
+               "path %-7s: %7.1f poses/s (1e6 poses: %.1f min)\n",
                pts, dm_isa_name(dm_isa_active()), r2, 1e6 / r2 / 60);
         printf("   2 threads / 1 thread: %.2f\n", r2 / r1);
         /* a large map's anchors: 32 per axis, 8 grid points apart (the
          * 64 x 64 grid above has 16, 4 apart, and 1/16 of its poses) */
         double rl = sweep_rate("x=-0.3:0.3:256,y=-0.3:0.3:256,z=-0.5", 4, 2, &pts);
-        printf("   sweep chen2018 mesh 4,4: %ld points (a large map's anchor lattice), 2 threads: "
-               "%7.1f poses/s (1e6 poses: %.1f min)\n",
+        printf("   sweep chen2018 mesh 4,4, default engine: %ld points (a large map's anchor "
+               "lattice), 2 threads: %7.1f poses/s (1e6 poses: %.1f min)\n",
                pts, rl, 1e6 / rl / 60);
         shard_throughput("x=-0.3:0.3:32,y=-0.3:0.3:32,z=-0.5", 32 * 32);
     }

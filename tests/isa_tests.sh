@@ -43,9 +43,9 @@ done
 
 # stores byte for byte: every path, 1 and 2 threads, against the baseline
 # path on one thread (tiles of 4 x 4: a store of several chunks per array)
-sweep() { # preset grid path threads out
+sweep() { # preset grid path threads out (the full model; the members' below)
     DELTAMAP_ISA=$3 $DM sweep --robot "$1" --grid "$2" --tile 4,4,1 --threads "$4" \
-        --progress none --out "$5" >/dev/null
+        --method partial --progress none --out "$5" >/dev/null
 }
 for spec in "chen2018 x=-0.3:0.3:9,y=-0.3:0.3:7,z=-0.6:-0.45:2" \
             "zheng2017 x=-0.06:0.06:7,y=-0.06:0.06:5,z=-0.45:-0.35:2" \

@@ -16,7 +16,7 @@ bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
 
 # 11 x 9 x 3 points, 36 tiles, some unreachable and near-singular
 GRID="x=-0.5:0.5:11,y=-0.4:0.4:9,z=-0.7:-0.5:3"
-OPTS="--robot chen2018 --mesh 1,1 --modes 6 --tile 3,3,1 --progress none --threads 1"
+OPTS="--robot chen2018 --mesh 1,1 --modes 6 --tile 3,3,1 --progress none --threads 1 --method partial"
 SW="$DM sweep $OPTS --grid $GRID"
 
 $SW --out "$TMP/ref" >/dev/null || bad "reference sweep"

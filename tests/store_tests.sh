@@ -13,7 +13,7 @@ ok() { pass=$((pass + 1)); }
 bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
 
 GRID="x=-0.45:0.45:19,y=-0.3:0.3:13,z=-0.62:-0.5:2"
-SW="$DM sweep --robot chen2018 --grid $GRID --mesh 2,2 --modes 6 --tile 4,4,1 --progress none"
+SW="$DM sweep --robot chen2018 --grid $GRID --mesh 2,2 --modes 6 --tile 4,4,1 --progress none --method partial"
 
 $SW --out "$TMP/ref" --threads 1 >/dev/null || bad "reference sweep"
 $SW --out "$TMP/two" --threads 2 >/dev/null || bad "two-thread sweep"
@@ -30,7 +30,7 @@ done
 # and tile shape (each point starts from an anchor's seed and is tracked
 # against that anchor, clusters as subspaces)
 CG="x=-0.06:0.06:5,y=-0.06:0.06:5,z=-0.45:-0.35:3"
-CSW="$DM sweep --robot zheng2017 --grid $CG --progress none"
+CSW="$DM sweep --robot zheng2017 --grid $CG --progress none --method partial"
 $CSW --out "$TMP/c16" --tile 16,16,1 --threads 2 >/dev/null || bad "cluster sweep"
 for run in "--tile 8,8,1 --threads 1" "--tile 2,3,1 --threads 2" "OMP_NUM_THREADS=1" "OMP_NUM_THREADS=2" "OPENBLAS_NUM_THREADS=2"; do
     rm -rf "$TMP/cx"
@@ -78,6 +78,19 @@ sys.exit(0 if all(np.array_equal(np.array(a[k]), np.array(b[k]), equal_nan=True)
 done
 $SW --out "$TMP/mref" --method partial >/dev/null 2>"$TMP/err"
 if [ $? -eq 2 ] && grep -q "another --method" "$TMP/err"; then ok; else bad "members store resumed by the full model"; cat "$TMP/err"; fi
+# --method auto, the default (the same command without --method): a new
+# store is the members' own, byte for byte; each store is resumed with the
+# engine it was made with, nothing recomputed, and the output says which
+AUTO="$DM sweep --robot chen2018 --grid $GRID --mesh 2,2 --modes 6 --tile 4,4,1 --progress none"
+$AUTO --out "$TMP/auto" --threads 2 >"$TMP/out" || bad "auto sweep"
+if grep -q "^engine  members (the member bases)$" "$TMP/out" &&
+    diff -r "$TMP/mref" "$TMP/auto" >/dev/null; then ok; else bad "auto: not the members' store"; cat "$TMP/out"; fi
+$AUTO --out "$TMP/ref" >"$TMP/out" 2>&1
+if [ $? -eq 0 ] && grep -q "^engine  partial (the full model): the store being resumed was made with it$" "$TMP/out" &&
+    grep -q "in 40 tiles (40 already done, 0 computed)" "$TMP/out"; then ok; else bad "auto: the full model's store not resumed as it is"; cat "$TMP/out"; fi
+$AUTO --out "$TMP/mref" >"$TMP/out" 2>&1
+if [ $? -eq 0 ] && grep -q "^engine  members" "$TMP/out" && grep -q "in 40 tiles (40 already done, 0 computed)" "$TMP/out"; then ok
+else bad "auto: the members' store not resumed as it is"; cat "$TMP/out"; fi
 
 # Interrupted sweeps need one that lasts: the sweep above is over in
 # ~0.2 s, before a signal at a random moment would land. This one takes

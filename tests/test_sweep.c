@@ -148,6 +148,7 @@ static void values_equal_single_pose_analysis(void **state)
     assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
     dm_sweep_opts o;
     sweep_options(&o, 2, 6, 3, 2); /* edge tiles are partial */
+    o.members = DM_SWEEP_FULL_MODEL; /* the members' sweep: member_engine_sweeps */
     char *dir = tmpdir();
     run_sweep(&rb, SPEC, &o, dir);
     static double f[NPTS * 6], e[NPTS * 6], cm[NPTS], tr[NPTS * 6];
@@ -204,6 +205,7 @@ static void points_between_anchors(void **state)
     assert_int_equal(dm_robot_load("han2011", &rb, NULL), 0);
     dm_sweep_opts o;
     sweep_options(&o, 2, 6, 16, 1);
+    o.members = DM_SWEEP_FULL_MODEL; /* the members start from the anchor's seed as it is */
     o.threads = 2;
     char *a = tmpdir(), *b = tmpdir();
     run_sweep(&rb, LINE, &o, a);
@@ -229,13 +231,13 @@ static void points_between_anchors(void **state)
     rmtree(b);
 }
 
-static void threads_resume_and_refusal(void **state)
+static void threads_resume_and_refusal_with(int engine)
 {
-    (void)state;
     dm_robot rb;
     assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
     dm_sweep_opts o;
     sweep_options(&o, 1, 5, 2, 2);
+    o.members = engine;
     char *one = tmpdir(), *two = tmpdir();
     o.threads = 1;
     run_sweep(&rb, SPEC, &o, one);
@@ -277,6 +279,15 @@ static void threads_resume_and_refusal(void **state)
     rmtree(three);
 }
 
+/* Either engine's store: the same on 1 and 2 threads, damaged tiles
+ * recomputed, another sweep's store refused unless replaced, a stop. */
+static void threads_resume_and_refusal(void **state)
+{
+    (void)state;
+    threads_resume_and_refusal_with(DM_SWEEP_FULL_MODEL);
+    threads_resume_and_refusal_with(DM_SWEEP_MEMBERS);
+}
+
 /* --method members: the store bit-identical on 1 and 2 threads and its
  * values on other tiles; every point's values those of the member
  * analysis at its pose (to 1e-9, as the full sweep's are the full
@@ -294,7 +305,7 @@ static void member_engine_sweeps(void **state)
     assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
     dm_sweep_opts o;
     sweep_options(&o, 2, 6, 3, 2);
-    o.members = 1;
+    o.members = DM_SWEEP_MEMBERS;
     char *one = tmpdir(), *two = tmpdir(), *other = tmpdir(), *full = tmpdir();
     dm_sweep_stats s1, s2, sf;
     o.threads = 1;
@@ -313,7 +324,7 @@ static void member_engine_sweeps(void **state)
     assert_int_equal(s2.members_applications, s1.members_applications);
     o.tile[0] = 7, o.tile[1] = 5;
     run_sweep(&rb, SPEC, &o, other);
-    o.members = 0;
+    o.members = DM_SWEEP_FULL_MODEL;
     o.tile[0] = 3, o.tile[1] = 2;
     run_sweep_into(&rb, SPEC, &o, full, &sf);
     assert_int_equal(sf.members_applications, 0);
@@ -357,7 +368,7 @@ static void member_engine_sweeps(void **state)
     /* resuming the full model's store with the members: another sweep */
     dm_sweep_stats st;
     dm_error err;
-    o.members = 1;
+    o.members = DM_SWEEP_MEMBERS;
     assert_int_equal(dm_sweep_run(&rb, &g, &o, full, &no_stop, &st, &err), DM_EINVAL);
     assert_non_null(strstr(err.msg, "another --method"));
     /* geometric stiffness: the members cannot serve, said before any work */
@@ -371,7 +382,7 @@ static void member_engine_sweeps(void **state)
     char *big = tmpdir();
     rmtree(big);
     sweep_options(&o, 1, 44, 3, 2); /* 48 of 48 at mesh 1,1 */
-    o.members = 1;
+    o.members = DM_SWEEP_MEMBERS;
     assert_int_equal(dm_sweep_run(&rb, &g, &o, big, &no_stop, &st, &err), DM_EINVAL);
     assert_non_null(strstr(err.msg, "reduced model"));
     struct stat sb;
@@ -381,7 +392,7 @@ static void member_engine_sweeps(void **state)
      * are not the anchors' kind); the store the same on 1 and 2 threads */
 #define FB_GRID "x=-0.1:0.1:9,y=-0.1:0.1:9,z=-0.5"
     sweep_options(&o, 1, 43, 3, 2);
-    o.members = 1;
+    o.members = DM_SWEEP_MEMBERS;
     o.threads = 1;
     char *fb1 = tmpdir(), *fb2 = tmpdir();
     long nfull = run_sweep_stats(&rb, FB_GRID, &o, fb1);
@@ -404,16 +415,72 @@ static void member_engine_sweeps(void **state)
     rmtree(none);
 }
 
-/* Three shards run one after the other into one store make the store of
- * one process, each computing only its tiles; a finished shard's rerun
- * computes nothing; a shard that does not exist is refused. */
-static void shards_make_the_same_store(void **state)
+/* DM_SWEEP_AUTO, the default: a new store gets the members (the very
+ * store DM_SWEEP_MEMBERS makes); a store of this sweep is resumed with
+ * the engine it was made with (nothing recomputed; for the full model
+ * the reason is given); another sweep's store, replaced, does not pass
+ * its engine on; a robot, or a number of modes, the members cannot serve
+ * runs on the full model, and the reason is given. */
+static void auto_engine_choice(void **state)
 {
     (void)state;
     dm_robot rb;
     assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
     dm_sweep_opts o;
     sweep_options(&o, 1, 5, 2, 2);
+    assert_int_equal(o.members, DM_SWEEP_AUTO);
+    char *a = tmpdir(), *m = tmpdir(), *f = tmpdir(), *g = tmpdir(), *big = tmpdir();
+    dm_sweep_stats st;
+    run_sweep_into(&rb, SPEC, &o, a, &st);
+    assert_int_equal(st.members, DM_SWEEP_MEMBERS);
+    assert_string_equal(st.engine_why, "");
+    o.members = DM_SWEEP_MEMBERS;
+    run_sweep_into(&rb, SPEC, &o, m, &st);
+    assert_true(same_tree(a, m));
+    o.members = DM_SWEEP_FULL_MODEL;
+    run_sweep_into(&rb, SPEC, &o, f, &st);
+    assert_int_equal(st.members, DM_SWEEP_FULL_MODEL);
+    assert_false(same_tree(a, f));
+    o.members = DM_SWEEP_AUTO;
+    run_sweep_into(&rb, SPEC, &o, f, &st);
+    assert_int_equal(st.members, DM_SWEEP_FULL_MODEL);
+    assert_int_equal(st.tiles_computed, 0);
+    assert_int_equal(st.tiles_present, st.tiles_total);
+    assert_non_null(strstr(st.engine_why, "resumed"));
+    run_sweep_into(&rb, SPEC, &o, m, &st);
+    assert_int_equal(st.members, DM_SWEEP_MEMBERS);
+    assert_int_equal(st.tiles_computed, 0);
+    o.replace = 1;
+    run_sweep_into(&rb, "x=-0.3:1.2:8,y=-0.2:0.2:5,z=-0.6:-0.45:2", &o, f, &st);
+    assert_int_equal(st.members, DM_SWEEP_MEMBERS);
+    assert_int_equal(st.tiles_present, 0);
+    o.replace = 0;
+    dm_robot stiff = rb;
+    assert_int_equal(dm_robot_set(&stiff, "effects.geometric_stiffness=on", NULL), 0);
+    run_sweep_into(&stiff, SPEC, &o, g, &st);
+    assert_int_equal(st.members, DM_SWEEP_FULL_MODEL);
+    assert_non_null(strstr(st.engine_why, "geometric stiffness"));
+    sweep_options(&o, 1, 44, 3, 2); /* with tracking's 4, 48 of 48 at mesh 1,1 */
+    run_sweep_into(&rb, SPEC, &o, big, &st);
+    assert_int_equal(st.members, DM_SWEEP_FULL_MODEL);
+    assert_non_null(strstr(st.engine_why, "reduced model"));
+    rmtree(a);
+    rmtree(m);
+    rmtree(f);
+    rmtree(g);
+    rmtree(big);
+}
+
+/* Three shards run one after the other into one store make the store of
+ * one process, each computing only its tiles; a finished shard's rerun
+ * computes nothing; a shard that does not exist is refused. */
+static void shards_with(int engine)
+{
+    dm_robot rb;
+    assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
+    dm_sweep_opts o;
+    sweep_options(&o, 1, 5, 2, 2);
+    o.members = engine;
     o.threads = 1;
     char *one = tmpdir(), *parts = tmpdir();
     run_sweep(&rb, SPEC, &o, one);
@@ -444,6 +511,13 @@ static void shards_make_the_same_store(void **state)
     assert_true(same_tree(one, parts));
     rmtree(one);
     rmtree(parts);
+}
+
+static void shards_make_the_same_store(void **state)
+{
+    (void)state;
+    shards_with(DM_SWEEP_FULL_MODEL);
+    shards_with(DM_SWEEP_MEMBERS);
 }
 
 /* dm_sweep_opts.on_repair: each file it is told of */
@@ -722,6 +796,7 @@ int main(void)
         cmocka_unit_test(points_between_anchors),
         cmocka_unit_test(threads_resume_and_refusal),
         cmocka_unit_test(member_engine_sweeps),
+        cmocka_unit_test(auto_engine_choice),
         cmocka_unit_test(shards_make_the_same_store),
         cmocka_unit_test(resume_repairs_derived_files),
         cmocka_unit_test(array_table_matches_point_result),

@@ -16,7 +16,7 @@
 static const char SWEEP_HELP[] =
     "usage: deltamap sweep --robot R --grid SPEC --out maps/NAME [--modes K]\n"
     "                      [--mesh NA,NB] [--tile A,B,C] [--threads N] [--no-dynamic]\n"
-    "                      [--method partial|members]\n"
+    "                      [--method auto|members|partial]\n"
     "                      [--amax A] [--tau T] [--replace] [--force-long]\n"
     "                      [--progress bar|lines|none]\n"
     "                      [--shard K/N|slurm|slurm/N] [--set SECTION.KEY=V]...\n"
@@ -35,14 +35,18 @@ static const char SWEEP_HELP[] =
     "  --tile A,B,C    points per tile along the three axes (default 16,16,1)\n"
     "  --threads N     worker threads (default: OpenMP's, all cores)\n"
     "  --no-dynamic    skip the standard moves (X, Y, Z)\n"
-    "  --method M      partial (default: the full model at every point, as\n"
-    "                  `deltamap modes`) or members (the member bases, built once\n"
-    "                  and shared by the threads: statics exact through the\n"
-    "                  joints, the modes proven complete by a count of the whole\n"
-    "                  model, within 1e-9 of the full model's; the standard moves\n"
-    "                  on the reduced model too; faster at every mesh, most at\n"
-    "                  fine ones; refused for a robot the members cannot serve,\n"
-    "                  such as geometric stiffness; part of the store's settings)\n"
+    "  --method M      the eigen engine, part of the store's settings: members\n"
+    "                  (the member bases, built once and shared by the threads:\n"
+    "                  statics exact through the joints, the modes proven\n"
+    "                  complete by a count of the whole model, within 1e-9 of\n"
+    "                  the full model's; the standard moves on the reduced model\n"
+    "                  too; 1.3-2.7x faster at every preset and mesh measured;\n"
+    "                  refused for a robot they cannot serve, such as geometric\n"
+    "                  stiffness), partial (the full model at every point, as\n"
+    "                  `deltamap modes`) or auto (default: a store of this very\n"
+    "                  sweep keeps the engine it was made with; else members\n"
+    "                  where they serve the robot, mesh and modes, partial\n"
+    "                  where not; the output's `engine` line says which)\n"
     "  --amax A        standard move acceleration, m/s^2 (default 50)\n"
     "  --tau T         standard move duration, s (default 0.05)\n"
     "  --replace       replace a store of another robot, grid or options (a store\n"
@@ -139,9 +143,12 @@ static int parse_sweep(int argc, char **argv, sweep_args *a)
         case 'R': a->o.replace = 1; break;
         case 'D': a->o.dynamic = 0; break;
         case 'M':
-            if (strcmp(optarg, "partial") && strcmp(optarg, "members"))
-                return dm_cli_usage("sweep", "--method is partial or members", optarg);
-            a->o.members = !strcmp(optarg, "members");
+            if (!strcmp(optarg, "auto"))
+                a->o.members = DM_SWEEP_AUTO;
+            else if (!strcmp(optarg, "members") || !strcmp(optarg, "partial"))
+                a->o.members = !strcmp(optarg, "members") ? DM_SWEEP_MEMBERS : DM_SWEEP_FULL_MODEL;
+            else
+                return dm_cli_usage("sweep", "--method is auto, members or partial", optarg);
             break;
         case 'k':
             if (dm_cli_parse_int(optarg, 1, DM_MAX_MODES, &a->o.k))
@@ -338,6 +345,11 @@ int dm_cli_sweep(int argc, char **argv)
            st.seconds);
     printf("points  computed now: %ld ok, %ld near-singular, %ld unreachable, %ld failed\n",
            st.points_ok, st.points_near_singular, st.points_unreachable, st.points_failed);
+    if (st.members)
+        printf("engine  members (the member bases)\n");
+    else
+        printf("engine  partial (the full model)%s%s\n", st.engine_why[0] ? ": " : "",
+               st.engine_why);
     if (st.points_full_model)
         printf("members %ld points served by the full model, the member bases could not "
                "(their frequencies are the full model's, their families untracked)\n",

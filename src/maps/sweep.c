@@ -22,6 +22,7 @@ void dm_sweep_opts_default(dm_sweep_opts *o)
     memset(o, 0, sizeof *o);
     o->k = 10;
     o->dynamic = 1;
+    o->members = DM_SWEEP_AUTO;
     dm_move_opts_default(&o->move);
     dm_tolerance_spec_default(&o->tolerance_spec);
 }
@@ -354,6 +355,57 @@ static int check_size(const sweep_ctx *c, dm_error *err)
     return dm_work_check(what, need, limit, hint, c->o.force_long, err);
 }
 
+/* The member bases for the sweep's robot, mesh and modes (c->members and
+ * the reduced size in c->dim), or why not: DM_EINVAL when the bases are
+ * too small for the modes, another code when they cannot be built. */
+static int build_members(sweep_ctx *c, dm_error *err)
+{
+    if (!(c->members = dm_analysis_members(c->rb, c->na, c->nb, c->kc, err)))
+        return err->code ? err->code : DM_EINVAL;
+    int dim = dm_members_reduced_size(c->members);
+    if (c->kc < dim) {
+        c->dim = dim;
+        return DM_OK;
+    }
+    dm_members_free(c->members);
+    c->members = NULL;
+    return dm_fail(err, DM_EINVAL,
+                   "member bases: %d modes (%d and %d more for mode tracking) need a reduced "
+                   "model larger than the bases' %d DOF at this mesh", c->kc, c->k, c->kc - c->k, dim);
+}
+
+/* The engine (see dm_sweep_opts.members) into c->o.members, with the
+ * members built where they run. Decided before the store is opened: the
+ * engine is part of its fingerprint. */
+static int choose_engine(sweep_ctx *c, const char *path, dm_error *err)
+{
+    int want = c->o.members;
+    dm_error why;
+    c->o.members = DM_SWEEP_FULL_MODEL;
+    if (want == DM_SWEEP_FULL_MODEL)
+        return DM_OK;
+    if (want == DM_SWEEP_AUTO) { /* a store of this sweep keeps its engine */
+        dm_sweep_schema_define(c, path);
+        int kept = dm_sweep_store_engine(c, path);
+        dm_store_release(&c->store);
+        if (kept == DM_SWEEP_FULL_MODEL) {
+            snprintf(c->engine_why, sizeof c->engine_why,
+                     "the store being resumed was made with it");
+            return DM_OK;
+        }
+    }
+    int rc = build_members(c, &why);
+    if (!rc) {
+        c->o.members = DM_SWEEP_MEMBERS;
+        return DM_OK;
+    }
+    if (want == DM_SWEEP_MEMBERS || rc == DM_ENOMEM)
+        return dm_fail(err, rc, "sweep --method members: %s%s", why.msg,
+                       rc == DM_EINVAL ? "; use fewer modes or --method partial" : "");
+    snprintf(c->engine_why, sizeof c->engine_why, "%.190s", why.msg);
+    return DM_OK;
+}
+
 static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o,
                  int nthreads, const char *out, dm_error *err)
 {
@@ -374,18 +426,6 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
     c->k = o->k;
     c->kc = c->k + EXTRA_MODES < c->n ? c->k + EXTRA_MODES : c->n;
     c->dim = c->n;
-    if (o->members) {
-        dm_error why;
-        if (!(c->members = dm_analysis_members(rb, c->na, c->nb, c->kc, &why)))
-            return dm_fail(err, why.code, "sweep --method members: %s", why.msg);
-        c->dim = dm_members_reduced_size(c->members);
-        if (c->kc >= c->dim) /* before the store is made */
-            return dm_fail(err, DM_EINVAL,
-                           "sweep --method members: %d modes (%d and %d more for mode tracking) "
-                           "need a reduced model larger than the bases' %d DOF at this mesh; "
-                           "use fewer modes or --method partial",
-                           c->kc, c->k, c->kc - c->k, c->dim);
-    }
     c->ndata = dm_sweep_ndata(o->tolerance, o->tolerance_spec.spec_m);
     if (o->tolerance) {
         c->tol = o->tolerance_spec;
@@ -416,6 +456,8 @@ static int setup(sweep_ctx *c, const dm_robot *rb, const dm_grid *g, const dm_sw
     if (!lstat(path, &sb) && S_ISLNK(sb.st_mode) && realpath(path, real) &&
         strlen(real) < sizeof path)
         memcpy(path, real, strlen(real) + 1);
+    if ((rc = choose_engine(c, path, err)))
+        return rc;
     dm_sweep_schema_define(c, path);
     return dm_sweep_store_prepare(c, path, err);
 }
@@ -590,6 +632,8 @@ int dm_sweep_run(const dm_robot *rb, const dm_grid *g, const dm_sweep_opts *o, c
             *err = res.err;
     }
     fill_stats(&plan, &res, g, stats);
+    stats->members = c.o.members == DM_SWEEP_MEMBERS ? DM_SWEEP_MEMBERS : DM_SWEEP_FULL_MODEL;
+    snprintf(stats->engine_why, sizeof stats->engine_why, "%s", c.engine_why);
     stats->store_refused = c.store_refused;
     stats->seconds = omp_get_wtime() - t0;
     if (!rc && plan.present + res.done < plan.mine) {

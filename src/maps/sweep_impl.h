@@ -82,7 +82,7 @@ typedef struct sweep_ctx {
     const dm_grid *grid;
     dm_sweep_opts o;
     int na, nb, n, k, kc;
-    struct dm_members *members; /* o.members: the bases every worker shares */
+    struct dm_members *members; /* with the members: the bases every worker shares */
     int dim;            /* the length of the vectors families are tracked by */
     int tile[3], ntiles[3];
     int ndata;          /* data arrays in the store: dm_sweep_arrays' first */
@@ -103,6 +103,7 @@ typedef struct sweep_ctx {
     size_t seed_len;
     double t0;           /* when the sweep started */
     int store_refused;   /* the store at out is of another sweep */
+    char engine_why[200]; /* DM_SWEEP_AUTO: why the full model runs ("" otherwise) */
 } sweep_ctx;
 
 typedef struct sweep_worker {
@@ -151,6 +152,11 @@ int dm_sweep_schema_check_group(const sweep_ctx *c, char *why, size_t len, dm_er
 /* Join the sweep's store at c->store.path, or create it (atomically);
  * refuse a store of another sweep unless c->o.replace. */
 int dm_sweep_store_prepare(sweep_ctx *c, const char *path, dm_error *err);
+/* The engine of the store at path when it records this sweep but perhaps
+ * for its engine (c's schema defined at path, either engine):
+ * DM_SWEEP_MEMBERS or DM_SWEEP_FULL_MODEL; -1 when there is no readable
+ * store of this sweep. */
+int dm_sweep_store_engine(const sweep_ctx *c, const char *path);
 
 /* ---- sweep_anchors.c -------------------------------------------------------- */
 

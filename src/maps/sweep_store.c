@@ -197,6 +197,29 @@ static int open_existing(sweep_ctx *c, const char *path, int racing, dm_error *e
     return move_aside(path, &dir, err);
 }
 
+int dm_sweep_store_engine(const sweep_ctx *c, const char *path)
+{
+    json_t *attrs = NULL;
+    dm_error err;
+    if (dm_store_read_group(path, &attrs, &err))
+        return -1;
+    json_t *ofp = json_deep_copy(fingerprint_of(attrs));
+    json_t *nfp = json_deep_copy(fingerprint_of(c->store.group_attributes));
+    json_decref(attrs);
+    int engine = -1;
+    if (json_is_object(ofp) && json_is_object(nfp)) {
+        const char *method = json_string_value(json_object_get(ofp, "method"));
+        int members = method && !strcmp(method, "members"); /* before del frees it */
+        json_object_del(ofp, "method");
+        json_object_del(nfp, "method");
+        if (json_equal(ofp, nfp))
+            engine = members ? DM_SWEEP_MEMBERS : DM_SWEEP_FULL_MODEL;
+    }
+    json_decref(ofp);
+    json_decref(nfp);
+    return engine;
+}
+
 /* Build the store under PATH.tmp.HOST.PID, rename it to PATH. STORE_RETRY:
  * another process created it first (the rename found PATH not empty). */
 static int create_store(sweep_ctx *c, const char *path, dm_error *err)
