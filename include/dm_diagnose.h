@@ -169,6 +169,13 @@ typedef struct dm_diagnosis {
 
 typedef struct dm_diagnose_opts {
     int na, nb;                  /* mesh (0: the robot's) */
+    /* The mesh of the coarse scan that starts a lone log parameter's fit
+     * (its 13 or 25 predictions; the fit itself, from the scan's best
+     * point, is at na, nb). 0: half the mesh, rounded up, but at least 2
+     * (and at most the mesh): 4,4 scans at 2,2, whose first six
+     * frequencies are within 0.4 % of the converged ones (docs/
+     * validation.md), far finer than the scan's steps of the parameter. */
+    int scan_na, scan_nb;
     int pairs;                   /* try a second effect (default 1) */
     int threads;                 /* fits run in parallel (0: OpenMP's default); the
                                     result does not depend on it */

@@ -966,7 +966,8 @@ int dm_cli_diagnose(int argc, char **argv)
     dm_diagnosis dg;
     dm_cli_progress view;
     dm_progress_fn draw = dm_cli_progress_init(&view, "diagnose", a.sh.progress);
-    dm_diagnose_opts o = {a.sh.na, a.sh.nb, a.pairs, a.sh.threads, a.sh.force_long, draw, &view};
+    dm_diagnose_opts o = {.na = a.sh.na, .nb = a.sh.nb, .pairs = a.pairs, .threads = a.sh.threads,
+                          .force_long = a.sh.force_long, .progress = draw, .progress_user = &view};
     if ((rc = load(&a, &d, &rb, &err)))
         return dm_cli_report(&err);
     rc = dm_diagnose(&rb, &d, &o, &dg, &err);

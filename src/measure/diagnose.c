@@ -169,6 +169,8 @@ typedef struct {
     const shared *s;
     dm_dataset view;         /* the data fitted: all, or a tracker run's first part */
     dm_predictor *predictor; /* made once per fit, run by every evaluation */
+    dm_predictor *scanner;   /* the scan's, at its mesh (NULL: the predictor) */
+    int scanning;            /* evaluations are the scan's (scan_start) */
     double *pred;
     int ncand, nfixed;
     const dm_effect *cand[2];
@@ -192,11 +194,16 @@ static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_nuisance_f
     int rc = DM_OK;
     for (int i = 0; i < p->ncand && !rc; i++)
         rc = dm_effects_apply(&rb, p->cand[i]->name, value[i], err);
-    if (!rc && !memo_get(p->s->memo, &rb, p->view.n, p->pred)) {
-        dm_predictor_window(p->predictor, p->view.n);
-        rc = dm_predictor_run(p->predictor, &rb, p->pred, err);
+    /* the scan's coarser predictions are not kept: they would pass for
+     * the mesh's, and no other fit scans the same robots */
+    int coarse = p->scanning && p->scanner;
+    dm_predictor *pr = coarse ? p->scanner : p->predictor;
+    memo *m = coarse ? NULL : p->s->memo;
+    if (!rc && !memo_get(m, &rb, p->view.n, p->pred)) {
+        dm_predictor_window(pr, p->view.n);
+        rc = dm_predictor_run(pr, &rb, p->pred, err);
         if (!rc)
-            memo_put(p->s->memo, &rb, p->view.n, p->pred);
+            memo_put(m, &rb, p->view.n, p->pred);
         dm_progress_add(p->s->pm, 0); /* the same count, later: the clock moves */
     }
     /* a tracker run's nuisances, fitted with every model (dm_nuisance.h) */
@@ -299,6 +306,7 @@ static void scan_start(problem *p, double *x, const dm_effect *c, int m, double 
                        int steps)
 {
     double best = INFINITY, bx = 0.5 * (c->lo + c->hi);
+    p->scanning = 1;
     for (int s = 0; s <= steps; s++) {
         x[0] = c->lo + (c->hi - c->lo) * s / steps;
         residuals(p, m, 1, x, fvec, 1);
@@ -308,7 +316,25 @@ static void scan_start(problem *p, double *x, const dm_effect *c, int m, double 
             bx = x[0];
         }
     }
+    p->scanning = 0;
     x[0] = bx;
+}
+
+/* Elements of the scan's mesh for the mesh m (dm_diagnose_opts.scan_na). */
+static int scan_elements(int m, int asked)
+{
+    int half = (m + 1) / 2 > 2 ? (m + 1) / 2 : 2;
+    return asked > 0 ? asked : half < m ? half : m;
+}
+
+/* The scan's predictor (scan_elements), or NULL where that is the mesh
+ * itself, or memory is short (the scan then runs at the mesh). */
+static dm_predictor *scan_predictor(const problem *p)
+{
+    const shared *s = p->s;
+    int na = s->o->na > 0 ? s->o->na : s->rb->na, nb = s->o->nb > 0 ? s->o->nb : s->rb->nb;
+    int sa = scan_elements(na, s->o->scan_na), sb = scan_elements(nb, s->o->scan_nb);
+    return sa == na && sb == nb ? NULL : dm_predictor_new(s->rb, s->d, sa, sb, NULL);
 }
 
 /* Forward-difference Jacobian J (m x n, column-major) of the residuals at
@@ -624,6 +650,7 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][DM_DIAG_MAXV
         return;
     }
     const dm_effect *lone = n == 1 && !linear && !start ? p->cand[p->ncand - 1] : NULL;
+    p->scanner = lone ? scan_predictor(p) : NULL;
     int staged = p->s->d->kind == DM_DATA_TRACKER && !linear && !start && n > 0;
     for (int w = staged ? 0 : NWINDOWS - 1; w < NWINDOWS && n > 0; w++) {
         set_window(p, WINDOWS[w]);
@@ -657,7 +684,8 @@ static void fit(problem *p, const dm_diagnosis *dg, double start[2][DM_DIAG_MAXV
     free(p->pred);
     p->pred = NULL;
     dm_predictor_free(p->predictor);
-    p->predictor = NULL;
+    dm_predictor_free(p->scanner);
+    p->predictor = p->scanner = NULL;
 }
 
 /* Best score first; equal scores in candidate-table order, so the ranking
