@@ -371,7 +371,8 @@ static int build_members(sweep_ctx *c, dm_error *err)
     c->members = NULL;
     return dm_fail(err, DM_EINVAL,
                    "member bases: %d modes (%d and %d more for mode tracking) need a reduced "
-                   "model larger than the bases' %d DOF at this mesh", c->kc, c->k, c->kc - c->k, dim);
+                   "model larger than the bases' %d DOF at this mesh",
+                   c->kc, c->k, c->kc - c->k, dim);
 }
 
 /* The engine (see dm_sweep_opts.members) into c->o.members, with the
@@ -380,7 +381,7 @@ static int build_members(sweep_ctx *c, dm_error *err)
 static int choose_engine(sweep_ctx *c, const char *path, dm_error *err)
 {
     int want = c->o.members;
-    dm_error why;
+    dm_error why = {0};
     c->o.members = DM_SWEEP_FULL_MODEL;
     if (want == DM_SWEEP_FULL_MODEL)
         return DM_OK;
