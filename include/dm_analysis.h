@@ -79,8 +79,9 @@ dm_members *dm_analysis_members(const dm_robot *robot, int na, int nb, int kmax,
 
 /* Serve the poses from `members` (built for this robot, mesh and at least
  * this kmax) from now on; a pose they cannot serve (a member solve that
- * fails, a count of the whole model that finds a mode the bases miss)
- * falls back to the full model, cold, and says so in res->engine. */
+ * fails, a count of the whole model that finds a mode the bases miss,
+ * from a warm start and then once more from a cold one) falls back to
+ * the full model, cold, and says so in res->engine. */
 int dm_analysis_use_members(dm_analysis *an, const dm_members *members, dm_error *err);
 
 /* Warm starts, as dm_modal's seeds, for whichever engine is in use: a run

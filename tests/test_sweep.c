@@ -415,6 +415,60 @@ static void member_engine_sweeps(void **state)
     rmtree(none);
 }
 
+/* Near the workspace's rim, where f1 falls to ~1 Hz, an anchor's start
+ * can lead the reduced solve astray (here 3 of 180 points before
+ * 2026-12-07: served by the full model, their families untracked); the
+ * members then try once more, cold, and serve every point: each
+ * frequency within 1e-9 of a cold members analysis at the point (a warm
+ * solve and a cold one differ by their residuals' rounding, as in
+ * point_equals_analysis), every family tracked, the store the same on 1
+ * and 2 threads. */
+#define RIM "r=0.38:0.46:5,phi=0:350:36,z=-0.4"
+static void astray_start_retried_cold(void **state)
+{
+    (void)state;
+    dm_robot rb;
+    assert_int_equal(dm_robot_load("chen2018", &rb, NULL), 0);
+    dm_sweep_opts o;
+    sweep_options(&o, 4, 6, 16, 16);
+    o.members = DM_SWEEP_MEMBERS;
+    o.dynamic = 0;
+    char *one = tmpdir(), *two = tmpdir();
+    dm_sweep_stats st;
+    o.threads = 1;
+    run_sweep_into(&rb, RIM, &o, one, &st);
+    assert_int_equal(st.points_full_model, 0);
+    assert_int_equal(st.points_ok + st.points_near_singular, 180);
+    o.threads = 2;
+    run_sweep_into(&rb, RIM, &o, two, &st);
+    assert_true(same_tree(one, two));
+    static double f[180 * 6], tr[180 * 6];
+    read_all(one, "frequencies_hz", f, 8);
+    read_all(one, "frequencies_tracked_hz", tr, 8);
+    dm_grid g;
+    assert_int_equal(dm_grid_parse(RIM, &g, NULL), 0);
+    dm_members *ms = dm_analysis_members(&rb, 4, 4, 10, NULL);
+    dm_analysis *an = dm_analysis_alloc(&rb, 4, 4, 10, DM_EIGEN_PARTIAL, NULL);
+    assert_int_equal(dm_analysis_use_members(an, ms, NULL), 0);
+    for (int p = 0; p < 180; p++) {
+        int idx[3] = {p / 36, p % 36, 0};
+        double P[3];
+        dm_pose_result res;
+        dm_grid_position(&g, idx, P);
+        dm_analysis_forget(an);
+        assert_int_equal(dm_analysis_run(an, P, 10, &res, NULL), 0);
+        assert_int_equal(res.engine, DM_ENGINE_MEMBERS);
+        for (int j = 0; j < 6; j++) {
+            assert_rel(f[6 * p + j], res.modes->freq_hz[j], 1e-9, "point %d f%d", p, j + 1);
+            assert_true(isfinite(tr[6 * p + j]));
+        }
+    }
+    dm_analysis_free(an);
+    dm_members_free(ms);
+    rmtree(one);
+    rmtree(two);
+}
+
 /* DM_SWEEP_AUTO, the default: a new store gets the members (the very
  * store DM_SWEEP_MEMBERS makes); a store of this sweep is resumed with
  * the engine it was made with (nothing recomputed; for the full model
@@ -797,6 +851,7 @@ int main(void)
         cmocka_unit_test(threads_resume_and_refusal),
         cmocka_unit_test(member_engine_sweeps),
         cmocka_unit_test(auto_engine_choice),
+        cmocka_unit_test(astray_start_retried_cold),
         cmocka_unit_test(shards_make_the_same_store),
         cmocka_unit_test(resume_repairs_derived_files),
         cmocka_unit_test(array_table_matches_point_result),
