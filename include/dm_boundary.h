@@ -95,6 +95,7 @@ typedef struct dm_boundary_eig_info {
     int applications; /* of K^-1 M, in the filters */
     int restarts;   /* modes found missing by the count, and recovered */
     int cold;       /* 1: started from random vectors */
+    int block;      /* the block's columns (wanted and guard) at the end */
 } dm_boundary_eig_info;
 
 /* A solver of k modes for bw's reduced problem (block of k + guard

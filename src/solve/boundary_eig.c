@@ -10,7 +10,10 @@
 #include "boundary_impl.h"
 #include "dm_rng.h"
 
-enum { GUARD = 6, MAX_GROW = 4, MAX_ROUNDS = 20, MAX_DEGREE = 12, MAX_RESTARTS = 3 };
+/* GUARD: a cold block's guard vectors, and what a block grows by when a
+ * wanted cluster reaches its top; each solve's spectrum may then keep a
+ * cheaper block with at least GUARD_MIN (choose_block). */
+enum { GUARD = 6, GUARD_MIN = 2, MAX_GROW = 4, MAX_ROUNDS = 20, MAX_DEGREE = 12, MAX_RESTARTS = 3 };
 #define CLUSTER 1e-3 /* Ritz values within 0.1 % share one block bound */
 #define COUNT_SHIFT 1e-9
 /* How far apart the filter lets the block's columns drift before a
@@ -563,6 +566,73 @@ static int converge(dm_boundary_eig *e, const dm_boundary *bw, int planned, int 
     }
 }
 
+/* Growth per application of the filter whose interval ends at the
+ * block's top Ritz value wtop, at Ritz value w (below it). */
+static double growth(double wtop, double w)
+{
+    double t = 2 * wtop / w - 1;
+    return t > 1 + 1e-6 ? t + sqrt(t * t - 1) : 1;
+}
+
+/* What a warm solve with a block of pc columns is predicted to cost, in
+ * microseconds of the AVX-512 path at chen2018 4,4 (the constants are
+ * measured there at pc = 20: an application of K^-1 M with its product
+ * by M 7.5, a Cholesky QR 9.5, the Rayleigh-Ritz 39 and the residuals 13,
+ * scaled by the block's columns as their operations are). A warm start
+ * takes about APPLY_LOG / ln g applications, g the growth at the last
+ * wanted Ritz value (16.3-18.8 measured on the bench's maps of the three
+ * presets with blocks of 16 to 20), and one Cholesky QR each time the
+ * lowest mode's growth reaches SKEW_MAX. */
+#define APPLY_LOG 16.7
+/* A block's top Ritz value must lie this far below the next (relative),
+ * measured: chen2018's block of 19, which splits its pair at 188 Hz,
+ * took 14 % longer than the block of 20 the cost alone ranks below it. */
+#define TOP_GAP 0.3
+/* A smaller block is taken only when predicted this much cheaper: the
+ * model ranks blocks, it does not time them. */
+#define MARGIN 0.15
+static double block_cost(const dm_boundary_eig *e, int top, int pc)
+{
+    double g = growth(e->w[pc - 1], e->w[top]), g1 = growth(e->w[pc - 1], e->w[0]);
+    if (!(g > 1 + 1e-3))
+        return INFINITY; /* the block's top within the wanted cluster: no growth */
+    double apps = APPLY_LOG / log(g), x = pc / 20.0;
+    double per_qr = g1 > 1 ? fmax(1, floor(log(SKEW_MAX) / log(g1))) : apps;
+    return apps * 7.5 * x + apps / per_qr * 9.5 * x * x + 39 * x * x * x + 13 * x * x;
+}
+
+/* The next warm solve's block: of this one's lowest pc >= top + 1 +
+ * GUARD_MIN columns (the wanted clusters and a guard), the number whose
+ * predicted cost is least (block_cost, from this solve's Ritz values);
+ * a planned degree grows as the smaller block's growth falls. A block
+ * never grows here: only when a wanted cluster reaches its top (converge).
+ * Measured on the bench's 64 x 64 maps (one thread, --no-dynamic): the
+ * best fixed guard was 6 for chen2018 (its gap above mode 20), which it
+ * keeps, and 2-5 for zheng2017, which now keeps 2 (docs/model-choices.md,
+ * "The block's size from the spectrum"). */
+static void choose_block(dm_boundary_eig *e, int top)
+{
+    int best = e->p;
+    double cost = block_cost(e, top, best);
+    for (int pc = top + 1 + GUARD_MIN; pc < e->p; pc++) {
+        if (!(e->w[pc] > e->w[pc - 1] * (1 + TOP_GAP)))
+            continue; /* a top within a cluster: its columns mix, and the filter's end wanders */
+        double c = block_cost(e, top, pc);
+        if (c < cost * (1 - MARGIN))
+            best = pc, cost = c;
+    }
+    if (best == e->p)
+        return;
+    if (e->plan) {
+        double more = log(growth(e->w[e->p - 1], e->w[top])) /
+                      log(growth(e->w[best - 1], e->w[top]));
+        int d = (int)ceil(e->plan * more - 1e-9);
+        e->plan = d > MAX_DEGREE ? 0 : d;
+    }
+    e->p = best;
+    e->b = 1 / e->w[best - 1];
+}
+
 /* The next warm start's degree: this solve's applications when it took
  * more than one round or none was planned; else its planned degree less
  * the degrees its estimates show to spare: the first-order estimate grows
@@ -636,7 +706,9 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
         info->restarts++; /* a mode missed below: fresh guard vectors find it */
         random_columns(e, bw, top + 1);
     }
+    info->block = e->p;
     plan_next(e, top, info);
+    choose_block(e, top);
     for (int j = 0; j < e->k; j++) {
         lambda[j] = e->w[j];
         if (estimate)
