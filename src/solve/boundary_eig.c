@@ -584,13 +584,14 @@ static double growth(double wtop, double w)
  * presets with blocks of 16 to 20), and one Cholesky QR each time the
  * lowest mode's growth reaches SKEW_MAX. */
 #define APPLY_LOG 16.7
-/* A block's top Ritz value must lie this far below the next (relative),
- * measured: chen2018's block of 19, which splits its pair at 188 Hz,
- * took 14 % longer than the block of 20 the cost alone ranks below it. */
-#define TOP_GAP 0.3
+/* A block's top Ritz value must lie this far below the next (relative):
+ * a top within a cluster mixes its columns and moves the filter's end
+ * (with 5 %, chen2018's blocks of 19, splitting its pair near 188 Hz, took
+ * 14 % longer than the block of 20 the cost alone ranked below them). */
+#define TOP_GAP 0.1
 /* A smaller block is taken only when predicted this much cheaper: the
  * model ranks blocks, it does not time them. */
-#define MARGIN 0.15
+#define MARGIN 0.1
 static double block_cost(const dm_boundary_eig *e, int top, int pc)
 {
     double g = growth(e->w[pc - 1], e->w[top]), g1 = growth(e->w[pc - 1], e->w[0]);
@@ -608,15 +609,16 @@ static double block_cost(const dm_boundary_eig *e, int top, int pc)
  * never grows here: only when a wanted cluster reaches its top (converge).
  * Measured on the bench's 64 x 64 maps (one thread, --no-dynamic): the
  * best fixed guard was 6 for chen2018 (its gap above mode 20), which it
- * keeps, and 2-5 for zheng2017, which now keeps 2 (docs/model-choices.md,
- * "The block's size from the spectrum"). */
+ * keeps, 2-5 for zheng2017, which now keeps 2, and 2 for han2011, which
+ * now keeps 3 (docs/model-choices.md, "The block's size from the
+ * spectrum"). */
 static void choose_block(dm_boundary_eig *e, int top)
 {
     int best = e->p;
     double cost = block_cost(e, top, best);
     for (int pc = top + 1 + GUARD_MIN; pc < e->p; pc++) {
         if (!(e->w[pc] > e->w[pc - 1] * (1 + TOP_GAP)))
-            continue; /* a top within a cluster: its columns mix, and the filter's end wanders */
+            continue; /* a top within a cluster */
         double c = block_cost(e, top, pc);
         if (c < cost * (1 - MARGIN))
             best = pc, cost = c;
