@@ -161,7 +161,9 @@ void dm_boundary_eig_mult_K(const dm_boundary_eig *e, const dm_boundary *bw, con
 void dm_boundary_eig_solve_K(const dm_boundary_eig *e, const dm_boundary *bw, double *Y, int ncol);
 
 /* The last dm_boundary_reduced_modes' or dm_boundary_eig_solve's first k
- * reduced eigenvectors (nred x k, column-major, M-normalised). */
+ * reduced eigenvectors (nred x k, column-major, M-normalised); after
+ * dm_boundary_eig_solve, k at most its block (dm_boundary_eig_info.block:
+ * the Ritz vectors of all its columns). */
 void dm_boundary_reduced_vectors(const dm_boundary *bw, int k, double *Y);
 
 /* The last dm_boundary_reduced_modes' first k mode shapes in the model's

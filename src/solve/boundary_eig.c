@@ -709,6 +709,9 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
         random_columns(e, bw, top + 1);
     }
     info->block = e->p;
+    /* the whole block, before the next start keeps fewer of its columns:
+     * dm_boundary_mode_shapes and dm_boundary_reduced_vectors read them */
+    memcpy(bw->Kr, e->X, sizeof(double) * e->nr * e->p);
     plan_next(e, top, info);
     choose_block(e, top);
     for (int j = 0; j < e->k; j++) {
@@ -716,7 +719,6 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
         if (estimate)
             estimate[j] = e->est[j];
     }
-    memcpy(bw->Kr, e->X, sizeof(double) * e->nr * e->p); /* for dm_boundary_mode_shapes */
     e->nstart = e->p;
     return DM_OK;
 }
