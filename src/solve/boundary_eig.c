@@ -567,11 +567,12 @@ static int converge(dm_boundary_eig *e, const dm_boundary *bw, int planned, int 
 }
 
 /* Growth per application of the filter whose interval ends at the
- * block's top Ritz value wtop, at Ritz value w (below it). */
+ * block's top Ritz value wtop, at Ritz value w (at most 1 unless w lies
+ * below wtop: plan_next's, choose_block's). */
 static double growth(double wtop, double w)
 {
     double t = 2 * wtop / w - 1;
-    return t > 1 + 1e-6 ? t + sqrt(t * t - 1) : 1;
+    return t + sqrt(fmax(t * t - 1, 0));
 }
 
 /* What a warm solve with a block of pc columns is predicted to cost, in
@@ -629,7 +630,7 @@ static void choose_block(dm_boundary_eig *e, int top)
         double more = log(growth(e->w[e->p - 1], e->w[top])) /
                       log(growth(e->w[best - 1], e->w[top]));
         int d = (int)ceil(e->plan * more - 1e-9);
-        e->plan = d > MAX_DEGREE ? 0 : d;
+        e->plan = d < 1 || d > MAX_DEGREE ? 0 : d; /* (< 1: no growth at the old top) */
     }
     e->p = best;
     e->b = 1 / e->w[best - 1];
@@ -648,7 +649,7 @@ static void choose_block(dm_boundary_eig *e, int top)
  * and second rounds at most 0.05 a solve.) */
 static void plan_next(dm_boundary_eig *e, int top, const dm_boundary_eig_info *info)
 {
-    double t = 2 * e->w[e->p - 1] / e->w[top] - 1, g = t + sqrt(fmax(t * t - 1, 0));
+    double g = growth(e->w[e->p - 1], e->w[top]);
     e->b = 1 / e->w[e->p - 1];
     if (info->restarts || info->cold || info->applications > MAX_DEGREE) {
         e->plan = 0;
