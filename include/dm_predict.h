@@ -36,12 +36,30 @@ dm_predictor *dm_predictor_new(const dm_robot *robot, const dm_dataset *data, in
  * solving every step again. */
 int dm_predictor_run(dm_predictor *p, const dm_robot *robot, double *pred, dm_error *err);
 
+/* A tracker run's integration step: this, or the samples' spacing where
+ * shorter (the closed-form modal transition with the quasi-static
+ * correction, 10 modes, loads linear between the steps' ends). */
+#define DM_PREDICT_STEP_S 1e-3
+
+/* Integrate this predictor's tracker runs at steps of at most step_s
+ * instead of DM_PREDICT_STEP_S (a coarse search's cheaper predictions:
+ * they differ from dm_predict's). */
+void dm_predictor_step(dm_predictor *p, double step_s);
+
 /* Predict only the first n samples (whole poses, or whole tracker times)
  * from now on; the dataset's n restores all. A tracker run's first part is
  * predicted as dm_predict predicts a file cut there: along the path
  * through its own commanded samples. */
 void dm_predictor_window(dm_predictor *p, int n);
 
+/* Tracker data: the part of a run's predictions that geometry errors
+ * move at first order, alone: at each sample of the window, where the
+ * robot's geometry errors (with its clearance) put the real platform
+ * relative to the commanded one, as dm_predictor_run adds it to the
+ * elastic error (and 0 where it adds none), without that error. Costs a
+ * few kinematic solves a sample, against a run's model and modes every
+ * step. */
+int dm_predictor_offsets(dm_predictor *p, const dm_robot *robot, double *pred, dm_error *err);
 void dm_predictor_free(dm_predictor *p);
 
 /* Call tick(user) after each pose analysed (modal and static data) or

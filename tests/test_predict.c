@@ -192,6 +192,64 @@ static void tracker_predictions_are_smooth(void **state)
     dm_dataset_free(&d);
 }
 
+/* A tracker run's offsets (dm_predictor_offsets) are the part of its
+ * predictions that geometry errors and clearance move: a robot with them,
+ * less its offsets, predicts what the robot without them predicts, but
+ * for how the elastic error changes with the geometry (the deflection's
+ * relative change with a pose moved by the errors, about the errors over
+ * the arm's length). Without them the offsets are zero, as the
+ * predictions add none; a window's are the first of the whole run's. */
+static void offsets_are_what_geometry_errors_move(void **state)
+{
+    (void)state;
+    dm_robot rb[2];
+    const double arm[3] = {1e-4, -5e-5, 2e-5}, clearance = 2e-5;
+    robot_with(&rb[0], NULL, NULL, NULL);
+    robot_with(&rb[1], "effects", "error_arm_length", arm);
+    assert_int_equal(dm_robot_set_number(&rb[1], "effects", "clearance", &clearance, NULL), 0);
+    dm_synth_opts o = {.kind = DM_DATA_TRACKER, .seed = 2, .na = 2, .nb = 2,
+                       .path = "circle:centre=0,0,-0.4;radius=0.04;rate=12.566;duration=0.1"};
+    dm_dataset d;
+    assert_int_equal(dm_synthesize(&rb[0], &o, &d, NULL), 0);
+    double *pred[2], *off[2], *part = malloc(sizeof(double) * d.n);
+    dm_predictor *p = dm_predictor_new(&rb[0], &d, 2, 2, NULL);
+    assert_non_null(p);
+    for (int r = 0; r < 2; r++) {
+        assert_non_null(pred[r] = malloc(sizeof(double) * d.n));
+        assert_non_null(off[r] = malloc(sizeof(double) * d.n));
+        assert_int_equal(dm_predictor_run(p, &rb[r], pred[r], NULL), 0);
+        assert_int_equal(dm_predictor_offsets(p, &rb[r], off[r], NULL), 0);
+    }
+    double moved = 0, elastic = 0, rest = 0;
+    for (int i = 0; i < d.n; i++) {
+        assert_true(off[0][i] == 0.0);
+        moved = fmax(moved, fabs(off[1][i]));
+        elastic = fmax(elastic, fabs(pred[0][i]));
+        rest = fmax(rest, fabs(pred[1][i] - off[1][i] - pred[0][i]));
+    }
+    print_message("offsets up to %.3g m, elastic error %.3g m; what is left %.3g m\n", moved,
+                  elastic, rest);
+    assert_true(moved > 1e-5);
+    /* left: the elastic error's change, about 3.6e-5 m x (1e-4 + 2e-5) m /
+     * 0.2 m = 2e-8 m (measured 3.2e-8 m, 1.6e-4 of the offsets) */
+    assert_true(rest <= 1e-3 * moved);
+    dm_dataset cut = d; /* a window's offsets: those of the file cut there */
+    cut.n = 3 * 10;
+    cut.npose = 10;
+    dm_predictor *c = dm_predictor_new(&rb[0], &cut, 2, 2, NULL);
+    assert_non_null(c);
+    assert_int_equal(dm_predictor_offsets(c, &rb[1], off[0], NULL), 0);
+    dm_predictor_window(p, cut.n);
+    assert_int_equal(dm_predictor_offsets(p, &rb[1], part, NULL), 0);
+    assert_memory_equal(part, off[0], sizeof(double) * cut.n);
+    dm_predictor_free(c);
+    dm_predictor_free(p);
+    for (int r = 0; r < 2; r++)
+        free(pred[r]), free(off[r]);
+    free(part);
+    dm_dataset_free(&d);
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 1)
@@ -202,6 +260,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(tracker_runs_and_windows),
         cmocka_unit_test(errors_leave_the_workspace_usable),
         cmocka_unit_test(tracker_predictions_are_smooth),
+        cmocka_unit_test(offsets_are_what_geometry_errors_move),
     };
     return cmocka_run_group_tests_name("predict", tests, NULL, NULL);
 }

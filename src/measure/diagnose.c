@@ -185,27 +185,45 @@ static void split_samples(const dm_dataset *d, char *held)
         held[i] = d->kind == DM_DATA_TRACKER ? d->s[i].t > 2.0 * T / 3.0 : d->s[i].pose_id % 3 == 2;
 }
 
+/* The fit's robot with its effects at the given values (physical units). */
+static int robot_with(const problem *p, double value[2][DM_DIAG_MAXV], dm_robot *rb,
+                      dm_error *err)
+{
+    *rb = *p->s->rb;
+    int rc = DM_OK;
+    for (int i = 0; i < p->ncand && !rc; i++)
+        rc = dm_effects_apply(rb, p->cand[i]->name, value[i], err);
+    return rc;
+}
+
+/* The model's predictions for rb into p->pred, without the nuisances:
+ * looked up when made before, else made (and kept). */
+static int predict_model(problem *p, const dm_robot *rb, dm_error *err)
+{
+    /* the scan's coarser predictions are not kept: they would pass for
+     * the mesh's, and no other fit scans the same robots */
+    int coarse = p->scanning && p->scanner, rc = DM_OK;
+    dm_predictor *pr = coarse ? p->scanner : p->predictor;
+    memo *m = coarse ? NULL : p->s->memo;
+    if (!memo_get(m, rb, p->view.n, p->pred)) {
+        dm_predictor_window(pr, p->view.n);
+        rc = dm_predictor_run(pr, rb, p->pred, err);
+        if (!rc)
+            memo_put(m, rb, p->view.n, p->pred);
+        dm_progress_add(p->s->pm, 0); /* the same count, later: the clock moves */
+    }
+    return rc;
+}
+
 /* Predictions with the given effect values (physical units), a tracker
  * run's nuisances fitted with them (into nf unless NULL). */
 static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_nuisance_fit *nf,
                         dm_error *err)
 {
-    dm_robot rb = *p->s->rb;
-    int rc = DM_OK;
-    for (int i = 0; i < p->ncand && !rc; i++)
-        rc = dm_effects_apply(&rb, p->cand[i]->name, value[i], err);
-    /* the scan's coarser predictions are not kept: they would pass for
-     * the mesh's, and no other fit scans the same robots */
-    int coarse = p->scanning && p->scanner;
-    dm_predictor *pr = coarse ? p->scanner : p->predictor;
-    memo *m = coarse ? NULL : p->s->memo;
-    if (!rc && !memo_get(m, &rb, p->view.n, p->pred)) {
-        dm_predictor_window(pr, p->view.n);
-        rc = dm_predictor_run(pr, &rb, p->pred, err);
-        if (!rc)
-            memo_put(m, &rb, p->view.n, p->pred);
-        dm_progress_add(p->s->pm, 0); /* the same count, later: the clock moves */
-    }
+    dm_robot rb;
+    int rc = robot_with(p, value, &rb, err);
+    if (!rc)
+        rc = predict_model(p, &rb, err);
     /* a tracker run's nuisances, fitted with every model (dm_nuisance.h) */
     if (!rc)
         rc = dm_nuisance_apply(p->s->d, p->view.n, p->s->held, p->s->w, p->pred, 1.0, nf);
@@ -267,6 +285,23 @@ static void param_scales(const problem *p, int first, double *sc)
             sc[j++] = dm_effects_param_scale(p->cand[i], k);
 }
 
+/* The weighted training residuals of p->pred (m of them), or where the
+ * prediction failed (rc), values that steer a search away. */
+static void fill_residuals(const problem *p, int rc, int m, double *fvec)
+{
+    const shared *s = p->s;
+    if (rc == DM_ENOMEM)
+        out_of_memory(s);
+    if (rc) {
+        for (int i = 0; i < m; i++)
+            fvec[i] = 1e3; /* unphysical region: steer the search away */
+        return;
+    }
+    for (int i = 0, k = 0; i < p->view.n; i++)
+        if (!s->held[i])
+            fvec[k++] = (s->d->s[i].value - p->pred[i]) * s->w[i];
+}
+
 /* cminpack callback */
 static int residuals(void *user, int m, int n, const double *x, double *fvec, int iflag)
 {
@@ -274,20 +309,9 @@ static int residuals(void *user, int m, int n, const double *x, double *fvec, in
     (void)iflag;
     (void)n;
     problem *p = user;
-    const shared *s = p->s;
     double value[2][DM_DIAG_MAXV];
     to_values(p, x, value);
-    int rc = predict_with(p, value, NULL, NULL);
-    if (rc == DM_ENOMEM)
-        out_of_memory(s);
-    if (rc) {
-        for (int i = 0; i < m; i++)
-            fvec[i] = 1e3; /* unphysical region: steer the search away */
-        return 0;
-    }
-    for (int i = 0, k = 0; i < p->view.n; i++)
-        if (!s->held[i])
-            fvec[k++] = (s->d->s[i].value - p->pred[i]) * s->w[i];
+    fill_residuals(p, predict_with(p, value, NULL, NULL), m, fvec);
     return 0;
 }
 
@@ -327,6 +351,13 @@ static int scan_elements(int m, int asked)
     return asked > 0 ? asked : half < m ? half : m;
 }
 
+/* The scan's tracker predictions integrate at twice the step of the fit's
+ * (where the samples are that far apart): their error, 6e-8 m on the
+ * bench's circle (0.03 of its noise), shifts every grid point's misfit
+ * alike (by 0.17 in chi-square there, against 0.05 to 1e9 between
+ * neighbouring points), and halves the scan's cost. */
+#define SCAN_STEP_S (2 * DM_PREDICT_STEP_S)
+
 /* The scan's predictor (scan_elements), or NULL where that is the mesh
  * itself, or memory is short (the scan then runs at the mesh). */
 static dm_predictor *scan_predictor(const problem *p)
@@ -334,24 +365,117 @@ static dm_predictor *scan_predictor(const problem *p)
     const shared *s = p->s;
     int na = s->o->na > 0 ? s->o->na : s->rb->na, nb = s->o->nb > 0 ? s->o->nb : s->rb->nb;
     int sa = scan_elements(na, s->o->scan_na), sb = scan_elements(nb, s->o->scan_nb);
-    return sa == na && sb == nb ? NULL : dm_predictor_new(s->rb, s->d, sa, sb, NULL);
+    dm_predictor *scan = sa == na && sb == nb ? NULL : dm_predictor_new(s->rb, s->d, sa, sb, NULL);
+    if (scan)
+        dm_predictor_step(scan, SCAN_STEP_S);
+    return scan;
 }
 
-/* Forward-difference Jacobian J (m x n, column-major) of the residuals at
- * x, whose residuals are f0. */
-static void jacobian(problem *p, const double *x, int n, int m, const double *f0, double *f1,
-                     double *J)
+/* Residuals at x into f (m): `residuals`, or another way of making them. */
+typedef int (*residual_fn)(problem *p, const double *x, int m, double *f, const void *how);
+
+/* Forward-difference Jacobian J (m x n, column-major) at x of the residuals
+ * made by `eval`, whose residuals at x are f0. Returns eval's first failure. */
+static int jacobian_of(problem *p, residual_fn eval, const void *how, const double *x, int n,
+                       int m, const double *f0, double *f1, double *J)
 {
     assert(n >= 0 && n <= DM_DIAG_MAXP && m >= 0);
     double xx[DM_DIAG_MAXP];
     memcpy(xx, x, sizeof(double) * n);
-    for (int j = 0; j < n; j++) {
+    int rc = DM_OK;
+    for (int j = 0; j < n && !rc; j++) {
         double h = 1e-4 * fmax(1e-3, fabs(x[j]));
         xx[j] = x[j] + h;
-        residuals(p, m, n, xx, f1, 1);
+        rc = eval(p, xx, m, f1, how);
         xx[j] = x[j];
         for (int i = 0; i < m; i++)
             J[(size_t)j * m + i] = (f1[i] - f0[i]) / h;
+    }
+    return rc;
+}
+
+static int true_residuals(problem *p, const double *x, int m, double *f, const void *how)
+{
+    (void)how;
+    residuals(p, m, 0, x, f, 1);
+    return DM_OK; /* a failed prediction's residuals steer the search away */
+}
+
+/* The residuals at x (m), as `residuals`, and the model's prediction
+ * there before the nuisances into raw (p->view.n). */
+static int residuals_keeping_model(problem *p, const double *x, int m, double *f, double *raw)
+{
+    double value[2][DM_DIAG_MAXV];
+    dm_robot rb;
+    to_values(p, x, value);
+    int rc = robot_with(p, value, &rb, NULL);
+    if (!rc)
+        rc = predict_model(p, &rb, NULL);
+    if (!rc) {
+        memcpy(raw, p->pred, sizeof(double) * p->view.n);
+        rc = dm_nuisance_apply(p->s->d, p->view.n, p->s->held, p->s->w, p->pred, 1.0, NULL);
+    }
+    fill_residuals(p, rc, m, f);
+    return rc;
+}
+
+/* A tracker run's model prediction at x0 (raw, before the nuisances) and
+ * the real platform's offsets there (dm_predictor_offsets), p->view.n each. */
+typedef struct {
+    const double *raw, *offset;
+    double *moved; /* scratch: the offsets at x */
+} offset_shift;
+
+/* The residuals at x of the prediction at x0 moved by the change of the
+ * real platform's offsets alone, the nuisances fitted to it as to every
+ * prediction. */
+static int shifted_residuals(problem *p, const double *x, int m, double *f, const void *how)
+{
+    const offset_shift *o = how;
+    double value[2][DM_DIAG_MAXV];
+    dm_robot rb;
+    to_values(p, x, value);
+    int rc = robot_with(p, value, &rb, NULL);
+    if (!rc)
+        rc = dm_predictor_offsets(p->predictor, &rb, o->moved, NULL);
+    for (int i = 0; i < p->view.n && !rc; i++)
+        p->pred[i] = o->raw[i] + (o->moved[i] - o->offset[i]);
+    if (!rc)
+        rc = dm_nuisance_apply(p->s->d, p->view.n, p->s->held, p->s->w, p->pred, 1.0, NULL);
+    fill_residuals(p, rc, m, f);
+    return rc;
+}
+
+/* Residuals f (m) and their Jacobian J at x for geometry errors. On a
+ * tracker run the Jacobian's predictions are the model's at x moved by the
+ * change of the real platform's offsets alone (shifted_residuals): a few
+ * kinematic solves a sample instead of a prediction a parameter (3 for a
+ * family, 18 for their union). What that leaves out is how the elastic
+ * error changes with the geometry (the deflection's relative change with
+ * the pose and the members' lengths, about the error over the arm's
+ * length): 0.9-5.4e-4 of a column's norm on the bench's circle
+ * (zheng2017, docs/model-choices.md). The chord's steps are each checked
+ * with a true prediction; the 1-sigma come from this Jacobian. Other data
+ * (and a failed offset) take the forward differences of true predictions. */
+static void geometry_jacobian(problem *p, const double *x, int n, int m, double *f, double *f1,
+                              double *J)
+{
+    int nv = p->view.n, done = 0;
+    double *raw = malloc(sizeof(double) * 3 * (nv ? nv : 1));
+    if (raw && p->s->d->kind == DM_DATA_TRACKER) {
+        offset_shift o = {raw, raw + nv, raw + 2 * nv};
+        double value[2][DM_DIAG_MAXV];
+        dm_robot rb;
+        to_values(p, x, value);
+        dm_predictor_window(p->predictor, nv);
+        done = !residuals_keeping_model(p, x, m, f, raw) && !robot_with(p, value, &rb, NULL) &&
+               !dm_predictor_offsets(p->predictor, &rb, raw + nv, NULL) &&
+               !jacobian_of(p, shifted_residuals, &o, x, n, m, f, f1, J);
+    }
+    free(raw);
+    if (!done) {
+        residuals(p, m, n, x, f, 1);
+        jacobian_of(p, true_residuals, NULL, x, n, m, f, f1, J);
     }
 }
 
@@ -448,8 +572,7 @@ static void chord_fit(problem *p, double *x, int n, int m, const double *sc, dou
             out_of_memory(p->s);
         return;
     }
-    residuals(p, m, n, x, f, 1);
-    jacobian(p, x, n, m, f, f1, J);
+    geometry_jacobian(p, x, n, m, f, f1, J);
     for (int j = 0; j < n; j++)
         for (int i = 0; i < m; i++)
             J[(size_t)j * m + i] *= sc[j];

@@ -9,6 +9,7 @@
 
 #include "dm_analysis.h"
 #include "dm_integrate.h"
+#include "dm_kinematics.h"
 #include "dm_trajectory.h"
 
 /* ---- the prediction workspace ------------------------------------------------ */
@@ -48,6 +49,7 @@ struct dm_predictor {
     dm_dataset data;   /* the caller's samples (borrowed); n: those predicted */
     int nall;          /* samples in the dataset */
     int na, nb, kmax;
+    double step_s;     /* a tracker run's longest integration step */
     /* the robot of the current run: the analysis points to this copy, so
      * a run may pass any robot and the workspace still reads the right one */
     dm_robot robot;
@@ -99,6 +101,7 @@ dm_predictor *dm_predictor_new(const dm_robot *rb, const dm_dataset *d, int na, 
     p->na = na > 0 ? na : rb->na;
     p->nb = nb > 0 ? nb : rb->nb;
     p->kmax = d->kind == DM_DATA_MODAL ? max_mode(d) : 1;
+    p->step_s = DM_PREDICT_STEP_S;
     if (d->kind == DM_DATA_TRACKER) {
         int m = d->npose;
         p->t = malloc(sizeof(double) * (m ? m : 1));
@@ -264,6 +267,30 @@ static int history_for(dm_predictor *p, const dm_integ_opts *o, dm_error *err)
     return rc;
 }
 
+void dm_predictor_step(dm_predictor *p, double step_s)
+{
+    assert(step_s > 0);
+    forget_history(p); /* made with the old step */
+    p->step_s = step_s;
+}
+
+/* The commanded path through the window's samples, made when the window
+ * changed. */
+static int window_path(dm_predictor *p, dm_error *err)
+{
+    int m = p->data.npose;
+    if (p->tr_npose == m)
+        return DM_OK;
+    forget_history(p);
+    if (p->tr_npose)
+        dm_traj_free(&p->tr);
+    p->tr_npose = 0;
+    int rc = dm_traj_from_samples(p->t, p->xyz, m, p->data.source, &p->tr, err);
+    if (!rc)
+        p->tr_npose = m;
+    return rc;
+}
+
 /* Tracker: the elastic error (static + dynamic) along the commanded path,
  * 10 modes with the quasi-static correction, linear between steps. The
  * path is the spline through the samples predicted, made once per window;
@@ -274,15 +301,8 @@ static int predict_tracker(dm_predictor *p, double *pred, dm_error *err)
     int m = d->npose, rc = DM_OK;
     assert(d->n == 3 * m && d->n <= p->nall); /* three samples a time */
     const double *t = p->t;
-    if (p->tr_npose != m) {
-        forget_history(p);
-        if (p->tr_npose)
-            dm_traj_free(&p->tr);
-        p->tr_npose = 0;
-        if ((rc = dm_traj_from_samples(t, p->xyz, m, d->source, &p->tr, err)))
-            return rc;
-        p->tr_npose = m;
-    }
+    if ((rc = window_path(p, err)))
+        return rc;
     track *tk = &p->tk;
     tk->n = 0;
     dm_integ_opts o;
@@ -293,7 +313,7 @@ static int predict_tracker(dm_predictor *p, double *pred, dm_error *err)
     o.reference = 0;
     o.na = p->na;
     o.nb = p->nb;
-    o.dt_s = fmin(1e-3, t[m - 1] / (m - 1));
+    o.dt_s = fmin(p->step_s, t[m - 1] / (m - 1));
     o.force_long = 1; /* the work of the whole command is judged before it (dm_work_check) */
     rc = history_for(p, &o, err);
     if (!rc)
@@ -317,6 +337,31 @@ int dm_predictor_run(dm_predictor *p, const dm_robot *robot, double *pred, dm_er
     p->robot = *robot;
     return p->data.kind == DM_DATA_TRACKER ? predict_tracker(p, pred, err)
                                            : predict_poses(p, pred, err);
+}
+
+int dm_predictor_offsets(dm_predictor *p, const dm_robot *robot, double *pred, dm_error *err)
+{
+    const dm_dataset *d = &p->data;
+    assert(d->kind == DM_DATA_TRACKER && d->n == 3 * d->npose && d->n <= p->nall);
+    int rc = window_path(p, err);
+    if (rc)
+        return rc;
+    /* as the integrator's samples have it: no geometry error, no offset
+     * (clearance alone moves nothing there), and none where the loaded
+     * pose is not found (dm_integrate_trajectory's sample_base) */
+    int geometry = dm_effects_geometry_errors(&robot->effects);
+    dm_integ_opts o;
+    dm_integ_opts_default(&o); /* the external force predict_tracker's runs see */
+    for (int i = 0; i < d->npose; i++) {
+        double P[3], v[3], a[3], W[3];
+        dm_pose real;
+        dm_traj_eval(&p->tr, p->t[i], P, v, a);
+        dm_kin_platform_force(robot, a, o.force_n, W);
+        int found = geometry && !dm_kin_pose_loaded(robot, P, W, &real, NULL);
+        for (int k = 0; k < 3; k++)
+            pred[3 * i + k] = found ? real.offset[k] : 0.0;
+    }
+    return DM_OK;
 }
 
 int dm_predict(const dm_robot *rb, const dm_dataset *d, int na, int nb, double *pred, dm_error *err)
@@ -345,7 +390,7 @@ double dm_predict_estimate_s(const dm_robot *rb, const dm_dataset *d, int na, in
     double count = d->npose, per_count = 0;
     if (d->kind == DM_DATA_TRACKER && d->n > 0) { /* dm_predict's step: at most 1 ms */
         double T = d->s[d->n - 1].t - d->s[0].t;
-        count = fmax(T / 1e-3, d->npose);
+        count = fmax(T / DM_PREDICT_STEP_S, d->npose);
         per_count = 4 * sizeof(double); /* the integrated error kept per step */
     }
     if (bytes)
