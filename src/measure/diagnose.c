@@ -450,10 +450,10 @@ static int shifted_residuals(problem *p, const double *x, int m, double *f, cons
  * tracker run the Jacobian's predictions are the model's at x moved by the
  * change of the real platform's offsets alone (shifted_residuals): a few
  * kinematic solves a sample instead of a prediction a parameter (3 for a
- * family, 18 for their union). What that leaves out is how the elastic
- * error changes with the geometry (the deflection's relative change with
- * the pose and the members' lengths, about the error over the arm's
- * length): 0.9-5.4e-4 of a column's norm on the bench's circle
+ * family; their union's 18 were the families' own, looked up). What that
+ * leaves out is how the elastic error changes with the geometry (the
+ * deflection's relative change with the pose and the members' lengths,
+ * about the error over the arm's length): 0.9-5.4e-4 of a column's norm on the bench's circle
  * (zheng2017, docs/model-choices.md). The chord's steps are each checked
  * with a true prediction; the 1-sigma come from this Jacobian. Other data
  * (and a failed offset) take the forward differences of true predictions. */
