@@ -70,6 +70,15 @@ int dm_kin_pose_play(const dm_robot *robot, const double P[3], const dm_kin_play
 void dm_kin_platform_force(const dm_robot *robot, const double a[3], const double F[3],
                            double W[3]);
 
+/* Where the robot's geometry errors and clearances put the real platform
+ * relative to the commanded position P while it accelerates at a under
+ * the external force F (a, F may be NULL: zero): the offset of
+ * dm_kin_pose_loaded under dm_kin_platform_force's net force, what a
+ * trajectory adds to the elastic error. Returns 1 with it, or 0 with
+ * offset zero where the robot has neither or that pose is not found. */
+int dm_kin_real_offset(const dm_robot *robot, const double P[3], const double a[3],
+                       const double F[3], double offset[3]);
+
 /* Jacobian J (row-major 3x3) with alpha_dot = J * P_dot. Returns
  * DM_ENUMERIC at a serial singularity (an arm's motion does not change its
  * rod length). */

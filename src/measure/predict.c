@@ -346,20 +346,12 @@ int dm_predictor_offsets(dm_predictor *p, const dm_robot *robot, double *pred, d
     int rc = window_path(p, err);
     if (rc)
         return rc;
-    /* as the integrator's samples have it: no geometry error, no offset
-     * (clearance alone moves nothing there), and none where the loaded
-     * pose is not found (dm_integrate_trajectory's sample_base) */
-    int geometry = dm_effects_geometry_errors(&robot->effects);
     dm_integ_opts o;
     dm_integ_opts_default(&o); /* the external force predict_tracker's runs see */
-    for (int i = 0; i < d->npose; i++) {
-        double P[3], v[3], a[3], W[3];
-        dm_pose real;
+    for (int i = 0; i < d->npose; i++) { /* as the integrator's samples add it */
+        double P[3], v[3], a[3];
         dm_traj_eval(&p->tr, p->t[i], P, v, a);
-        dm_kin_platform_force(robot, a, o.force_n, W);
-        int found = geometry && !dm_kin_pose_loaded(robot, P, W, &real, NULL);
-        for (int k = 0; k < 3; k++)
-            pred[3 * i + k] = found ? real.offset[k] : 0.0;
+        dm_kin_real_offset(robot, P, a, o.force_n, pred + 3 * i);
     }
     return DM_OK;
 }

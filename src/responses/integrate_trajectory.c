@@ -255,10 +255,7 @@ static void sample_base(const run_ws *w, double t, const dm_modes *mo, dm_integ_
     memset(s, 0, sizeof *s);
     s->t_s = t;
     dm_traj_eval(w->tr, t, s->P_m, v, a);
-    dm_pose real;
-    *has_offset = dm_effects_geometry_errors(&w->rb->effects) && !pose_at(w, s->P_m, a, &real, NULL);
-    for (int k = 0; k < 3; k++)
-        offset[k] = *has_offset ? real.offset[k] : 0.0;
+    *has_offset = dm_kin_real_offset(w->rb, s->P_m, a, w->o.force_n, offset);
     s->nfreq = w->o.nfreq < mo->k ? w->o.nfreq : mo->k;
     if (s->nfreq > DM_INTEG_MAXFREQ)
         s->nfreq = DM_INTEG_MAXFREQ;

@@ -208,6 +208,19 @@ void dm_kin_platform_force(const dm_robot *rb, const double a[3], const double F
         W[k] = m * (rb->gravity_ms2[k] - (a ? a[k] : 0)) + (F ? F[k] : 0);
 }
 
+int dm_kin_real_offset(const dm_robot *rb, const double P[3], const double a[3],
+                       const double F[3], double offset[3])
+{
+    double W[3];
+    dm_pose real;
+    dm_kin_platform_force(rb, a, F, W);
+    int found = dm_effects_geometry_errors(&rb->effects) &&
+                !dm_kin_pose_loaded(rb, P, W, &real, NULL);
+    for (int k = 0; k < 3; k++)
+        offset[k] = found ? real.offset[k] : 0.0;
+    return found;
+}
+
 int dm_kin_pose(const dm_robot *rb, const double P[3], dm_pose *pose, dm_error *err)
 {
     double W[3];
