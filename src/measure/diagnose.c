@@ -215,19 +215,32 @@ static int predict_model(problem *p, const dm_robot *rb, dm_error *err)
     return rc;
 }
 
-/* Predictions with the given effect values (physical units), a tracker
- * run's nuisances fitted with them (into nf unless NULL). */
-static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_nuisance_fit *nf,
-                        dm_error *err)
+/* A tracker run's nuisances, fitted with every model (dm_nuisance.h), to
+ * the prediction in p->pred (into nf unless NULL). */
+static int fit_nuisances(problem *p, dm_nuisance_fit *nf)
+{
+    return dm_nuisance_apply(p->s->d, p->view.n, p->s->held, p->s->w, p->pred, 1.0, nf);
+}
+
+/* Predictions with the given effect values (physical units), the
+ * nuisances fitted with them (into nf unless NULL); the model's before
+ * them into raw (p->view.n) unless NULL. */
+static int predict_keeping(problem *p, double value[2][DM_DIAG_MAXV], dm_nuisance_fit *nf,
+                           double *raw, dm_error *err)
 {
     dm_robot rb;
     int rc = robot_with(p, value, &rb, err);
     if (!rc)
         rc = predict_model(p, &rb, err);
-    /* a tracker run's nuisances, fitted with every model (dm_nuisance.h) */
-    if (!rc)
-        rc = dm_nuisance_apply(p->s->d, p->view.n, p->s->held, p->s->w, p->pred, 1.0, nf);
-    return rc;
+    if (!rc && raw)
+        memcpy(raw, p->pred, sizeof(double) * p->view.n);
+    return rc ? rc : fit_nuisances(p, nf);
+}
+
+static int predict_with(problem *p, double value[2][DM_DIAG_MAXV], dm_nuisance_fit *nf,
+                        dm_error *err)
+{
+    return predict_keeping(p, value, nf, NULL, err);
 }
 
 static double chi2(const shared *s, const double *pred, int want_held)
@@ -406,15 +419,8 @@ static int true_residuals(problem *p, const double *x, int m, double *f, const v
 static int residuals_keeping_model(problem *p, const double *x, int m, double *f, double *raw)
 {
     double value[2][DM_DIAG_MAXV];
-    dm_robot rb;
     to_values(p, x, value);
-    int rc = robot_with(p, value, &rb, NULL);
-    if (!rc)
-        rc = predict_model(p, &rb, NULL);
-    if (!rc) {
-        memcpy(raw, p->pred, sizeof(double) * p->view.n);
-        rc = dm_nuisance_apply(p->s->d, p->view.n, p->s->held, p->s->w, p->pred, 1.0, NULL);
-    }
+    int rc = predict_keeping(p, value, NULL, raw, NULL);
     fill_residuals(p, rc, m, f);
     return rc;
 }
@@ -441,7 +447,7 @@ static int shifted_residuals(problem *p, const double *x, int m, double *f, cons
     for (int i = 0; i < p->view.n && !rc; i++)
         p->pred[i] = o->raw[i] + (o->moved[i] - o->offset[i]);
     if (!rc)
-        rc = dm_nuisance_apply(p->s->d, p->view.n, p->s->held, p->s->w, p->pred, 1.0, NULL);
+        rc = fit_nuisances(p, NULL);
     fill_residuals(p, rc, m, f);
     return rc;
 }
