@@ -432,18 +432,24 @@ typedef struct {
     double *moved; /* scratch: the offsets at x */
 } offset_shift;
 
+/* The real platform's offsets at x (dm_predictor_offsets) into out
+ * (p->view.n; the predictor's window must be the view's). */
+static int offsets_at(problem *p, const double *x, double *out)
+{
+    double value[2][DM_DIAG_MAXV];
+    dm_robot rb;
+    to_values(p, x, value);
+    int rc = robot_with(p, value, &rb, NULL);
+    return rc ? rc : dm_predictor_offsets(p->predictor, &rb, out, NULL);
+}
+
 /* The residuals at x of the prediction at x0 moved by the change of the
  * real platform's offsets alone, the nuisances fitted to it as to every
  * prediction. */
 static int shifted_residuals(problem *p, const double *x, int m, double *f, const void *how)
 {
     const offset_shift *o = how;
-    double value[2][DM_DIAG_MAXV];
-    dm_robot rb;
-    to_values(p, x, value);
-    int rc = robot_with(p, value, &rb, NULL);
-    if (!rc)
-        rc = dm_predictor_offsets(p->predictor, &rb, o->moved, NULL);
+    int rc = offsets_at(p, x, o->moved);
     for (int i = 0; i < p->view.n && !rc; i++)
         p->pred[i] = o->raw[i] + (o->moved[i] - o->offset[i]);
     if (!rc)
@@ -459,10 +465,11 @@ static int shifted_residuals(problem *p, const double *x, int m, double *f, cons
  * family; their union's 18 were the families' own, looked up). What that
  * leaves out is how the elastic error changes with the geometry (the
  * deflection's relative change with the pose and the members' lengths,
- * about the error over the arm's length): 0.9-5.4e-4 of a column's norm on the bench's circle
- * (zheng2017, docs/model-choices.md). The chord's steps are each checked
- * with a true prediction; the 1-sigma come from this Jacobian. Other data
- * (and a failed offset) take the forward differences of true predictions. */
+ * about the error over the arm's length): 0.9-5.4e-4 of a column's norm
+ * on the bench's circle (zheng2017, docs/model-choices.md). The chord's
+ * steps are each checked with a true prediction; the 1-sigma come from
+ * this Jacobian. Other data (and a failed prediction) take the forward
+ * differences of true predictions. */
 static void geometry_jacobian(problem *p, const double *x, int n, int m, double *f, double *f1,
                               double *J)
 {
@@ -470,12 +477,8 @@ static void geometry_jacobian(problem *p, const double *x, int n, int m, double 
     double *raw = malloc(sizeof(double) * 3 * (nv ? nv : 1));
     if (raw && p->s->d->kind == DM_DATA_TRACKER) {
         offset_shift o = {raw, raw + nv, raw + 2 * nv};
-        double value[2][DM_DIAG_MAXV];
-        dm_robot rb;
-        to_values(p, x, value);
-        dm_predictor_window(p->predictor, nv);
-        done = !residuals_keeping_model(p, x, m, f, raw) && !robot_with(p, value, &rb, NULL) &&
-               !dm_predictor_offsets(p->predictor, &rb, raw + nv, NULL) &&
+        dm_predictor_window(p->predictor, nv); /* a prediction looked up does not set it */
+        done = !residuals_keeping_model(p, x, m, f, raw) && !offsets_at(p, x, raw + nv) &&
                !jacobian_of(p, shifted_residuals, &o, x, n, m, f, f1, J);
     }
     free(raw);
