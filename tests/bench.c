@@ -22,8 +22,9 @@
  *      bounds) beside today's eigen solve; then the whole engine in
  *      sweeps of each preset's map at meshes 4,4 and 8,8 against the full
  *      model, bare dsygvx(10) and dsygvd, on every kernel path.
- * Section 1's rows, section 3's per-pose sweep line and section 5's
- * sweeps are measured on every kernel path the CPU has (include/dm_isa.h), each in a child
+ * Section 1's rows, section 3's per-pose sweep line and tracker
+ * diagnoses and section 5's sweeps are measured on every kernel path the
+ * CPU has (include/dm_isa.h), each in a child
  * process of its own (a process runs one path) with DELTAMAP_ISA set;
  * the rest runs on the path in use (the best, or DELTAMAP_ISA's), which
  * the header names with the CPU. Nothing is asserted: timings are not
@@ -493,8 +494,9 @@ static void diagnosis_time(int decimate, const char *path)
     double t0 = now_s();
     int rc = dm_diagnose(&rb, &d, &o, &dg, NULL);
     double dt = now_s() - t0;
-    printf("   tracker diagnosis, %4d times (%s, %g kHz), default mesh, 2 threads: %6.1f s%s\n",
-           d.npose, path, 1.0 / decimate, dt,
+    printf("   tracker diagnosis, %4d times (%s, %g kHz), default mesh, 2 threads, path %-7s: "
+           "%6.1f s%s\n",
+           d.npose, path, 1.0 / decimate, dm_isa_name(dm_isa_active()), dt,
            rc ? " FAILED" : dg.found ? "" : " (no cause found)");
     dm_dataset_free(&d);
 }
@@ -680,6 +682,11 @@ static int run_job(const char *job)
         members_sweep_rows(preset, mesh);
     else if (!strcmp(job, "sweep"))
         sweep_one_thread();
+    else if (!strcmp(job, "diagnosis p2p")) /* the diagnosis docs' case */
+        diagnosis_time(1, "p2p:from=-0.03,-0.02,-0.41;to=0.03,0.02,-0.39;duration=0.05;"
+                          "law=bangbang;dwell=0.05");
+    else if (!strcmp(job, "diagnosis circle"))
+        diagnosis_time(4, "circle:centre=0,0,-0.4;radius=0.04;rate=12.566;duration=1");
     return 1;
 }
 
@@ -954,7 +961,8 @@ int main(int argc, char **argv)
     for (int i = 0; i < DM_ISA_COUNT; i++)
         if (dm_isa_available((dm_isa)i))
             printf(" %s", dm_isa_name((dm_isa)i));
-    printf(" (section 1's rows, the sweep's per-pose line and section 5's sweeps on each)\n\n");
+    printf(" (section 1's rows, the sweep's per-pose line, the diagnoses and section 5's sweeps "
+           "on each)\n\n");
     if (wanted(argc, argv, "1"))
         printf("1. per pose, one thread: the sweep's pipeline along a tile's path (10 modes + 4 "
                "for tracking, 3 moves), parts in us, on each kernel path\n");
@@ -977,9 +985,8 @@ int main(int argc, char **argv)
         reference_solve_time("chen2018", 8);
         double tr1 = trajectory_time("zheng2017", 1), tr2 = trajectory_time("zheng2017", 2);
         printf("   2 threads / 1 thread: %.2f\n", tr1 / tr2);
-        diagnosis_time(1, "p2p:from=-0.03,-0.02,-0.41;to=0.03,0.02,-0.39;duration=0.05;"
-                          "law=bangbang;dwell=0.05");
-        diagnosis_time(4, "circle:centre=0,0,-0.4;radius=0.04;rate=12.566;duration=1");
+        on_every_path("diagnosis p2p");
+        on_every_path("diagnosis circle");
         fit_evaluation_rate(1);
         fit_evaluation_rate(4);
         long pts;
