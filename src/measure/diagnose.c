@@ -315,16 +315,24 @@ static void fill_residuals(const problem *p, int rc, int m, double *fvec)
             fvec[k++] = (s->d->s[i].value - p->pred[i]) * s->w[i];
 }
 
+/* The weighted training residuals at x (m), and the model's prediction
+ * there before the nuisances into raw (p->view.n) unless NULL. */
+static int residuals_keeping_model(problem *p, const double *x, int m, double *f, double *raw)
+{
+    double value[2][DM_DIAG_MAXV];
+    to_values(p, x, value);
+    int rc = predict_keeping(p, value, NULL, raw, NULL);
+    fill_residuals(p, rc, m, f);
+    return rc;
+}
+
 /* cminpack callback */
 static int residuals(void *user, int m, int n, const double *x, double *fvec, int iflag)
 {
     assert(m >= 0 && n >= 0 && n <= DM_DIAG_MAXP);
     (void)iflag;
     (void)n;
-    problem *p = user;
-    double value[2][DM_DIAG_MAXV];
-    to_values(p, x, value);
-    fill_residuals(p, predict_with(p, value, NULL, NULL), m, fvec);
+    residuals_keeping_model(user, x, m, fvec, NULL);
     return 0;
 }
 
@@ -412,17 +420,6 @@ static int true_residuals(problem *p, const double *x, int m, double *f, const v
     (void)how;
     residuals(p, m, 0, x, f, 1);
     return DM_OK; /* a failed prediction's residuals steer the search away */
-}
-
-/* The residuals at x (m), as `residuals`, and the model's prediction
- * there before the nuisances into raw (p->view.n). */
-static int residuals_keeping_model(problem *p, const double *x, int m, double *f, double *raw)
-{
-    double value[2][DM_DIAG_MAXV];
-    to_values(p, x, value);
-    int rc = predict_keeping(p, value, NULL, raw, NULL);
-    fill_residuals(p, rc, m, f);
-    return rc;
 }
 
 /* A tracker run's model prediction at x0 (raw, before the nuisances) and
