@@ -11,9 +11,11 @@
 #include <string.h>
 
 #include "dm_boundary.h"
+#include "dm_isa.h"
 #include "dm_members_fixtures.h"
 #include "dm_reference.h"
 #include "dm_rng.h"
+#include "../src/solve/boundary_impl.h" /* each path's kernels, called side by side */
 
 enum { K14 = 14, STEPS = 6 };
 
@@ -349,11 +351,116 @@ static void seed_decides_the_bits(void **state)
     dm_model_free(md);
 }
 
+/* One product of the kernels in long double: Y = (add ? Y0 : 0) + A X
+ * (upper: X upper triangular, the sum of column j stopping at r = j),
+ * and the rounding bound of a sum in order, gamma_k sum |terms|. */
+static void product_reference(int m, int n, int k, const double *A, int lda, const double *X,
+                              int ldx, int add, const double *Y0, int upper, ldbl *ref,
+                              double *bound)
+{
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < m; i++) {
+            ldbl sum = add ? Y0[i + (size_t)j * m] : 0, mag = fabsl(sum);
+            int kj = upper ? j + 1 : k;
+            for (int r = 0; r < kj; r++) {
+                ldbl t = (ldbl)A[i + (size_t)r * lda] * X[r + (size_t)j * ldx];
+                sum += t, mag += fabsl(t);
+            }
+            double u = 0x1p-53, gamma = (kj + 1) * u / (1 - (kj + 1) * u);
+            ref[i + (size_t)j * m] = sum, bound[i + (size_t)j * m] = gamma * (double)mag;
+        }
+}
+
+/* The reduced solve's products (boundary_kernels.c) on the shapes it
+ * makes and on odd ones: every path this CPU has gives the baseline
+ * path's bits (a path whose vectors reordered a sum or contracted a
+ * multiply-add would differ), and the baseline lies within the rounding
+ * bound of a sum in order of the long-double product (a dropped or
+ * doubled term, a wrong row or column, is far outside it). */
+static void kernels_give_the_same_bits_on_every_path(void **state)
+{
+    (void)state;
+    const int dims[] = {1, 2, 3, 5, 6, 7, 9, 16, 17, 20, 24, 33, 40, 90, 123};
+    enum { ND = sizeof dims / sizeof dims[0], MAXD = 123, LD = MAXD + 3 };
+    double *A = malloc(sizeof(double) * LD * MAXD), *X = malloc(sizeof(double) * LD * MAXD);
+    double *Y0 = malloc(sizeof(double) * MAXD * MAXD), *bound = malloc(sizeof(double) * MAXD * MAXD);
+    double *Y[DM_ISA_COUNT];
+    ldbl *ref = malloc(sizeof(ldbl) * MAXD * MAXD);
+    for (int p = 0; p < DM_ISA_COUNT; p++)
+        Y[p] = malloc(sizeof(double) * MAXD * MAXD);
+    dm_rng rng = {.state = 0x5eed};
+    for (int i = 0; i < LD * MAXD; i++)
+        A[i] = dm_rng_normal(&rng), X[i] = dm_rng_normal(&rng);
+    for (int i = 0; i < MAXD * MAXD; i++)
+        Y0[i] = dm_rng_normal(&rng);
+    int checked = 0;
+    for (int a = 0; a < ND; a++)
+        for (int b = 0; b < ND; b++)
+            for (int op = 0; op < 4; op++) { /* mult, mult adding, upper, upper in place */
+                int m = dims[a], n = dims[(a + b) % ND], k = dims[b];
+                if (op >= 2)
+                    n = k = m; /* square: a Gram product, or by R^-1 */
+                if (op == 3 && m > 40)
+                    continue;
+                int rows = op == 3 ? dims[b] : m; /* in place: Y (rows x m) by U (m x m) */
+                if (op == 3)
+                    product_reference(rows, n, k, A, LD, X, LD, 0, NULL, 1, ref, bound);
+                else
+                    product_reference(m, n, k, A, LD, X, LD, op == 1, Y0, 0, ref, bound);
+                for (int p = 0; p < DM_ISA_COUNT; p++) {
+                    if (!dm_isa_available((dm_isa)p))
+                        continue;
+                    const dm_boundary_kernels *kr = dm_boundary_kernels_of((dm_isa)p);
+                    double *y = Y[p];
+                    if (op == 0 || op == 1) {
+                        memcpy(y, Y0, sizeof(double) * m * n);
+                        kr->mult(m, n, k, A, LD, X, LD, op == 1, y, m);
+                    } else if (op == 2) {
+                        kr->mult(m, n, k, A, LD, X, LD, 0, y, m); /* the full product */
+                    } else {
+                        for (int j = 0; j < n; j++)
+                            memcpy(y + (size_t)j * rows, A + (size_t)j * LD, sizeof(double) * rows);
+                        kr->mult_upper_in_place(rows, n, y, rows, X, LD);
+                    }
+                    if (op == 2) { /* mult_upper's upper triangle equals mult's */
+                        double *t = malloc(sizeof(double) * m * n);
+                        for (int i = 0; i < m * n; i++)
+                            t[i] = NAN;
+                        kr->mult_upper(m, n, k, A, LD, X, LD, t, m);
+                        for (int j = 0; j < n; j++)
+                            for (int i = 0; i <= j; i++)
+                                if (memcmp(t + i + (size_t)j * m, y + i + (size_t)j * m,
+                                           sizeof(double)))
+                                    fail_msg("path %s: mult_upper (%d) differs from mult at "
+                                             "(%d, %d)", dm_isa_name((dm_isa)p), m, i, j);
+                        free(t);
+                    }
+                    int out = (op == 3 ? rows : m) * n;
+                    if (p == DM_ISA_DEFAULT) {
+                        for (int i = 0; i < out; i++)
+                            if (!(fabsl(y[i] - ref[i]) <= bound[i]))
+                                fail_msg("operation %d, %d x %d by %d: entry %d off by %.3g, "
+                                         "bound %.3g", op, m, n, k, i,
+                                         (double)fabsl(y[i] - ref[i]), bound[i]);
+                    } else if (memcmp(y, Y[DM_ISA_DEFAULT], sizeof(double) * out)) {
+                        fail_msg("path %s, operation %d, %d x %d by %d: not the baseline's bits",
+                                 dm_isa_name((dm_isa)p), op, m, n, k);
+                    }
+                    checked++;
+                }
+            }
+    print_message("boundary kernels: %d products checked on every path\n", checked);
+    for (int p = 0; p < DM_ISA_COUNT; p++)
+        free(Y[p]);
+    free(A), free(X), free(Y0), free(bound), free(ref);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(iteration_matches_dense_and_reference),
         cmocka_unit_test(seed_decides_the_bits),
+        cmocka_unit_test(kernels_give_the_same_bits_on_every_path),
     };
     return cmocka_run_group_tests_name("boundary_eig", tests, NULL, NULL);
 }

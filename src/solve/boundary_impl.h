@@ -6,6 +6,7 @@
 #include <lapacke.h>
 
 #include "dm_boundary.h"
+#include "dm_isa.h"
 
 struct dm_boundary {
     const dm_members *ms;
@@ -47,5 +48,31 @@ void dm_boundary_member_dofs(dm_boundary *bw, int m, const double *y, double *xb
 /* Negative eigenvalues of the symmetric n x n D (lower triangle,
  * destroyed; n <= nB) by Sylvester's inertia; -1 if singular. */
 int dm_boundary_negatives(dm_boundary *bw, double *D, int n);
+
+/* The reduced solve's dense products (boundary_kernels.c), built once
+ * per instruction-set path; every path gives the same bits. Column-major
+ * operands, read where they lie (nothing packed, nothing allocated). */
+typedef struct dm_boundary_kernels {
+    /* Y = (add ? Y : 0) + A X: Y m x n, A m x k, X k x n; each entry's
+     * products added in r order. Y overlaps neither A nor X. */
+    void (*mult)(int m, int n, int k, const double *A, int lda, const double *X, int ldx,
+                 int add, double *Y, int ldy);
+    /* Y = Y U in place: Y m x n, U n x n upper triangular (what lies below
+     * its diagonal is not read). */
+    void (*mult_upper_in_place)(int m, int n, double *Y, int ldy, const double *U, int ldu);
+    /* mult's entries i <= j with add 0 (m = n; some entries below the
+     * diagonal are written too): the upper triangle of a product known
+     * to be symmetric, or whose lower one is not read. */
+    void (*mult_upper)(int m, int n, int k, const double *A, int lda, const double *X, int ldx,
+                       double *Y, int ldy);
+} dm_boundary_kernels;
+
+extern const dm_boundary_kernels dm_boundary_kernels_default;
+#if defined(__x86_64__)
+extern const dm_boundary_kernels dm_boundary_kernels_avx2, dm_boundary_kernels_avx512;
+#endif
+
+/* The table of a path this build and CPU have. */
+const dm_boundary_kernels *dm_boundary_kernels_of(dm_isa isa);
 
 #endif

@@ -1,0 +1,195 @@
+/* The reduced problem's small dense products (boundary_eig.c), compiled
+ * once per instruction-set path as the block-arrow kernels are (dm_isa.h,
+ * src/model/arrow_kernels.c): the path's table is
+ * dm_boundary_kernels_PATH.
+ *
+ * Why not BLAS: the reduced solve's products are tiny (24 x 24 by 20
+ * columns, B's runs of 6 columns by 33 or 90 rows, 123 x 20 blocks) and
+ * many, and OpenBLAS packs both operands into buffers at every call
+ * before its kernel runs; on an AMD EPYC (Zen 3, AVX2) its copies took a
+ * third of the products' time and the products a quarter of a members
+ * sweep's pose. Here nothing is packed: every operand is read where it
+ * lies, the accumulators stay in registers.
+ *
+ * The same bits on every path: no build contracts a multiply and an add
+ * (no FMA; C11 mode keeps contraction off), and every entry's sum runs in
+ * a fixed order whatever the vector width: each entry's k products are
+ * added in order, the vectors holding neighbouring rows. */
+#include <assert.h>
+
+#include "boundary_impl.h"
+
+#if defined(__AVX512F__)
+#define VW 8
+#elif defined(__AVX2__)
+#define VW 4
+#else
+#define VW 2 /* SSE2, NEON */
+#endif
+
+#define INLINE static inline __attribute__((always_inline))
+
+/* Vectors of 8, 4, 2 and 1 doubles at any alignment; only those no wider
+ * than the path's registers are used (wider ones GCC lowers through
+ * memory). */
+typedef double vec __attribute__((vector_size(8 * VW), aligned(8), may_alias));
+#if VW == 8
+typedef double vec4 __attribute__((vector_size(32), aligned(8), may_alias));
+#endif
+#if VW >= 4
+typedef double vec2 __attribute__((vector_size(16), aligned(8), may_alias));
+#endif
+typedef double vec1 __attribute__((aligned(8), may_alias));
+
+#define UNROLL _Pragma("GCC unroll 8")
+
+/* Y[i + c ldy] (rows i0 .. i0 + NV L - 1, columns j0 .. j0 + NC - 1) =
+ * (add ? Y : 0) + sum over r < k of A[i + r lda] X[r + c ldx], in r order;
+ * T a vector of L doubles, NV of them a column. With TRI the sum of
+ * column j0 + c stops at r = j0 + c (X upper triangular: the products
+ * below its diagonal are not made). */
+#define BLOCK(T, L, NV, NC, TRI)                                                                   \
+    do {                                                                                           \
+        T acc[NV][NC];                                                                             \
+        UNROLL for (int c = 0; c < NC; c++) UNROLL for (int v = 0; v < NV; v++) acc[v][c] =       \
+            add ? *(const T *)(Y + i0 + v * L + (size_t)(j0 + c) * ldy) : (T){0};                  \
+        int kfull = TRI ? j0 : k;                                                                  \
+        for (int r = 0; r < kfull; r++) {                                                          \
+            T a[NV];                                                                               \
+            UNROLL for (int v = 0; v < NV; v++) a[v] = *(const T *)(A + i0 + v * L + (size_t)r * lda); \
+            UNROLL for (int c = 0; c < NC; c++)                                                    \
+            {                                                                                      \
+                double x = X[r + (size_t)(j0 + c) * ldx];                                          \
+                UNROLL for (int v = 0; v < NV; v++) acc[v][c] += a[v] * x;                         \
+            }                                                                                      \
+        }                                                                                          \
+        if (TRI)                                                                                   \
+            UNROLL for (int t = 0; t < NC; t++)                                                    \
+            {                                                                                      \
+                int r = j0 + t;                                                                    \
+                T a[NV];                                                                           \
+                UNROLL for (int v = 0; v < NV; v++) a[v] = *(const T *)(A + i0 + v * L + (size_t)r * lda); \
+                UNROLL for (int c = t; c < NC; c++)                                                \
+                {                                                                                  \
+                    double x = X[r + (size_t)(j0 + c) * ldx];                                      \
+                    UNROLL for (int v = 0; v < NV; v++) acc[v][c] += a[v] * x;                     \
+                }                                                                                  \
+            }                                                                                      \
+        UNROLL for (int c = 0; c < NC; c++) UNROLL for (int v = 0; v < NV; v++)                   \
+            *(T *)(Y + i0 + v * L + (size_t)(j0 + c) * ldy) = acc[v][c];                           \
+    } while (0)
+
+/* Columns j0 upward in groups of NC, then of four, three, two or one
+ * (rows i0 .. i0 + NV L - 1), from the block's first row's diagonal
+ * when upper. */
+#define COLUMNS_UP(T, L, NV, NC)                                                                   \
+    do {                                                                                           \
+        int j0 = upper ? i0 : 0;                                                                   \
+        for (; j0 + NC <= n; j0 += NC)                                                             \
+            BLOCK(T, L, NV, NC, 0);                                                                \
+        if (NC > 4 && j0 + 4 <= n) {                                                               \
+            BLOCK(T, L, NV, 4, 0);                                                                 \
+            j0 += 4;                                                                               \
+        }                                                                                          \
+        switch (n - j0) {                                                                          \
+        case 3: BLOCK(T, L, NV, 3, 0); break;                                                      \
+        case 2: BLOCK(T, L, NV, 2, 0); break;                                                      \
+        case 1: BLOCK(T, L, NV, 1, 0); break;                                                      \
+        default: break;                                                                            \
+        }                                                                                          \
+    } while (0)
+
+/* Y U's columns from the last down, in groups of four (the first group
+ * the n % 4 at the top): a group reads only the columns up to its own,
+ * which no group before it has overwritten. */
+#define COLUMNS_DOWN(T, L, NV)                                                                     \
+    do {                                                                                           \
+        int j0 = n - n % 4;                                                                        \
+        switch (n % 4) {                                                                           \
+        case 3: BLOCK(T, L, NV, 3, 1); break;                                                      \
+        case 2: BLOCK(T, L, NV, 2, 1); break;                                                      \
+        case 1: BLOCK(T, L, NV, 1, 1); break;                                                      \
+        default: break;                                                                            \
+        }                                                                                          \
+        for (j0 -= 4; j0 >= 0; j0 -= 4)                                                            \
+            BLOCK(T, L, NV, 4, 1);                                                                 \
+    } while (0)
+
+/* Every row: blocks of two vectors by four columns, then of one vector
+ * (and narrower, for the last rows) by eight: a narrow block's eight
+ * columns are eight independent sums, enough to hide an addition's
+ * latency (four left B's runs of six rows waiting on it). */
+#define ROWS(COLUMNS_2, COLUMNS_1)                                                                 \
+    do {                                                                                           \
+        int i0 = 0;                                                                                \
+        for (; i0 + 2 * VW <= m; i0 += 2 * VW)                                                     \
+            COLUMNS_2(vec, VW, 2);                                                                 \
+        if (i0 + VW <= m) {                                                                        \
+            COLUMNS_1(vec, VW, 1);                                                                 \
+            i0 += VW;                                                                              \
+        }                                                                                          \
+        ROWS_NARROW(COLUMNS_1);                                                                    \
+        if (i0 < m)                                                                                \
+            COLUMNS_1(vec1, 1, 1);                                                                 \
+    } while (0)
+
+#if VW == 8
+#define ROWS_NARROW(COLUMNS_1)                                                                     \
+    if (i0 + 4 <= m) {                                                                             \
+        COLUMNS_1(vec4, 4, 1);                                                                     \
+        i0 += 4;                                                                                   \
+    }                                                                                              \
+    if (i0 + 2 <= m) {                                                                             \
+        COLUMNS_1(vec2, 2, 1);                                                                     \
+        i0 += 2;                                                                                   \
+    }
+#elif VW == 4
+#define ROWS_NARROW(COLUMNS_1)                                                                     \
+    if (i0 + 2 <= m) {                                                                             \
+        COLUMNS_1(vec2, 2, 1);                                                                     \
+        i0 += 2;                                                                                   \
+    }
+#else
+#define ROWS_NARROW(COLUMNS_1)
+#endif
+
+#define UP_BY_4(T, L, NV) COLUMNS_UP(T, L, NV, 4)
+#define UP_BY_8(T, L, NV) COLUMNS_UP(T, L, NV, 8)
+
+static void mult(int m, int n, int k, const double *A, int lda, const double *X, int ldx,
+                 int add, double *Y, int ldy)
+{
+    assert(m >= 0 && n >= 0 && k >= 0 && lda >= m && ldy >= m && ldx >= k);
+    int upper = 0;
+    ROWS(UP_BY_4, UP_BY_8);
+}
+
+/* mult's entries i <= j (and some below the diagonal, in the blocks that
+ * cross it) of a product known to be symmetric, or whose lower triangle
+ * is not read. */
+static void mult_upper(int m, int n, int k, const double *A, int lda, const double *X, int ldx,
+                       double *Y, int ldy)
+{
+    assert(m >= 0 && n >= 0 && k >= 0 && lda >= m && ldy >= m && ldx >= k);
+    int upper = 1, add = 0;
+    ROWS(UP_BY_4, UP_BY_8);
+}
+
+/* Y = Y U in place, U n x n upper triangular: column j of the product
+ * reads Y's columns up to j only (COLUMNS_DOWN); a block's columns are
+ * read whole into registers before they are stored. */
+static void mult_upper_in_place(int m, int n, double *Y, int ldy, const double *U, int ldu)
+{
+    assert(m >= 0 && n >= 0 && ldy >= m && ldu >= n);
+    const double *A = Y, *X = U;
+    int lda = ldy, ldx = ldu, add = 0, k = n, upper = 0;
+    (void)upper;
+    (void)k;
+    ROWS(COLUMNS_DOWN, COLUMNS_DOWN);
+}
+
+const dm_boundary_kernels DM_ISA_TABLE(dm_boundary_kernels_) = {
+    .mult = mult,
+    .mult_upper_in_place = mult_upper_in_place,
+    .mult_upper = mult_upper,
+};
