@@ -449,6 +449,28 @@ static void kernels_give_the_same_bits_on_every_path(void **state)
                     checked++;
                 }
             }
+    /* the elementwise ones: each entry as written, on every path */
+    for (int p = 0; p < DM_ISA_COUNT; p++) {
+        if (!dm_isa_available((dm_isa)p))
+            continue;
+        const dm_boundary_kernels *kr = dm_boundary_kernels_of((dm_isa)p);
+        int m = 99, n = 7;
+        kr->scale_rows(m, n, Y0, A, LD, Y[p], m);
+        for (int j = 0; j < n; j++)
+            for (int i = 0; i < m; i++)
+                assert_true(Y[p][i + j * m] == Y0[i] * A[i + j * LD]);
+        for (int first = 0; first < 2; first++) {
+            size_t len = 123 * 20 + 3;
+            double c = 0.37;
+            memcpy(Y[p], A, sizeof(double) * len);
+            kr->chebyshev_step(len, c, X, first ? NULL : Y0, Y[p]);
+            for (size_t a = 0; a < len; a++) {
+                double want = first ? 1 / c * (A[a] - c * X[a]) : 2 / c * (A[a] - c * X[a]) - Y0[a];
+                assert_true(Y[p][a] == want);
+            }
+        }
+        checked += 3;
+    }
     print_message("boundary kernels: %d products checked on every path\n", checked);
     for (int p = 0; p < DM_ISA_COUNT; p++)
         free(Y[p]);

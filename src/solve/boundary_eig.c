@@ -232,9 +232,7 @@ static void block_diag_times(const dm_boundary_eig *e, const double *A, const do
 {
     int nr = e->nr, nB = e->nB;
     kernels()->mult(nB, ncol, nB, A, nB, X, nr, 0, Y, nr);
-    for (int c = 0; c < ncol; c++)
-        for (int i = 0; i < e->nv; i++)
-            Y[(size_t)c * nr + nB + i] = v[i] * X[(size_t)c * nr + nB + i];
+    kernels()->scale_rows(e->nv, ncol, v, X + nB, nr, Y + nB, nr);
 }
 
 /* Y = K X; and X = K^-1 X in place (S's Cholesky factor from the statics). */
@@ -426,14 +424,8 @@ static int filter(dm_boundary_eig *e, int degree, double b, double theta1)
             skew = 1;
         }
         inverse_K_times(e, MY, e->p, Yn);
-        /* T_1 = t, T_j+1 = 2 t T_j - T_j-1; two loops, so that neither
-         * tests j at every entry (the tested one was not vectorised) */
-        if (j)
-            for (size_t a = 0; a < np; a++)
-                Yn[a] = 2 / c * (Yn[a] - c * Y[a]) - Yp[a];
-        else
-            for (size_t a = 0; a < np; a++)
-                Yn[a] = 1 / c * (Yn[a] - c * Y[a]);
+        /* T_1 = t, T_j+1 = 2 t T_j - T_j-1 */
+        kernels()->chebyshev_step(np, c, Y, j ? Yp : NULL, Yn);
         double *old = Yp;
         Yp = Y, Y = Yn, Yn = old;
     }
@@ -474,11 +466,15 @@ static int count_reduced(dm_boundary_eig *e, dm_boundary *bw, double sigma, int 
             return -1;
         below += f < 0;
     }
-    for (int a = 0; a < e->nrun; a++) { /* T = (d - sigma)^-1 B on the runs */
+    /* T = -sigma^2 B' (d - sigma)^-1 on the runs (B' down its columns, as
+     * the products read it) */
+    for (int a = 0; a < e->nrun; a++) {
         const int *r = e->run + 4 * a;
-        for (int c = r[0]; c < r[0] + r[1]; c++)
-            for (int i = r[2]; i < r[2] + r[3]; i++)
-                e->T[(size_t)c * nv + i] = e->B[(size_t)c * nv + i] / (e->d[i] - sigma);
+        for (int i = r[2]; i < r[2] + r[3]; i++) {
+            double f = -sigma * sigma / (e->d[i] - sigma);
+            for (int c = r[0]; c < r[0] + r[1]; c++)
+                e->T[(size_t)i * nB + c] = f * e->Bt[(size_t)i * nB + c];
+        }
     }
     for (size_t a = 0; a < (size_t)nB * nB; a++)
         e->D[a] = bw->Sk[a] - sigma * e->Mbb[a];
@@ -489,10 +485,9 @@ static int count_reduced(dm_boundary_eig *e, dm_boundary *bw, double sigma, int 
             int i1 = ra[2] + ra[3] < rb[2] + rb[3] ? ra[2] + ra[3] : rb[2] + rb[3];
             if (i1 <= i0)
                 continue; /* no member reaches both */
-            cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, rb[1], ra[1], i1 - i0,
-                        -sigma * sigma, e->T + (size_t)rb[0] * nv + i0, nv,
-                        e->B + (size_t)ra[0] * nv + i0, nv, 1, e->D + (size_t)ra[0] * nB + rb[0],
-                        nB);
+            kernels()->mult(rb[1], ra[1], i1 - i0, e->T + (size_t)i0 * nB + rb[0], nB,
+                            e->B + (size_t)ra[0] * nv + i0, nv, 1,
+                            e->D + (size_t)ra[0] * nB + rb[0], nB);
         }
     int neg = dm_boundary_negatives(bw, e->D, nB);
     *count = below + neg;

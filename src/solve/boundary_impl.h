@@ -65,6 +65,11 @@ typedef struct dm_boundary_kernels {
      * to be symmetric, or whose lower one is not read. */
     void (*mult_upper)(int m, int n, int k, const double *A, int lda, const double *X, int ldx,
                        double *Y, int ldy);
+    /* Y[i + j ldy] = v[i] X[i + j ldx] (m x n; Y apart from X) */
+    void (*scale_rows)(int m, int n, const double *v, const double *X, int ldx, double *Y,
+                       int ldy);
+    /* Yn = 2/c (Yn - c Y) - Yp over n entries; with Yp NULL, 1/c (Yn - c Y) */
+    void (*chebyshev_step)(size_t n, double c, const double *Y, const double *Yp, double *Yn);
 } dm_boundary_kernels;
 
 extern const dm_boundary_kernels dm_boundary_kernels_default;

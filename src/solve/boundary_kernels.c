@@ -188,7 +188,41 @@ static void mult_upper_in_place(int m, int n, double *Y, int ldy, const double *
     ROWS(COLUMNS_DOWN, COLUMNS_DOWN);
 }
 
+/* Y[i + j ldy] = v[i] X[i + j ldx]: one product an entry. */
+static void scale_rows(int m, int n, const double *v, const double *X, int ldx, double *Y,
+                       int ldy)
+{
+    for (int j = 0; j < n; j++) {
+        const double *restrict x = X + (size_t)j * ldx;
+        double *restrict y = Y + (size_t)j * ldy;
+#pragma omp simd
+        for (int i = 0; i < m; i++)
+            y[i] = v[i] * x[i];
+    }
+}
+
+/* The filter's three-term step on n entries, each as written:
+ * Yn = s (Yn - c Y) - Yp, s = 2 / c (the first step: s = 1 / c, no Yp). */
+static void chebyshev_step(size_t n, double c, const double *Y, const double *Yp, double *Yn)
+{
+    const double *restrict y = Y, *restrict yp = Yp;
+    double *restrict yn = Yn;
+    if (Yp) {
+        double s = 2 / c;
+#pragma omp simd
+        for (size_t a = 0; a < n; a++)
+            yn[a] = s * (yn[a] - c * y[a]) - yp[a];
+    } else {
+        double s = 1 / c;
+#pragma omp simd
+        for (size_t a = 0; a < n; a++)
+            yn[a] = s * (yn[a] - c * y[a]);
+    }
+}
+
 const dm_boundary_kernels DM_ISA_TABLE(dm_boundary_kernels_) = {
+    .scale_rows = scale_rows,
+    .chebyshev_step = chebyshev_step,
     .mult = mult,
     .mult_upper_in_place = mult_upper_in_place,
     .mult_upper = mult_upper,
