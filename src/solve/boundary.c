@@ -66,11 +66,24 @@ static void pose_couplings(dm_boundary *bw)
     for (int m = 0; m < DM_MEMBERS_N; m++) {
         int nb = bw->ms->member[m].nb, nc = dm_members_columns(bw->ms, m, bw->cols[m]);
         dm_members_coupling(bw->ms, &bw->mp, m, C);
-        for (int a = 0; a < nc; a++)
+        for (int a = 0; a < nc; a++) {
             memcpy(bw->Cc[m] + a * nb, C + (size_t)bw->cols[m][a] * nb, sizeof(double) * nb);
+            for (int r = 0; r < nb; r++)
+                bw->Cct[m][a + r * nc] = bw->Cc[m][a * nb + r];
+        }
         bw->nc[m] = nc;
     }
     bw->have_mbb = 0;
+}
+
+void dm_boundary_congruence(const dm_boundary *bw, int m, const double *X, double *V)
+{
+    const dm_boundary_kernels *kr = dm_boundary_kernels_of(dm_isa_active());
+    int nb = bw->ms->member[m].nb, nc = bw->nc[m];
+    double XC[9 * 12];
+    assert(nb <= 9 && nc <= 12);
+    kr->mult(nb, nc, nb, X, nb, bw->Cc[m], nb, 0, XC, nb);     /* X Cc */
+    kr->mult(nc, nc, nb, bw->Cct[m], nc, XC, nb, 0, V, nc); /* Cc' (X Cc) */
 }
 
 /* S += Cc' Khat Cc and F += Cc' Ghat (lambda g) for member m. */
@@ -80,7 +93,7 @@ static void add_member(dm_boundary *bw, int m)
     const double *L = bw->mp.lambda[m], *g = bw->mp.gravity, *Cc = bw->Cc[m];
     const int *cols = bw->cols[m];
     int nb = mb->nb, nB = bw->nB, nc = bw->nc[m];
-    double KC[9 * 12], f[9];
+    double f[9];
     for (int r = 0; r < 3; r++)
         bw->gl[m][r] = L[3 * r] * g[0] + L[3 * r + 1] * g[1] + L[3 * r + 2] * g[2];
     for (int r = 0; r < nb; r++) {
@@ -88,22 +101,15 @@ static void add_member(dm_boundary *bw, int m)
         for (int k = 0; k < 3; k++)
             f[r] += mb->Ghat[k * nb + r] * bw->gl[m][k];
     }
-    for (int a = 0; a < nc; a++) /* KC = Khat Cc */
-        for (int r = 0; r < nb; r++) {
-            double s = 0;
-            for (int k = 0; k < nb; k++)
-                s += mb->Khat[k * nb + r] * Cc[a * nb + k];
-            KC[a * nb + r] = s;
-        }
+    double V[12 * 12];
+    dm_boundary_congruence(bw, m, mb->Khat, V);
     for (int b = 0; b < nc; b++) {
         double s = 0;
         for (int r = 0; r < nb; r++)
             s += Cc[b * nb + r] * f[r];
         bw->F[cols[b]] += s;
         for (int a = b; a < nc; a++) { /* into S's lower triangle */
-            double v = 0;
-            for (int r = 0; r < nb; r++)
-                v += Cc[a * nb + r] * KC[b * nb + r];
+            double v = V[a + b * nc];
             int hi = cols[a] > cols[b] ? cols[a] : cols[b], lo = cols[a] + cols[b] - hi;
             bw->S[(size_t)lo * nB + hi] += v;
         }

@@ -21,6 +21,7 @@ struct dm_boundary {
      * reaches (C's non-zero columns: Cc nb x nc, cols), and M_BB
      * (dm_boundary_mass), made once a pose */
     double Cc[DM_MEMBERS_N][9 * 12];
+    double Cct[DM_MEMBERS_N][12 * 9]; /* Cc' (nc x nb), for the congruences' products */
     int cols[DM_MEMBERS_N][12], nc[DM_MEMBERS_N];
     double *Mbb;
     int have_mbb;
@@ -40,6 +41,11 @@ struct dm_boundary {
 /* The boundary's mass through the clamped members, M_b + sum C' Mhat C,
  * into T (leading dimension ld); made once a pose. */
 void dm_boundary_mass(dm_boundary *bw, double *T, int ld);
+
+/* V (nc x nc, leading dimension nc) = Cc' X Cc for member m at the pose,
+ * X nb x nb: through the path's kernels, each entry's sums in order
+ * (the same bits as the loops over r before them). */
+void dm_boundary_congruence(const dm_boundary *bw, int m, const double *X, double *V);
 
 /* Member m's boundary displacements x_b = C y from the boundary vector y
  * (nB). */

@@ -8,25 +8,16 @@
 
 #include "boundary_impl.h"
 
-/* T (nB x nB) += s Cc' X Cc on the columns cols (X: nb x nb). */
-static void congruence(const double *Cc, const int *cols, int nc, int nb, const double *X,
-                       double s, double *T, int nB)
+/* T (nB x nB) += s Cc' X Cc on member m's columns (X: nb x nb). */
+static void congruence(const dm_boundary *bw, int m, const double *X, double s, double *T)
 {
-    double XC[9 * 12];
-    for (int a = 0; a < nc; a++)
-        for (int r = 0; r < nb; r++) {
-            double v = 0;
-            for (int k = 0; k < nb; k++)
-                v += X[k * nb + r] * Cc[a * nb + k];
-            XC[a * nb + r] = v;
-        }
+    int nc = bw->nc[m], nB = bw->nB;
+    const int *cols = bw->cols[m];
+    double V[12 * 12];
+    dm_boundary_congruence(bw, m, X, V);
     for (int b = 0; b < nc; b++)
-        for (int a = 0; a < nc; a++) {
-            double v = 0;
-            for (int r = 0; r < nb; r++)
-                v += Cc[a * nb + r] * XC[b * nb + r];
-            T[(size_t)cols[b] * nB + cols[a]] += s * v;
-        }
+        for (int a = 0; a < nc; a++)
+            T[(size_t)cols[b] * nB + cols[a]] += s * V[a + b * nc];
 }
 
 /* M_BB at the pose, made at its first use. */
@@ -36,8 +27,7 @@ static const double *pose_mass(dm_boundary *bw)
     if (!bw->have_mbb) {
         memcpy(bw->Mbb, bw->ms->Mb, sizeof(double) * nB * nB);
         for (int m = 0; m < DM_MEMBERS_N; m++)
-            congruence(bw->Cc[m], bw->cols[m], bw->nc[m], bw->ms->member[m].nb,
-                       bw->ms->member[m].Mhat, 1.0, bw->Mbb, nB);
+            congruence(bw, m, bw->ms->member[m].Mhat, 1.0, bw->Mbb);
         bw->have_mbb = 1;
     }
     return bw->Mbb;
@@ -111,7 +101,7 @@ static int count_at(dm_boundary *bw, const count_pose *cp, double sigma, int *co
                     v += gc[j] * gr[j] * w[j];
                 G[c * nb + r] = G[r * nb + c] = v;
             }
-        congruence(bw->Cc[m], bw->cols[m], bw->nc[m], nb, G, -sigma * sigma, bw->D, nB);
+        congruence(bw, m, G, -sigma * sigma, bw->D);
     }
     int neg = dm_boundary_negatives(bw, bw->D, nB);
     if (neg < 0)
