@@ -52,6 +52,9 @@ void dm_move_opts_default(dm_move_opts *o)
  * intervals, which are halved at most MAX_LEVEL times. */
 #define MAX_INTERVALS 1024
 #define MAX_LEVEL 40
+/* A level's transitions: a11, a12, a21, a22, then cos, sin, the decay and
+ * the angle they come from (level_transitions) */
+#define TRANS_ROWS 8
 
 /* The modes one direction carries: the k retained ones, then its Ritz
  * modes. During a phase of constant load, q holds each mode's free motion
@@ -92,7 +95,8 @@ struct dm_move_ws {
     carried dir[MAXDIR];
     double *pool;
     /* transitions of each level (2 families: the move's halves, the
-     * window), structure of arrays a11, a12, a21, a22 of nmax each */
+     * window), structure of arrays a11, a12, a21, a22 of nmax each, then
+     * the parts they are made of (TRANS_ROWS: cos, sin, decay, angle) */
     double *trans[2];
     unsigned char have[2][MAX_LEVEL + 1];
     /* the retained modes' transitions (4 x kmax a level), the same in every
@@ -134,10 +138,10 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
         w->X = malloc(sizeof(double) * blk);
         w->Y = malloc(sizeof(double) * blk);
         w->pool = malloc(sizeof(double) * carried_len(kmax) * MAXDIR);
-        w->trans[0] = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 1));
-        w->trans[1] = malloc(sizeof(double) * 4 * nmax * (MAX_LEVEL + 1));
-        w->rtrans[0] = malloc(sizeof(double) * 4 * kmax * (MAX_LEVEL + 1));
-        w->rtrans[1] = malloc(sizeof(double) * 4 * kmax * (MAX_LEVEL + 1));
+        w->trans[0] = malloc(sizeof(double) * TRANS_ROWS * nmax * (MAX_LEVEL + 1));
+        w->trans[1] = malloc(sizeof(double) * TRANS_ROWS * nmax * (MAX_LEVEL + 1));
+        w->rtrans[0] = malloc(sizeof(double) * TRANS_ROWS * kmax * (MAX_LEVEL + 1));
+        w->rtrans[1] = malloc(sizeof(double) * TRANS_ROWS * kmax * (MAX_LEVEL + 1));
         w->srcpool = malloc(sizeof(int) * nmax * MAXDIR);
         for (int st = 0; st < 2; st++) {
             w->cand[st] = malloc(sizeof(candidate) * (MAX_INTERVALS + 1));
@@ -618,12 +622,45 @@ static void sort_by_frequency(carried *c)
 #define MAX_REL 1e-9
 #define SETTLE_RES 1e-9
 
-/* Transition of a free mode over h: (h, h') <- [a11 a12; a21 a22] (h, h'). */
-static void mode_transition(double om, double z, double h, double a[4])
+/* The parts of an underdamped mode's transition over h: cos and sin of
+ * the damped angle wd h, the decay e^(-z om h) and the angle itself (NaN
+ * for a mode damped critically or more, whose transition has no such
+ * parts). */
+static void transition_parts(double om, double z, double h, double cs[4])
 {
-    if (z < 1 - 1e-6) { /* closed form, as dm_sdof_step's */
-        double wd = om * sqrt(1 - z * z), e = exp(-z * om * h);
-        double c = cos(wd * h), s = sin(wd * h), r = z * om / wd;
+    if (z < 1 - 1e-6) {
+        double wd = om * sqrt(1 - z * z);
+        cs[0] = cos(wd * h), cs[1] = sin(wd * h), cs[2] = exp(-z * om * h), cs[3] = wd * h;
+        return;
+    }
+    cs[0] = cs[1] = cs[2] = cs[3] = NAN;
+}
+
+/* The parts over h / 2 from those over h, by the half-angle formulas
+ * (cos^2(x/2) = (1 + cos x) / 2, sin x = 2 sin(x/2) cos(x/2), the decay's
+ * square root): for angles up to pi/2, where 1 + cos x >= 1 loses
+ * nothing, each halving adds about an ulp to the parts (some 40 ulps at
+ * the deepest level, against the maxima's 1e-9). -1 where they do not
+ * apply (a larger angle, or a mode without parts). */
+static int halve_parts(const double cs[4], double half[4])
+{
+    if (!(cs[3] <= M_PI / 2))
+        return -1;
+    half[0] = sqrt((1 + cs[0]) * 0.5);
+    half[1] = cs[1] / (2 * half[0]);
+    half[2] = sqrt(cs[2]);
+    half[3] = cs[3] * 0.5;
+    return 0;
+}
+
+/* Transition of a free mode over h: (h, h') <- [a11 a12; a21 a22] (h, h'),
+ * from its parts over h (an underdamped mode: closed form, as
+ * dm_sdof_step's). */
+static void mode_transition(double om, double z, double h, const double cs[4], double a[4])
+{
+    if (z < 1 - 1e-6) {
+        double wd = om * sqrt(1 - z * z), e = cs[2];
+        double c = cs[0], s = cs[1], r = z * om / wd;
         a[0] = e * (c + r * s);
         a[1] = e * s / wd;
         a[2] = -e * om * om / wd * s;
@@ -688,22 +725,32 @@ static const double *level_transitions(const phase *ph, int level)
 {
     dm_move_ws *w = ph->w;
     int nmax = w->nmax, f = ph->family, kmax = w->kmax;
-    double *t = w->trans[f] + (size_t)4 * nmax * level;
+    double *t = w->trans[f] + (size_t)TRANS_ROWS * nmax * level;
     if (!w->have[f][level]) {
-        double h = step_of(ph, level), a[4];
-        double *rt = w->rtrans[f] + (size_t)4 * kmax * level;
+        double h = step_of(ph, level), a[4], cs[4], up[4];
+        double *rt = w->rtrans[f] + (size_t)TRANS_ROWS * kmax * level;
+        /* the level above, where this direction made it: its parts halved
+         * instead of a sine, a cosine and an exponential */
+        const double *above = level && w->have[f][level - 1] ? t - (size_t)TRANS_ROWS * nmax : NULL;
         for (int j = 0; j < ph->c->nm; j++) {
             int s = ph->c->src[j];
-            if (s >= 0 && w->rhave[f][level])
-                for (int r = 0; r < 4; r++)
-                    a[r] = rt[r * kmax + s];
-            else
-                mode_transition(ph->c->om[j], ph->c->z[j], h, a);
-            for (int r = 0; r < 4; r++) {
-                t[r * nmax + j] = a[r];
-                if (s >= 0)
-                    rt[r * kmax + s] = a[r];
+            if (s >= 0 && w->rhave[f][level]) {
+                for (int r = 0; r < TRANS_ROWS; r++)
+                    t[r * nmax + j] = rt[r * kmax + s];
+                continue;
             }
+            if (above)
+                up[0] = above[4 * nmax + j], up[1] = above[5 * nmax + j],
+                up[2] = above[6 * nmax + j], up[3] = above[7 * nmax + j];
+            if (!above || halve_parts(up, cs))
+                transition_parts(ph->c->om[j], ph->c->z[j], h, cs);
+            mode_transition(ph->c->om[j], ph->c->z[j], h, cs, a);
+            double x[TRANS_ROWS] = {a[0], a[1], a[2], a[3], cs[0], cs[1], cs[2], cs[3]};
+            for (int r = 0; r < TRANS_ROWS; r++)
+                t[r * nmax + j] = x[r];
+            if (s >= 0)
+                for (int r = 0; r < TRANS_ROWS; r++)
+                    rt[r * kmax + s] = x[r];
         }
         w->have[f][level] = 1;
         w->rhave[f][level] = 1; /* (every direction carries all the retained modes) */
