@@ -62,6 +62,9 @@ void dm_move_opts_default(dm_move_opts *o)
 typedef struct {
     int nm;
     double *om, *z, *g, *q, *v, *normP;  /* nm each */
+    double *rz, *iwd, *wwd;              /* an underdamped mode's z om / wd, 1 / wd and
+                                            om^2 / wd (wd: the damped frequency), for its
+                                            transitions at every level */
     double *p4;                          /* platform translation of each mode: x, y, z,
                                             0 (4 a mode, summed as one vector) */
     int *src;                            /* the retained mode each one is, or -1 (Ritz) */
@@ -117,7 +120,7 @@ struct dm_move_ws {
     double *pw, *Qb, *Vb, *sums;
 };
 
-static size_t carried_len(int kmax) { return (size_t)(kmax + MAXRITZ) * 10; }
+static size_t carried_len(int kmax) { return (size_t)(kmax + MAXRITZ) * 13; }
 
 dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
 {
@@ -168,9 +171,9 @@ dm_move_ws *dm_move_alloc(int n, int kmax, dm_error *err)
         carried *c = &w->dir[d];
         double *p = w->pool + carried_len(kmax) * d;
         size_t m = (size_t)kmax + MAXRITZ;
-        double **arr[] = {&c->om, &c->z, &c->g, &c->q, &c->v, &c->normP};
+        double **arr[] = {&c->om, &c->z, &c->g, &c->q, &c->v, &c->normP, &c->rz, &c->iwd, &c->wwd};
         for (size_t i = 0; i < sizeof arr / sizeof arr[0]; i++, p += m)
-            *arr[i] = p; /* 6 arrays of kmax + MAXRITZ, then p4 of 4 times that */
+            *arr[i] = p; /* 9 arrays of kmax + MAXRITZ, then p4 of 4 times that */
         c->p4 = p;
         c->src = w->srcpool + m * d;
     }
@@ -653,17 +656,18 @@ static int halve_parts(const double cs[4], double half[4])
     return 0;
 }
 
-/* Transition of a free mode over h: (h, h') <- [a11 a12; a21 a22] (h, h'),
- * from its parts over h (an underdamped mode: closed form, as
- * dm_sdof_step's). */
-static void mode_transition(double om, double z, double h, const double cs[4], double a[4])
+/* Transition of carried mode j over h: (h, h') <- [a11 a12; a21 a22]
+ * (h, h'), from its parts over h (an underdamped mode: closed form, as
+ * dm_sdof_step's, with the mode's factors made once a move: a square root
+ * and three divisions fewer a level). */
+static void mode_transition(const carried *cm, int j, double h, const double cs[4], double a[4])
 {
+    double om = cm->om[j], z = cm->z[j];
     if (z < 1 - 1e-6) {
-        double wd = om * sqrt(1 - z * z), e = cs[2];
-        double c = cs[0], s = cs[1], r = z * om / wd;
+        double e = cs[2], c = cs[0], s = cs[1], r = cm->rz[j];
         a[0] = e * (c + r * s);
-        a[1] = e * s / wd;
-        a[2] = -e * om * om / wd * s;
+        a[1] = e * s * cm->iwd[j];
+        a[2] = -e * cm->wwd[j] * s;
         a[3] = e * (c - r * s);
         return;
     }
@@ -744,7 +748,7 @@ static const double *level_transitions(const phase *ph, int level)
                 up[2] = above[6 * nmax + j], up[3] = above[7 * nmax + j];
             if (!above || halve_parts(up, cs))
                 transition_parts(ph->c->om[j], ph->c->z[j], h, cs);
-            mode_transition(ph->c->om[j], ph->c->z[j], h, cs, a);
+            mode_transition(ph->c, j, h, cs, a);
             double x[TRANS_ROWS] = {a[0], a[1], a[2], a[3], cs[0], cs[1], cs[2], cs[3]};
             for (int r = 0; r < TRANS_ROWS; r++)
                 t[r * nmax + j] = x[r];
@@ -1207,6 +1211,9 @@ static void one_move(dm_move_ws *w, carried *c, double alpha, double beta, const
     for (int j = 0; j < c->nm; j++) {
         c->z[j] = dm_rayleigh_zeta(alpha, beta, c->om[j]);
         damped |= c->z[j] > 0;
+        double wd = c->om[j] * sqrt(fmax(1 - c->z[j] * c->z[j], 0));
+        c->rz[j] = c->z[j] * c->om[j] / wd, c->iwd[j] = 1 / wd;
+        c->wwd[j] = c->om[j] * c->om[j] / wd; /* (used only where z < 1) */
         c->q[j] = c->v[j] = 0;
     }
     memset(w->have, 0, sizeof w->have);
