@@ -7,6 +7,7 @@
  * and 8,8, without and with every pose-free effect. */
 #include "dm_test.h"
 
+#include <float.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -477,12 +478,103 @@ static void kernels_give_the_same_bits_on_every_path(void **state)
     free(A), free(X), free(Y0), free(bound), free(ref);
 }
 
+/* The Cholesky factor's inverse (cholesky_inverse: the Rayleigh-Ritz's
+ * standard form, the Cholesky QRs, S^-1): every path gives the baseline's
+ * bits; the baseline's U^-1 satisfies U^-T G U^-1 = I within the bound of
+ * a backward-stable factor and inverse, c n eps kappa(G) (c = 4, the
+ * factor's and the inverse's errors side by side; kappa up to 1e8 tried,
+ * as Y'MY's at SKEW_MAX^2 = 1e14 would be above it, and equal to
+ * LAPACK's dpotrf + dtrtri within that bound); what lies below the
+ * diagonal is neither read nor written; an indefinite matrix and one with
+ * a NaN are refused. */
+static void cholesky_inverse_on_every_path(void **state)
+{
+    (void)state;
+    const int dims[] = {1, 2, 3, 5, 8, 17, 20, 24, 38};
+    const double conds[] = {1e1, 1e4, 1e8};
+    enum { MAXN = 38, LD = MAXN + 2 };
+    dm_rng rng = {.state = 0xc401};
+    int checked = 0;
+    for (size_t a = 0; a < sizeof dims / sizeof dims[0]; a++)
+        for (size_t c = 0; c < sizeof conds / sizeof conds[0]; c++) {
+            int n = dims[a];
+            double G[LD * MAXN], Q[LD * MAXN], base[LD * MAXN], lap[LD * MAXN], y[LD * MAXN];
+            /* G = Q diag(kappa^(-i/(n-1))) Q', Q orthogonal (a QR of normals) */
+            for (int i = 0; i < LD * MAXN; i++)
+                Q[i] = dm_rng_normal(&rng);
+            double tau[MAXN];
+            assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, n, Q, LD, tau), 0);
+            assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, n, n, n, Q, LD, tau), 0);
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < n; i++) {
+                    ldbl sum = 0;
+                    for (int r = 0; r < n; r++)
+                        sum += (ldbl)Q[i + r * LD] * Q[j + r * LD] *
+                               pow(conds[c], n > 1 ? -(double)r / (n - 1) : 0);
+                    G[i + j * LD] = (double)sum;
+                }
+            for (int j = 0; j < n; j++) /* symmetric to the last bit */
+                for (int i = j + 1; i < n; i++)
+                    G[i + j * LD] = G[j + i * LD];
+            memcpy(lap, G, sizeof G);
+            assert_int_equal(LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', n, lap, LD), 0);
+            assert_int_equal(LAPACKE_dtrtri(LAPACK_COL_MAJOR, 'U', 'N', n, lap, LD), 0);
+            for (int p = 0; p < DM_ISA_COUNT; p++) {
+                if (!dm_isa_available((dm_isa)p))
+                    continue;
+                memcpy(y, G, sizeof G);
+                for (int j = 0; j < n; j++) /* below the diagonal: not read, not written */
+                    for (int i = j + 1; i < n; i++)
+                        y[i + j * LD] = NAN;
+                assert_int_equal(dm_boundary_kernels_of((dm_isa)p)->cholesky_inverse(n, y, LD), 0);
+                for (int j = 0; j < n; j++)
+                    for (int i = j + 1; i < n; i++)
+                        assert_true(isnan(y[i + j * LD]));
+                if (p == DM_ISA_DEFAULT)
+                    memcpy(base, y, sizeof y);
+                else
+                    for (int j = 0; j < n; j++)
+                        if (memcmp(y + j * LD, base + j * LD, sizeof(double) * (j + 1)))
+                            fail_msg("path %s, order %d: not the baseline's bits",
+                                     dm_isa_name((dm_isa)p), n);
+                checked++;
+            }
+            double tol = 4 * n * DBL_EPSILON * conds[c], worst = 0, worst_lap = 0;
+            for (int j = 0; j < n; j++) /* (U^-T G U^-1)_ij, U^-1 upper */
+                for (int i = 0; i < n; i++) {
+                    ldbl e = 0, f = 0;
+                    for (int r = 0; r <= i; r++)
+                        for (int q = 0; q <= j; q++) {
+                            e += (ldbl)base[r + i * LD] * G[r + q * LD] * base[q + j * LD];
+                            f += (ldbl)lap[r + i * LD] * G[r + q * LD] * lap[q + j * LD];
+                        }
+                    worst = fmax(worst, fabs((double)e - (i == j)));
+                    worst_lap = fmax(worst_lap, fabs((double)f - (i == j)));
+                }
+            if (!(worst <= tol))
+                fail_msg("order %d, kappa %.0e: U^-T G U^-1 off I by %.3g (LAPACK's %.3g), "
+                         "bound %.3g", n, conds[c], worst, worst_lap, tol);
+        }
+    double bad[4] = {1, 2, 2, 1}; /* eigenvalues 3 and -1 */
+    double nan[4] = {1, 0, 0, NAN};
+    for (int p = 0; p < DM_ISA_COUNT; p++)
+        if (dm_isa_available((dm_isa)p)) {
+            double t[4];
+            memcpy(t, bad, sizeof t);
+            assert_int_equal(dm_boundary_kernels_of((dm_isa)p)->cholesky_inverse(2, t, 2), -1);
+            memcpy(t, nan, sizeof t);
+            assert_int_equal(dm_boundary_kernels_of((dm_isa)p)->cholesky_inverse(2, t, 2), -1);
+        }
+    print_message("Cholesky inverses: %d checked on every path\n", checked);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(iteration_matches_dense_and_reference),
         cmocka_unit_test(seed_decides_the_bits),
         cmocka_unit_test(kernels_give_the_same_bits_on_every_path),
+        cmocka_unit_test(cholesky_inverse_on_every_path),
     };
     return cmocka_run_group_tests_name("boundary_eig", tests, NULL, NULL);
 }

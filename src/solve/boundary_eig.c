@@ -1,8 +1,8 @@
 /* The reduced problem's lowest modes by warm-started, Chebyshev-filtered
  * subspace iteration (dm_boundary.h, dm_boundary_eig_solve: the method and
- * the bound). The block's products go through the path's kernels
- * (boundary_kernels.c), the small factorisations and eigenproblems
- * through LAPACK. */
+ * the bound). The block's products and the Cholesky factors' inverses
+ * go through the path's kernels (boundary_kernels.c), the projected
+ * eigenproblems through LAPACK. */
 #include <assert.h>
 #include <cblas.h>
 #include <math.h>
@@ -260,20 +260,48 @@ static void solve_K(const dm_boundary_eig *e, const dm_boundary *bw, double *X, 
             X[(size_t)c * nr + nB + i] /= e->d[i];
 }
 
-/* Sinv = S^-1 from the statics' factor (both triangles) and dinv = 1/d:
- * the filter's K^-1 as two products, which take a third of the
- * time of the triangular solves at these sizes (0.5 against 4.9 us for
- * 24 x 24 on 20 columns, measured). Only the filter uses them: its
- * rounding is corrected by the projection that follows, whose residuals
- * use the factor. -1 when S is singular. */
+/* At = A' for A k x p (leading dimension lda): four columns of A at a
+ * time, so that At is written along its columns. The Gram products
+ * A'B then go through the path's kernels in the order they read best
+ * (a transposition and a product: 2.2 us where dgemm took 3.5 for
+ * 20 x 20 from 123 rows, AVX2). */
+static void transpose(const double *A, int k, int p, int lda, double *At)
+{
+    int c0 = 0;
+    for (; c0 + 4 <= p; c0 += 4) {
+        const double *a0 = A + (size_t)c0 * lda, *a1 = a0 + lda, *a2 = a1 + lda, *a3 = a2 + lda;
+        double *t = At + c0;
+        for (int r = 0; r < k; r++, t += p)
+            t[0] = a0[r], t[1] = a1[r], t[2] = a2[r], t[3] = a3[r];
+    }
+    for (; c0 < p; c0++)
+        for (int r = 0; r < k; r++)
+            At[c0 + (size_t)r * p] = A[r + (size_t)c0 * lda];
+}
+
+/* Sinv = S^-1 and dinv = 1/d: the filter's K^-1 as two products, which
+ * take a third of the time of the triangular solves at these sizes (0.5
+ * against 4.9 us for 24 x 24 on 20 columns, measured). S^-1 = U^-1 U^-T
+ * from S = U'U (cholesky_inverse on S, both triangles kept by the
+ * statics, then one product: LAPACK's dpotri from the statics' factor
+ * took 46 000 instructions a call at 24 x 24, 1.5 % of a chen2018
+ * sweep's). Only the filter and the residuals' estimates use them: the
+ * filter's rounding is corrected by the projection that follows. -1
+ * when S is singular. */
 static int inverse_K(dm_boundary_eig *e, const dm_boundary *bw)
 {
     int nB = e->nB;
-    memcpy(e->Sinv, bw->S, sizeof(double) * nB * nB);
-    if (LAPACKE_dpotri_work(LAPACK_COL_MAJOR, 'L', nB, e->Sinv, nB))
+    double *Ui = e->D, *UiT = e->T; /* scratch: the count's, the block's */
+    memcpy(Ui, bw->Sk, sizeof(double) * nB * nB);
+    if (kernels()->cholesky_inverse(nB, Ui, nB))
         return -1;
     for (int c = 0; c < nB; c++)
-        for (int r = 0; r < c; r++)
+        for (int r = c + 1; r < nB; r++)
+            Ui[(size_t)c * nB + r] = 0;
+    transpose(Ui, nB, nB, nB, UiT);
+    kernels()->mult_upper(nB, nB, nB, Ui, nB, UiT, nB, e->Sinv, nB);
+    for (int c = 0; c < nB; c++)
+        for (int r = c + 1; r < nB; r++)
             e->Sinv[(size_t)c * nB + r] = e->Sinv[(size_t)r * nB + c];
     for (int i = 0; i < e->nv; i++)
         e->dinv[i] = 1 / e->d[i];
@@ -295,25 +323,6 @@ static void rotate_block(dm_boundary_eig *e, const double *Q, int q)
     e->X = e->T, e->T = old;
 }
 
-/* At = A' for A k x p (leading dimension lda): four columns of A at a
- * time, so that At is written along its columns. The Gram products
- * A'B then go through the path's kernels in the order they read best
- * (a transposition and a product: 2.2 us where dgemm took 3.5 for
- * 20 x 20 from 123 rows, AVX2). */
-static void transpose(const double *A, int k, int p, int lda, double *At)
-{
-    int c0 = 0;
-    for (; c0 + 4 <= p; c0 += 4) {
-        const double *a0 = A + (size_t)c0 * lda, *a1 = a0 + lda, *a2 = a1 + lda, *a3 = a2 + lda;
-        double *t = At + c0;
-        for (int r = 0; r < k; r++, t += p)
-            t[0] = a0[r], t[1] = a1[r], t[2] = a2[r], t[3] = a3[r];
-    }
-    for (; c0 < p; c0++)
-        for (int r = 0; r < k; r++)
-            At[c0 + (size_t)r * p] = A[r + (size_t)c0 * lda];
-}
-
 /* The pencil (H, G) (upper triangles) as the standard problem
  * U^-T H U^-1 (into T, p x p), G = U'U: G becomes U^-1 with zeros below
  * its diagonal, H is overwritten. What dsygv does, but with the
@@ -324,8 +333,7 @@ static int standard_form(dm_boundary_eig *e, double *G)
 {
     int p = e->p;
     double *H = e->H;
-    if (LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'U', p, G, p) ||
-        LAPACKE_dtrtri_work(LAPACK_COL_MAJOR, 'U', 'N', p, G, p))
+    if (kernels()->cholesky_inverse(p, G, p))
         return -1;
     for (int j = 0; j < p; j++)
         for (int i = j + 1; i < p; i++) {
@@ -429,8 +437,7 @@ static int rescale(dm_boundary_eig *e, double *Y, double *MY, double *Yp)
     double *G = e->H, *m[3] = {Y, MY, Yp};
     transpose(Y, nr, p, nr, e->T); /* T is free while the filter runs */
     kernels()->mult_upper(p, p, nr, e->T, p, MY, nr, G, p);
-    if (LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'U', p, G, p) ||
-        LAPACKE_dtrtri_work(LAPACK_COL_MAJOR, 'U', 'N', p, G, p))
+    if (kernels()->cholesky_inverse(p, G, p))
         return -1;
     for (int t = 0; t < 3; t++) /* by R^-1 (a product: dtrsm took 2.5 times as long) */
         if (m[t])

@@ -74,6 +74,10 @@ typedef struct dm_boundary_kernels {
     /* Y[i + j ldy] = v[i] X[i + j ldx] (m x n; Y apart from X) */
     void (*scale_rows)(int m, int n, const double *v, const double *X, int ldx, double *Y,
                        int ldy);
+    /* G's upper triangle (p x p, ld; symmetric positive definite) = U'U,
+     * U upper triangular; U^-1 is left in it (below the diagonal is
+     * neither read nor written). -1 when G is not positive definite. */
+    int (*cholesky_inverse)(int p, double *G, int ld);
     /* Yn = 2/c (Yn - c Y) - Yp over n entries; with Yp NULL, 1/c (Yn - c Y) */
     void (*chebyshev_step)(size_t n, double c, const double *Y, const double *Yp, double *Yn);
 } dm_boundary_kernels;

@@ -1,4 +1,5 @@
-/* The reduced problem's small dense products (boundary_eig.c), compiled
+/* The reduced problem's small dense products and Cholesky inverses
+ * (boundary_eig.c), compiled
  * once per instruction-set path as the block-arrow kernels are (dm_isa.h,
  * src/model/arrow_kernels.c): the path's table is
  * dm_boundary_kernels_PATH.
@@ -16,6 +17,7 @@
  * a fixed order whatever the vector width: each entry's k products are
  * added in order, the vectors holding neighbouring rows. */
 #include <assert.h>
+#include <math.h>
 
 #include "boundary_impl.h"
 
@@ -220,7 +222,78 @@ static void chebyshev_step(size_t n, double c, const double *Y, const double *Yp
     }
 }
 
+/* Two doubles at any alignment (16 bytes: a register on every path). */
+typedef double d2 __attribute__((vector_size(16), aligned(8), may_alias));
+
+/* a'b over n, in four partial sums (k mod 4, two pairs of lanes) added as
+ * (s0 + s1) + (s2 + s3): the chain of additions a quarter as long, the
+ * order fixed. */
+INLINE double dot_in_order(int n, const double *a, const double *b)
+{
+    d2 lo = {0, 0}, hi = {0, 0};
+    int k = 0;
+    for (; k + 4 <= n; k += 4) {
+        lo += *(const d2 *)(a + k) * *(const d2 *)(b + k);
+        hi += *(const d2 *)(a + k + 2) * *(const d2 *)(b + k + 2);
+    }
+    double s[4] = {lo[0], lo[1], hi[0], hi[1]};
+    for (; k < n; k++)
+        s[k & 3] += a[k] * b[k];
+    return (s[0] + s[1]) + (s[2] + s[3]);
+}
+
+/* x[0:n] += t a[0:n], entry by entry (the path's vectors, then one at a
+ * time). */
+INLINE void axpy_in_order(int n, double t, const double *a, double *x)
+{
+    int i = 0;
+    for (; i + VW <= n; i += VW)
+        *(vec *)(x + i) += t * *(const vec *)(a + i);
+    for (; i < n; i++)
+        x[i] += t * a[i];
+}
+
+/* G (upper triangle, p x p, ld) = U'U, then U^-1 in its place: LAPACK's
+ * unblocked dpotf2 ('U': each entry from its column's dot products) and
+ * dtrti2 (column j: the inverted leading block times U's column, then
+ * -1 / u_jj), which dpotrf and dtrtri run at these orders (p < 64) —
+ * but through OpenBLAS's level-2 calls, whose set-up cost more than
+ * their arithmetic at p ~ 20 (13 000 and 20 000 instructions a call
+ * against ~4 000 here). The same operations in a fixed order on every
+ * path. -1 when a pivot is not positive (or NaN): G is not positive
+ * definite. */
+static int cholesky_inverse(int p, double *G, int ld)
+{
+    assert(p >= 0 && ld >= p);
+    for (int j = 0; j < p; j++) {
+        double *uj = G + (size_t)j * ld;
+        for (int i = 0; i < j; i++) {
+            const double *ui = G + (size_t)i * ld;
+            uj[i] = (uj[i] - dot_in_order(i, ui, uj)) / ui[i];
+        }
+        double d = uj[j] - dot_in_order(j, uj, uj);
+        if (!(d > 0))
+            return -1;
+        uj[j] = sqrt(d);
+    }
+    for (int j = 0; j < p; j++) {
+        double *x = G + (size_t)j * ld;
+        x[j] = 1 / x[j];
+        for (int k = 0; k < j; k++) { /* x = U^-1(0:j, 0:j) x, column by column */
+            const double *a = G + (size_t)k * ld;
+            double t = x[k];
+            axpy_in_order(k, t, a, x);
+            x[k] = t * a[k];
+        }
+        double ajj = -x[j];
+        for (int i = 0; i < j; i++)
+            x[i] *= ajj;
+    }
+    return 0;
+}
+
 const dm_boundary_kernels DM_ISA_TABLE(dm_boundary_kernels_) = {
+    .cholesky_inverse = cholesky_inverse,
     .scale_rows = scale_rows,
     .chebyshev_step = chebyshev_step,
     .mult = mult,
