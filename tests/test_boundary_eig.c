@@ -478,15 +478,17 @@ static void kernels_give_the_same_bits_on_every_path(void **state)
     free(A), free(X), free(Y0), free(bound), free(ref);
 }
 
-/* The Cholesky factor's inverse (cholesky_inverse: the Rayleigh-Ritz's
- * standard form, the Cholesky QRs, S^-1): every path gives the baseline's
+/* The Cholesky kernels (cholesky_upper, inverse_upper: the
+ * Rayleigh-Ritz's standard form, the Cholesky QRs, S^-1; cholesky_solve:
+ * the statics, K_red^-1 for the moves): every path gives the baseline's
  * bits; the baseline's U^-1 satisfies U^-T G U^-1 = I within the bound of
  * a backward-stable factor and inverse, c n eps kappa(G) (c = 4, the
  * factor's and the inverse's errors side by side; kappa up to 1e8 tried,
  * as Y'MY's at SKEW_MAX^2 = 1e14 would be above it, and equal to
- * LAPACK's dpotrf + dtrtri within that bound); what lies below the
- * diagonal is neither read nor written; an indefinite matrix and one with
- * a NaN are refused. */
+ * LAPACK's dpotrf + dtrtri within that bound), and the solve equals
+ * dpotrs's within twice that (8 n eps kappa of its largest entry: two
+ * forward errors); what lies below the diagonal is neither read nor
+ * written; an indefinite matrix and one with a NaN are refused. */
 static void cholesky_inverse_on_every_path(void **state)
 {
     (void)state;
@@ -499,6 +501,9 @@ static void cholesky_inverse_on_every_path(void **state)
         for (size_t c = 0; c < sizeof conds / sizeof conds[0]; c++) {
             int n = dims[a];
             double G[LD * MAXN], Q[LD * MAXN], base[LD * MAXN], lap[LD * MAXN], y[LD * MAXN];
+            double sol[MAXN], b[MAXN] = {0}; /* a right-hand side, the same on every path */
+            for (int i = 0; i < n; i++)
+                b[i] = dm_rng_normal(&rng);
             /* G = Q diag(kappa^(-i/(n-1))) Q', Q orthogonal (a QR of normals) */
             for (int i = 0; i < LD * MAXN; i++)
                 Q[i] = dm_rng_normal(&rng);
@@ -526,7 +531,32 @@ static void cholesky_inverse_on_every_path(void **state)
                 for (int j = 0; j < n; j++) /* below the diagonal: not read, not written */
                     for (int i = j + 1; i < n; i++)
                         y[i + j * LD] = NAN;
-                assert_int_equal(dm_boundary_kernels_of((dm_isa)p)->cholesky_inverse(n, y, LD), 0);
+                const dm_boundary_kernels *kr = dm_boundary_kernels_of((dm_isa)p);
+                assert_int_equal(kr->cholesky_upper(n, y, LD), 0);
+                /* the solve with the factor, against dpotrs's within the
+                 * forward error of two backward-stable solves */
+                double xs[MAXN], xl[MAXN];
+                memcpy(xs, b, sizeof b);
+                kr->cholesky_solve(n, y, LD, xs, MAXN, 1);
+                if (p == DM_ISA_DEFAULT) {
+                    memcpy(xl, b, sizeof b);
+                    double f[LD * MAXN];
+                    memcpy(f, G, sizeof f);
+                    assert_int_equal(LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', n, f, LD), 0);
+                    assert_int_equal(LAPACKE_dpotrs(LAPACK_COL_MAJOR, 'U', n, 1, f, LD, xl, MAXN), 0);
+                    double big = 0;
+                    for (int i = 0; i < n; i++)
+                        big = fmax(big, fabs(xl[i]));
+                    for (int i = 0; i < n; i++)
+                        if (!(fabs(xs[i] - xl[i]) <= 8 * n * DBL_EPSILON * conds[c] * big))
+                            fail_msg("order %d, kappa %.0e: solve's entry %d %.17g, dpotrs's %.17g",
+                                     n, conds[c], i, xs[i], xl[i]);
+                    memcpy(sol, xs, sizeof xs);
+                } else if (memcmp(xs, sol, sizeof(double) * n)) {
+                    fail_msg("path %s, order %d: the solve is not the baseline's bits",
+                             dm_isa_name((dm_isa)p), n);
+                }
+                kr->inverse_upper(n, y, LD);
                 for (int j = 0; j < n; j++)
                     for (int i = j + 1; i < n; i++)
                         assert_true(isnan(y[i + j * LD]));
@@ -561,9 +591,9 @@ static void cholesky_inverse_on_every_path(void **state)
         if (dm_isa_available((dm_isa)p)) {
             double t[4];
             memcpy(t, bad, sizeof t);
-            assert_int_equal(dm_boundary_kernels_of((dm_isa)p)->cholesky_inverse(2, t, 2), -1);
+            assert_int_equal(dm_boundary_kernels_of((dm_isa)p)->cholesky_upper(2, t, 2), -1);
             memcpy(t, nan, sizeof t);
-            assert_int_equal(dm_boundary_kernels_of((dm_isa)p)->cholesky_inverse(2, t, 2), -1);
+            assert_int_equal(dm_boundary_kernels_of((dm_isa)p)->cholesky_upper(2, t, 2), -1);
         }
     print_message("Cholesky inverses: %d checked on every path\n", checked);
 }

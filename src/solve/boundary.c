@@ -134,7 +134,9 @@ int dm_boundary_solve(dm_boundary *bw, const dm_pose *pose, dm_boundary_statics 
     for (int c = 0; c < nB; c++) /* S whole, for the modes */
         for (int r = c; r < nB; r++)
             bw->Sk[(size_t)c * nB + r] = bw->Sk[(size_t)r * nB + c] = bw->S[(size_t)c * nB + r];
-    if (LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'L', nB, bw->S, nB))
+    const dm_boundary_kernels *kr = dm_boundary_kernels_of(dm_isa_active());
+    memcpy(bw->S, bw->Sk, sizeof(double) * nB * nB);
+    if (kr->cholesky_upper(nB, bw->S, nB))
         return dm_fail(err, DM_ENUMERIC,
                        "boundary problem (member bases) is not positive definite at this pose");
     for (int k = 0; k < nB; k++)
@@ -142,8 +144,8 @@ int dm_boundary_solve(dm_boundary *bw, const dm_pose *pose, dm_boundary_statics 
     memset(bw->X6, 0, sizeof(double) * nB * 6);
     for (int j = 0; j < 6; j++)
         bw->X6[(size_t)j * nB + p + j] = 1.0;
-    LAPACKE_dpotrs_work(LAPACK_COL_MAJOR, 'L', nB, 1, bw->S, nB, bw->F, nB);
-    LAPACKE_dpotrs_work(LAPACK_COL_MAJOR, 'L', nB, 6, bw->S, nB, bw->X6, nB);
+    kr->cholesky_solve(nB, bw->S, nB, bw->F, nB, 1);
+    kr->cholesky_solve(nB, bw->S, nB, bw->X6, nB, 6);
     for (int j = 0; j < 6; j++) {
         res->static_error[j] = bw->F[p + j];
         for (int r = 0; r < 6; r++) /* symmetric to the last bit, as S^-1 is */

@@ -254,7 +254,7 @@ static void apply_K(const dm_boundary_eig *e, const dm_boundary *bw, const doubl
 static void solve_K(const dm_boundary_eig *e, const dm_boundary *bw, double *X, int ncol)
 {
     int nr = e->nr, nB = e->nB;
-    LAPACKE_dpotrs_work(LAPACK_COL_MAJOR, 'L', nB, ncol, bw->S, nB, X, nr);
+    kernels()->cholesky_solve(nB, bw->S, nB, X, nr, ncol);
     for (int c = 0; c < ncol; c++)
         for (int i = 0; i < e->nv; i++)
             X[(size_t)c * nr + nB + i] /= e->d[i];
@@ -282,19 +282,17 @@ static void transpose(const double *A, int k, int p, int lda, double *At)
 /* Sinv = S^-1 and dinv = 1/d: the filter's K^-1 as two products, which
  * take a third of the time of the triangular solves at these sizes (0.5
  * against 4.9 us for 24 x 24 on 20 columns, measured). S^-1 = U^-1 U^-T
- * from S = U'U (cholesky_inverse on S, both triangles kept by the
- * statics, then one product: LAPACK's dpotri from the statics' factor
- * took 46 000 instructions a call at 24 x 24, 1.5 % of a chen2018
- * sweep's). Only the filter and the residuals' estimates use them: the
- * filter's rounding is corrected by the projection that follows. -1
- * when S is singular. */
-static int inverse_K(dm_boundary_eig *e, const dm_boundary *bw)
+ * from the statics' factor S = U'U (the kernels' inverse and one
+ * product: LAPACK's dpotri took 46 000 instructions a call at 24 x 24,
+ * 1.5 % of a chen2018 sweep's). Only the filter and the residuals'
+ * estimates use them: the filter's rounding is corrected by the
+ * projection that follows. */
+static void inverse_K(dm_boundary_eig *e, const dm_boundary *bw)
 {
     int nB = e->nB;
     double *Ui = e->D, *UiT = e->T; /* scratch: the count's, the block's */
-    memcpy(Ui, bw->Sk, sizeof(double) * nB * nB);
-    if (kernels()->cholesky_inverse(nB, Ui, nB))
-        return -1;
+    memcpy(Ui, bw->S, sizeof(double) * nB * nB); /* the statics' factor */
+    kernels()->inverse_upper(nB, Ui, nB);
     for (int c = 0; c < nB; c++)
         for (int r = c + 1; r < nB; r++)
             Ui[(size_t)c * nB + r] = 0;
@@ -305,7 +303,6 @@ static int inverse_K(dm_boundary_eig *e, const dm_boundary *bw)
             e->Sinv[(size_t)c * nB + r] = e->Sinv[(size_t)r * nB + c];
     for (int i = 0; i < e->nv; i++)
         e->dinv[i] = 1 / e->d[i];
-    return 0;
 }
 
 /* Y = K^-1 X through Sinv and dinv (ncol columns, leading dimension nr). */
@@ -323,6 +320,16 @@ static void rotate_block(dm_boundary_eig *e, const double *Q, int q)
     e->X = e->T, e->T = old;
 }
 
+/* G (upper triangle, p x p) = U'U, U^-1 left in it; -1 when G is not
+ * positive definite. */
+static int factor_inverse(int p, double *G)
+{
+    if (kernels()->cholesky_upper(p, G, p))
+        return -1;
+    kernels()->inverse_upper(p, G, p);
+    return 0;
+}
+
 /* The pencil (H, G) (upper triangles) as the standard problem
  * U^-T H U^-1 (into T, p x p), G = U'U: G becomes U^-1 with zeros below
  * its diagonal, H is overwritten. What dsygv does, but with the
@@ -333,7 +340,7 @@ static int standard_form(dm_boundary_eig *e, double *G)
 {
     int p = e->p;
     double *H = e->H;
-    if (kernels()->cholesky_inverse(p, G, p))
+    if (factor_inverse(p, G))
         return -1;
     for (int j = 0; j < p; j++)
         for (int i = j + 1; i < p; i++) {
@@ -437,7 +444,7 @@ static int rescale(dm_boundary_eig *e, double *Y, double *MY, double *Yp)
     double *G = e->H, *m[3] = {Y, MY, Yp};
     transpose(Y, nr, p, nr, e->T); /* T is free while the filter runs */
     kernels()->mult_upper(p, p, nr, e->T, p, MY, nr, G, p);
-    if (kernels()->cholesky_inverse(p, G, p))
+    if (factor_inverse(p, G))
         return -1;
     for (int t = 0; t < 3; t++) /* by R^-1 (a product: dtrsm took 2.5 times as long) */
         if (m[t])
@@ -743,8 +750,7 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
     info = info ? info : &dummy;
     memset(info, 0, sizeof *info);
     pose_mass(e, bw);
-    if (inverse_K(e, bw))
-        return dm_fail(err, DM_ENUMERIC, "reduced eigensolver: S is singular");
+    inverse_K(e, bw);
     info->cold = e->nstart == 0;
     random_columns(e, bw, e->nstart);
     int planned = e->nstart == e->p ? e->plan : 0, top = 0;

@@ -12,7 +12,8 @@ struct dm_boundary {
     const dm_members *ms;
     dm_members_pose mp; /* the last solve's pose */
     int nB;
-    double *S;      /* nB x nB: Schur complement of K (lower), then its Cholesky factor */
+    double *S;      /* nB x nB: Schur complement of K's Cholesky factor U (upper, U'U = S;
+                       the path's kernels: boundary_kernels.c) */
     double *Sk;     /* nB x nB: S, both triangles */
     double *D;      /* nB x nB: the boundary's dynamic stiffness at a shift */
     double *F;      /* nB: condensed gravity load, then x_B */
@@ -74,10 +75,15 @@ typedef struct dm_boundary_kernels {
     /* Y[i + j ldy] = v[i] X[i + j ldx] (m x n; Y apart from X) */
     void (*scale_rows)(int m, int n, const double *v, const double *X, int ldx, double *Y,
                        int ldy);
-    /* G's upper triangle (p x p, ld; symmetric positive definite) = U'U,
-     * U upper triangular; U^-1 is left in it (below the diagonal is
-     * neither read nor written). -1 when G is not positive definite. */
-    int (*cholesky_inverse)(int p, double *G, int ld);
+    /* G's upper triangle (p x p, ld; symmetric positive definite) becomes
+     * U, U'U = G, U upper triangular (below the diagonal is neither read
+     * nor written). -1 when G is not positive definite. */
+    int (*cholesky_upper)(int p, double *G, int ld);
+    /* U (upper triangular, ld) = U^-1 in place; below the diagonal is
+     * neither read nor written */
+    void (*inverse_upper)(int p, double *U, int ld);
+    /* X = (U'U)^-1 X for U from cholesky_upper, ncol columns (ldx) */
+    void (*cholesky_solve)(int p, const double *U, int ld, double *X, int ldx, int ncol);
     /* Yn = 2/c (Yn - c Y) - Yp over n entries; with Yp NULL, 1/c (Yn - c Y) */
     void (*chebyshev_step)(size_t n, double c, const double *Y, const double *Yp, double *Yn);
 } dm_boundary_kernels;

@@ -253,17 +253,18 @@ INLINE void axpy_in_order(int n, double t, const double *a, double *x)
         x[i] += t * a[i];
 }
 
-/* G (upper triangle, p x p, ld) = U'U, then U^-1 in its place: LAPACK's
- * unblocked dpotf2 ('U': each entry from its column's dot products) and
- * dtrti2 (column j: the inverted leading block times U's column, then
- * -1 / u_jj), which dpotrf and dtrtri run at these orders (p < 64) —
- * but through OpenBLAS's level-2 calls, whose set-up cost more than
- * their arithmetic at p ~ 20 (13 000 and 20 000 instructions a call
- * against ~7 000 here). Each pivot's reciprocal is taken once, as dpotf2
- * scales by it: a column's entries then wait on a product, not a
- * division. The same operations in a fixed order on every path. -1 when
- * a pivot is not positive (or NaN): G is not positive definite. */
-static int cholesky_inverse(int p, double *G, int ld)
+/* The Cholesky factor and its uses, at the orders of the reduced problem
+ * (20-40) and the boundary (24): LAPACK's unblocked algorithms, which
+ * dpotrf, dtrtri and dpotrs run there too — but through OpenBLAS's
+ * level-2 and dtrsm calls, whose set-up cost more than their arithmetic
+ * (13 000, 20 000 and 16 000 instructions a call at 20-24, against some
+ * 3 000-4 000 here). The same operations in a fixed order on every path.
+ *
+ * G's upper triangle = U'U (dpotf2 'U': each entry from its column's dot
+ * products, each pivot's reciprocal taken once, as dpotf2 scales by it:
+ * a column's entries wait on a product, not a division). -1 when a pivot
+ * is not positive (or NaN): G is not positive definite. */
+static int cholesky_upper(int p, double *G, int ld)
 {
     assert(p >= 0 && ld >= p);
     double rd[p > 0 ? p : 1]; /* 1 / u_ii */
@@ -277,11 +278,19 @@ static int cholesky_inverse(int p, double *G, int ld)
         uj[j] = sqrt(d);
         rd[j] = 1 / uj[j];
     }
+    return 0;
+}
+
+/* U (upper) = U^-1 in place (dtrti2: column j is the inverted leading
+ * block times U's column, then times -1 / u_jj). */
+static void inverse_upper(int p, double *U, int ld)
+{
+    assert(p >= 0 && ld >= p);
     for (int j = 0; j < p; j++) {
-        double *x = G + (size_t)j * ld;
-        x[j] = rd[j];
+        double *x = U + (size_t)j * ld;
+        x[j] = 1 / x[j];
         for (int k = 0; k < j; k++) { /* x = U^-1(0:j, 0:j) x, column by column */
-            const double *a = G + (size_t)k * ld;
+            const double *a = U + (size_t)k * ld;
             double t = x[k];
             axpy_in_order(k, t, a, x);
             x[k] = t * a[k];
@@ -290,11 +299,32 @@ static int cholesky_inverse(int p, double *G, int ld)
         for (int i = 0; i < j; i++)
             x[i] *= ajj;
     }
-    return 0;
+}
+
+/* X = (U'U)^-1 X, ncol columns (ldx): U'y = x by dot products down U's
+ * columns, then U x = y by columns from the last (dpotrs's two
+ * triangular solves, each pivot's reciprocal taken once a call). */
+static void cholesky_solve(int p, const double *U, int ld, double *X, int ldx, int ncol)
+{
+    assert(p >= 0 && ld >= p && ldx >= p);
+    double rd[p > 0 ? p : 1];
+    for (int i = 0; i < p; i++)
+        rd[i] = 1 / U[i + (size_t)i * ld];
+    for (int c = 0; c < ncol; c++) {
+        double *x = X + (size_t)c * ldx;
+        for (int i = 0; i < p; i++)
+            x[i] = (x[i] - dot_in_order(i, U + (size_t)i * ld, x)) * rd[i];
+        for (int k = p - 1; k >= 0; k--) {
+            x[k] *= rd[k];
+            axpy_in_order(k, -x[k], U + (size_t)k * ld, x);
+        }
+    }
 }
 
 const dm_boundary_kernels DM_ISA_TABLE(dm_boundary_kernels_) = {
-    .cholesky_inverse = cholesky_inverse,
+    .cholesky_upper = cholesky_upper,
+    .inverse_upper = inverse_upper,
+    .cholesky_solve = cholesky_solve,
     .scale_rows = scale_rows,
     .chebyshev_step = chebyshev_step,
     .mult = mult,
