@@ -598,6 +598,118 @@ static void cholesky_inverse_on_every_path(void **state)
     print_message("Cholesky inverses: %d checked on every path\n", checked);
 }
 
+/* The tridiagonal form (tridiagonalise: the Rayleigh-Ritz's eigenproblem
+ * as dsyev makes it, the reduction by the kernels and dsteqr): every
+ * path gives the baseline's bits; Q is orthogonal to 4 n eps and Q T Q'
+ * is A to 8 n eps |A| (a backward-stable reduction's bounds, n
+ * reflectors of 2 n-long products); with dsteqr, the eigenvalues are
+ * dsyev's within the same 8 n eps |A| (both backward stable) and the
+ * eigenvectors A-orthogonal residuals |A q - lambda q| within it too.
+ * Spectra from 1 to 1e4 (the projected problems' spread) in a random
+ * orthogonal basis, with a pair 1e-9 apart (the symmetric robots'
+ * modes), and a diagonal matrix (no reflector at all). */
+static void tridiagonal_form_on_every_path(void **state)
+{
+    (void)state;
+    const int dims[] = {1, 2, 3, 5, 12, 20, 38};
+    enum { MAXN = 38, LD = MAXN + 1 };
+    dm_rng rng = {.state = 0x7d1a};
+    int checked = 0;
+    double worst_ev = 0;
+    for (size_t a = 0; a < sizeof dims / sizeof dims[0]; a++)
+        for (int kind = 0; kind < 2; kind++) { /* 0: a random basis, 1: diagonal */
+            int n = dims[a];
+            double A[LD * MAXN], Q[LD * MAXN], lam[MAXN], tau[MAXN];
+            for (int i = 0; i < n; i++)
+                lam[i] = pow(1e4, n > 1 ? (double)i / (n - 1) : 0);
+            if (n > 3)
+                lam[2] = lam[1] * (1 + 1e-9);
+            for (int i = 0; i < LD * MAXN; i++)
+                Q[i] = dm_rng_normal(&rng);
+            assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, n, Q, LD, tau), 0);
+            assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, n, n, n, Q, LD, tau), 0);
+            double amax = 0;
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < n; i++) {
+                    ldbl sum = 0;
+                    for (int r = 0; r < n; r++)
+                        sum += kind ? (ldbl)(i == r) * (j == r) * lam[r]
+                                    : (ldbl)Q[i + r * LD] * Q[j + r * LD] * lam[r];
+                    A[i + j * LD] = (double)sum;
+                }
+            for (int j = 0; j < n; j++)
+                for (int i = j + 1; i < n; i++)
+                    A[i + j * LD] = A[j + i * LD];
+            for (int i = 0; i < n * LD; i++)
+                amax = fmax(amax, fabs(A[i]));
+            double bd[MAXN], be[MAXN], bq[LD * MAXN];
+            for (int p = 0; p < DM_ISA_COUNT; p++) {
+                if (!dm_isa_available((dm_isa)p))
+                    continue;
+                double t[LD * MAXN], d[MAXN], e[MAXN], q[LD * MAXN];
+                memcpy(t, A, sizeof t);
+                for (int j = 0; j < n; j++) /* only the upper triangle is read */
+                    for (int i = j + 1; i < n; i++)
+                        t[i + j * LD] = NAN;
+                dm_boundary_kernels_of((dm_isa)p)->tridiagonalise(n, t, LD, d, e, q, LD);
+                if (p == DM_ISA_DEFAULT) {
+                    memcpy(bd, d, sizeof d), memcpy(be, e, sizeof e), memcpy(bq, q, sizeof q);
+                } else if (memcmp(d, bd, sizeof(double) * n) ||
+                           memcmp(e, be, sizeof(double) * (n - 1)) ||
+                           memcmp(q, bq, sizeof(double) * LD * n)) {
+                    fail_msg("path %s, order %d: not the baseline's bits", dm_isa_name((dm_isa)p),
+                             n);
+                }
+                checked++;
+            }
+            double orth = 0, back = 0;
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < n; i++) {
+                    ldbl qq = 0, qtq = 0;
+                    for (int r = 0; r < n; r++) {
+                        qq += (ldbl)bq[r + i * LD] * bq[r + j * LD];
+                        /* (Q T Q')_ij: T's row r has r-1, r, r+1 */
+                        ldbl tq = (ldbl)bd[r] * bq[j + r * LD];
+                        if (r > 0)
+                            tq += (ldbl)be[r - 1] * bq[j + (r - 1) * LD];
+                        if (r + 1 < n)
+                            tq += (ldbl)be[r] * bq[j + (r + 1) * LD];
+                        qtq += (ldbl)bq[i + r * LD] * tq;
+                    }
+                    orth = fmax(orth, fabs((double)qq - (i == j)));
+                    back = fmax(back, fabs((double)qtq - A[i + j * LD]));
+                }
+            if (!(orth <= 4 * n * DBL_EPSILON && back <= 8 * n * DBL_EPSILON * amax))
+                fail_msg("order %d, kind %d: Q'Q - I %.3g, Q T Q' - A %.3g (|A| %.3g)", n, kind,
+                         orth, back, amax);
+            /* the pipeline against dsyev */
+            double w[MAXN], ws[MAXN], work[4 * MAXN], s2[LD * MAXN];
+            memcpy(w, bd, sizeof w);
+            double sub[MAXN];
+            memcpy(sub, be, sizeof sub);
+            assert_int_equal(LAPACKE_dsteqr_work(LAPACK_COL_MAJOR, 'V', n, w, sub, bq, LD, work), 0);
+            memcpy(s2, A, sizeof s2);
+            assert_int_equal(LAPACKE_dsyev(LAPACK_COL_MAJOR, 'N', 'U', n, s2, LD, ws), 0);
+            for (int j = 0; j < n; j++) {
+                worst_ev = fmax(worst_ev, fabs(w[j] - ws[j]) / amax);
+                if (!(fabs(w[j] - ws[j]) <= 8 * n * DBL_EPSILON * amax))
+                    fail_msg("order %d, kind %d: eigenvalue %d %.17g, dsyev's %.17g", n, kind, j,
+                             w[j], ws[j]);
+                double res = 0; /* |A q - lambda q| */
+                for (int i = 0; i < n; i++) {
+                    ldbl aq = 0;
+                    for (int r = 0; r < n; r++)
+                        aq += (ldbl)A[i + r * LD] * bq[r + j * LD];
+                    res = fmax(res, fabs((double)(aq - (ldbl)w[j] * bq[i + j * LD])));
+                }
+                if (!(res <= 8 * n * DBL_EPSILON * amax))
+                    fail_msg("order %d, kind %d: eigenvector %d's residual %.3g", n, kind, j, res);
+            }
+        }
+    print_message("tridiagonal forms: %d checked on every path; eigenvalues within %.2g |A| of "
+                  "dsyev's\n", checked, worst_ev);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -605,6 +717,7 @@ int main(void)
         cmocka_unit_test(seed_decides_the_bits),
         cmocka_unit_test(kernels_give_the_same_bits_on_every_path),
         cmocka_unit_test(cholesky_inverse_on_every_path),
+        cmocka_unit_test(tridiagonal_form_on_every_path),
     };
     return cmocka_run_group_tests_name("boundary_eig", tests, NULL, NULL);
 }

@@ -1,8 +1,9 @@
 /* The reduced problem's lowest modes by warm-started, Chebyshev-filtered
  * subspace iteration (dm_boundary.h, dm_boundary_eig_solve: the method and
- * the bound). The block's products and the Cholesky factors' inverses
- * go through the path's kernels (boundary_kernels.c), the projected
- * eigenproblems through LAPACK. */
+ * the bound). The block's products, the Cholesky factors and their
+ * inverses and the projected eigenproblems' tridiagonal forms go through
+ * the path's kernels (boundary_kernels.c), the tridiagonal eigenproblems
+ * through LAPACK's dsteqr. */
 #include <assert.h>
 #include <cblas.h>
 #include <math.h>
@@ -366,10 +367,15 @@ static int ritz_on_start(dm_boundary_eig *e, const dm_boundary *bw)
     transpose(e->X, nr, p, nr, e->T); /* X'KX and X'MX, their upper triangles */
     kernels()->mult_upper(p, p, nr, e->T, p, e->KX, nr, e->H, p);
     kernels()->mult_upper(p, p, nr, e->T, p, MX, nr, G, p);
-    if (standard_form(e, G) ||
-        LAPACKE_dsyev_work(LAPACK_COL_MAJOR, 'V', 'U', p, e->T, p, e->w, e->work, e->lwork))
+    if (standard_form(e, G))
         return -1;
-    kernels()->mult(p, p, p, G, p, e->T, p, 0, e->H, p); /* Q = U^-1 Q~ */
+    /* its eigenpairs as dsyev makes them: tridiagonal form (the kernels)
+     * and dsteqr, the eigenvectors Q~ into KW (free between filters) */
+    double *Qt = e->KW, *sub = e->work;
+    kernels()->tridiagonalise(p, e->T, p, e->w, sub, Qt, p);
+    if (LAPACKE_dsteqr_work(LAPACK_COL_MAJOR, 'V', p, e->w, sub, Qt, p, e->work + p))
+        return -1;
+    kernels()->mult(p, p, p, G, p, Qt, p, 0, e->H, p); /* Q = U^-1 Q~ */
     rotate_block(e, e->H, p);
     return 0;
 }

@@ -84,6 +84,11 @@ typedef struct dm_boundary_kernels {
     void (*inverse_upper)(int p, double *U, int ld);
     /* X = (U'U)^-1 X for U from cholesky_upper, ncol columns (ldx) */
     void (*cholesky_solve)(int p, const double *U, int ld, double *X, int ldx, int ncol);
+    /* A (n x n, lda; symmetric, its upper triangle read) = Q T Q': T's
+     * diagonal d (n) and subdiagonal e (n - 1), Q (n x n, ldq) orthogonal,
+     * as dsytrd and dorgtr give them to dsteqr; A's lower triangle is
+     * overwritten */
+    void (*tridiagonalise)(int n, double *A, int lda, double *d, double *e, double *Q, int ldq);
     /* Yn = 2/c (Yn - c Y) - Yp over n entries; with Yp NULL, 1/c (Yn - c Y) */
     void (*chebyshev_step)(size_t n, double c, const double *Y, const double *Yp, double *Yn);
 } dm_boundary_kernels;
