@@ -487,8 +487,11 @@ static int filter(dm_boundary_eig *e, int degree, double b, double theta1)
         double *old = Yp;
         Yp = Y, Y = Yn, Yn = old;
     }
-    if (Y != e->X)
-        memcpy(e->X, Y, sizeof(double) * np);
+    if (Y != e->X) { /* the block's buffer is Y's now (all hold nr x 2 pmax) */
+        double **slot = Y == e->W ? &e->W : &e->KW;
+        assert(*slot == Y);
+        *slot = e->X, e->X = Y;
+    }
     return 0;
 }
 
