@@ -12,8 +12,9 @@ struct dm_boundary {
     const dm_members *ms;
     dm_members_pose mp; /* the last solve's pose */
     int nB;
-    double *S;      /* nB x nB: Schur complement of K's Cholesky factor U (upper, U'U = S;
-                       the path's kernels: boundary_kernels.c) */
+    double *S;      /* nB x nB: K's Schur complement S on the boundary, assembled in
+                       the lower triangle; then its Cholesky factor U (upper, U'U = S,
+                       by the path's kernels: boundary_kernels.c) */
     double *Sk;     /* nB x nB: S, both triangles */
     double *D;      /* nB x nB: the boundary's dynamic stiffness at a shift */
     double *F;      /* nB: condensed gravity load, then x_B */

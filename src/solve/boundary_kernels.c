@@ -1,5 +1,5 @@
-/* The reduced problem's small dense products and Cholesky inverses
- * (boundary_eig.c), compiled
+/* The reduced problem's small dense products, Cholesky factors and
+ * tridiagonal forms (boundary_eig.c, boundary.c), compiled
  * once per instruction-set path as the block-arrow kernels are (dm_isa.h,
  * src/model/arrow_kernels.c): the path's table is
  * dm_boundary_kernels_PATH.
@@ -255,10 +255,13 @@ INLINE void axpy_in_order(int n, double t, const double *a, double *x)
 
 /* The Cholesky factor and its uses, at the orders of the reduced problem
  * (20-40) and the boundary (24): LAPACK's unblocked algorithms, which
- * dpotrf, dtrtri and dpotrs run there too — but through OpenBLAS's
- * level-2 and dtrsm calls, whose set-up cost more than their arithmetic
- * (13 000, 20 000 and 16 000 instructions a call at 20-24, against some
- * 3 000-4 000 here). The same operations in a fixed order on every path.
+ * dpotrf, dtrtri, dpotri and dpotrs run there too, through OpenBLAS's
+ * level-2 and dtrsm calls. Counted on a chen2018 sweep (callgrind,
+ * instructions a call): the factor at 20 12 600 (dpotrf 13 200: the
+ * short dot products cost what OpenBLAS's calls did), the inverse 8 300
+ * (dtrtri 19 600), S^-1 at 24 with its product 18 000 (dpotri 46 000),
+ * a solve of 3 columns 6 100 (dpotrs 9 300). The same operations in a
+ * fixed order on every path.
  *
  * G's upper triangle = U'U (dpotf2 'U': each entry from its column's dot
  * products, each pivot's reciprocal taken once, as dpotf2 scales by it:
