@@ -60,6 +60,22 @@ dm_isa dm_isa_active(void);
 #define DM_ISA_NAME_(prefix, path) DM_ISA_PASTE_(prefix, path)
 #define DM_ISA_TABLE(prefix) DM_ISA_NAME_(prefix, DM_ISA_PATH)
 
+/* A module's tables, one a path this build has (in its private header):
+ * DM_ISA_DECLARE(dm_arrow_kernels, dm_arrow_kernels_) declares
+ * dm_arrow_kernels_default and, on x86-64, ..._avx2 and ..._avx512; and
+ * DM_ISA_SELECT(dm_arrow_kernels_, isa) is the address of path isa's
+ * (isa one dm_isa_available admits). */
+#if defined(__x86_64__)
+#define DM_ISA_DECLARE(type, prefix)                                                              \
+    extern const type prefix##default, prefix##avx2, prefix##avx512
+#define DM_ISA_SELECT(prefix, isa)                                                                \
+    ((isa) == DM_ISA_AVX512 ? &prefix##avx512 : (isa) == DM_ISA_AVX2 ? &prefix##avx2              \
+                                                                     : &prefix##default)
+#else
+#define DM_ISA_DECLARE(type, prefix) extern const type prefix##default
+#define DM_ISA_SELECT(prefix, isa) ((void)(isa), &prefix##default)
+#endif
+
 /* The CPU's model name ("AMD EPYC 9R14", ...), or the architecture when the
  * system does not say; into buf, always terminated. */
 void dm_isa_cpu_model(char *buf, size_t size);

@@ -16,13 +16,7 @@
 const dm_arrow_kernels *dm_arrow_kernels_of(dm_isa isa)
 {
     assert(dm_isa_available(isa));
-#if defined(__x86_64__)
-    if (isa == DM_ISA_AVX512)
-        return &dm_arrow_kernels_avx512;
-    if (isa == DM_ISA_AVX2)
-        return &dm_arrow_kernels_avx2;
-#endif
-    return &dm_arrow_kernels_default;
+    return DM_ISA_SELECT(dm_arrow_kernels_, isa);
 }
 
 /* The kernels of the process's path (chosen once: dm_isa_active). */

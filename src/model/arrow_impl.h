@@ -34,10 +34,7 @@ typedef struct dm_arrow_kernels {
     int slice_max; /* the widest slice of columns the path holds in registers */
 } dm_arrow_kernels;
 
-extern const dm_arrow_kernels dm_arrow_kernels_default;
-#if defined(__x86_64__)
-extern const dm_arrow_kernels dm_arrow_kernels_avx2, dm_arrow_kernels_avx512;
-#endif
+DM_ISA_DECLARE(dm_arrow_kernels, dm_arrow_kernels_);
 
 /* The table of a path this build has (dm_isa_available). */
 const dm_arrow_kernels *dm_arrow_kernels_of(dm_isa isa);

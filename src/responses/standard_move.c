@@ -322,14 +322,7 @@ static void on_block(dm_move_ws *w, const space *sp, block_op op, const double *
 /* The path's vector loops (standard_move_kernels.c), chosen once. */
 static const dm_move_kernels *kernels(void)
 {
-#if defined(__x86_64__)
-    switch (dm_isa_active()) {
-    case DM_ISA_AVX512: return &dm_move_kernels_avx512;
-    case DM_ISA_AVX2: return &dm_move_kernels_avx2;
-    default: break;
-    }
-#endif
-    return &dm_move_kernels_default;
+    return DM_ISA_SELECT(dm_move_kernels_, dm_isa_active());
 }
 
 static double dot(const double *a, const double *b, int n)

@@ -34,9 +34,6 @@ typedef struct dm_move_kernels {
                         double *out);
 } dm_move_kernels;
 
-extern const dm_move_kernels dm_move_kernels_default;
-#if defined(__x86_64__)
-extern const dm_move_kernels dm_move_kernels_avx2, dm_move_kernels_avx512;
-#endif
+DM_ISA_DECLARE(dm_move_kernels, dm_move_kernels_);
 
 #endif

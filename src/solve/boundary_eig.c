@@ -170,13 +170,7 @@ dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
 const dm_boundary_kernels *dm_boundary_kernels_of(dm_isa isa)
 {
     assert(dm_isa_available(isa));
-#if defined(__x86_64__)
-    if (isa == DM_ISA_AVX512)
-        return &dm_boundary_kernels_avx512;
-    if (isa == DM_ISA_AVX2)
-        return &dm_boundary_kernels_avx2;
-#endif
-    return &dm_boundary_kernels_default;
+    return DM_ISA_SELECT(dm_boundary_kernels_, isa);
 }
 
 /* The products of the process's path (chosen once: dm_isa_active). */

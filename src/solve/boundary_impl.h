@@ -94,10 +94,7 @@ typedef struct dm_boundary_kernels {
     void (*chebyshev_step)(size_t n, double c, const double *Y, const double *Yp, double *Yn);
 } dm_boundary_kernels;
 
-extern const dm_boundary_kernels dm_boundary_kernels_default;
-#if defined(__x86_64__)
-extern const dm_boundary_kernels dm_boundary_kernels_avx2, dm_boundary_kernels_avx512;
-#endif
+DM_ISA_DECLARE(dm_boundary_kernels, dm_boundary_kernels_);
 
 /* The table of a path this build and CPU have. */
 const dm_boundary_kernels *dm_boundary_kernels_of(dm_isa isa);
