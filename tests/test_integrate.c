@@ -827,8 +827,7 @@ static void standard_move_maxima_are_certified(void **state)
     (void)state;
     const char *names[] = {"chen2018", "zheng2017", "han2011"};
     const double s3 = sqrt(1.0 / 3);
-    static double dirs[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
-    dirs[3][0] = s3, dirs[3][1] = -s3, dirs[3][2] = s3;
+    double dirs[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {s3, -s3, s3}};
     const int k = 10;
     double worst_low = 0, worst_high = 0;
     int checked = 0;
