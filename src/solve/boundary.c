@@ -78,7 +78,7 @@ static void pose_couplings(dm_boundary *bw)
 
 void dm_boundary_congruence(const dm_boundary *bw, int m, const double *X, double *V)
 {
-    const dm_boundary_kernels *kr = dm_boundary_kernels_of(dm_isa_active());
+    const dm_boundary_kernels *kr = boundary_kernels();
     int nb = bw->ms->member[m].nb, nc = bw->nc[m];
     double XC[9 * 12];
     assert(nb <= 9 && nc <= 12);
@@ -134,7 +134,7 @@ int dm_boundary_solve(dm_boundary *bw, const dm_pose *pose, dm_boundary_statics 
     for (int c = 0; c < nB; c++) /* S whole, for the modes */
         for (int r = c; r < nB; r++)
             bw->Sk[(size_t)c * nB + r] = bw->Sk[(size_t)r * nB + c] = bw->S[(size_t)c * nB + r];
-    const dm_boundary_kernels *kr = dm_boundary_kernels_of(dm_isa_active());
+    const dm_boundary_kernels *kr = boundary_kernels();
     memcpy(bw->S, bw->Sk, sizeof(double) * nB * nB);
     if (kr->cholesky_upper(nB, bw->S, nB))
         return dm_fail(err, DM_ENUMERIC,

@@ -99,4 +99,10 @@ DM_ISA_DECLARE(dm_boundary_kernels, dm_boundary_kernels_);
 /* The table of a path this build and CPU have. */
 const dm_boundary_kernels *dm_boundary_kernels_of(dm_isa isa);
 
+/* The table of the process's path (chosen once: dm_isa_active). */
+static inline const dm_boundary_kernels *boundary_kernels(void)
+{
+    return dm_boundary_kernels_of(dm_isa_active());
+}
+
 #endif

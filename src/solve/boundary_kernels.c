@@ -38,9 +38,7 @@ typedef double vec __attribute__((vector_size(8 * VW), aligned(8), may_alias));
 #if VW == 8
 typedef double vec4 __attribute__((vector_size(32), aligned(8), may_alias));
 #endif
-#if VW >= 4
-typedef double vec2 __attribute__((vector_size(16), aligned(8), may_alias));
-#endif
+typedef double vec2 __attribute__((vector_size(16), aligned(8), may_alias)); /* vec where VW = 2 */
 typedef double vec1 __attribute__((aligned(8), may_alias));
 
 #define UNROLL _Pragma("GCC unroll 8")
@@ -222,19 +220,16 @@ static void chebyshev_step(size_t n, double c, const double *Y, const double *Yp
     }
 }
 
-/* Two doubles at any alignment (16 bytes: a register on every path). */
-typedef double d2 __attribute__((vector_size(16), aligned(8), may_alias));
-
 /* a'b over n, in four partial sums (k mod 4, two pairs of lanes) added as
  * (s0 + s1) + (s2 + s3): the chain of additions a quarter as long, the
  * order fixed. */
 INLINE double dot_in_order(int n, const double *a, const double *b)
 {
-    d2 lo = {0, 0}, hi = {0, 0};
+    vec2 lo = {0, 0}, hi = {0, 0}; /* two doubles: a register on every path */
     int k = 0;
     for (; k + 4 <= n; k += 4) {
-        lo += *(const d2 *)(a + k) * *(const d2 *)(b + k);
-        hi += *(const d2 *)(a + k + 2) * *(const d2 *)(b + k + 2);
+        lo += *(const vec2 *)(a + k) * *(const vec2 *)(b + k);
+        hi += *(const vec2 *)(a + k + 2) * *(const vec2 *)(b + k + 2);
     }
     double s[4] = {lo[0], lo[1], hi[0], hi[1]};
     for (; k < n; k++)
