@@ -33,6 +33,7 @@ enum { GUARD = 6, GUARD_MIN = 2, MAX_GROW = 4, MAX_ROUNDS = 20, MAX_DEGREE = 12,
 
 struct dm_boundary_eig {
     const dm_members *ms;
+    const dm_boundary_kernels *kr; /* the process's path (boundary_kernels), looked up once */
     int k, p, pmax, nr, nB, nv; /* p: the block's columns, growing to pmax */
     int q0[DM_MEMBERS_N];  /* each member's first interior coordinate */
     /* B's non-zero blocks: runs of boundary columns (the first c0, count
@@ -138,6 +139,7 @@ dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
     int nr = bw->nred, nB = bw->nB, p = k + MAX_GROW * GUARD < nr ? k + MAX_GROW * GUARD : nr;
     int q = 2 * p;
     assert(k >= 1 && k < nr);
+    e->kr = boundary_kernels();
     e->ms = bw->ms, e->k = k, e->pmax = p, e->p = k + GUARD < p ? k + GUARD : p, e->nr = nr, e->nB = nB, e->nv = nr - nB;
     e->rng.state = 0x39e1;
     e->lwork = 26 * q + q * q, e->liwork = 10 * q;
@@ -179,7 +181,7 @@ const dm_boundary_kernels *dm_boundary_kernels_of(dm_isa isa)
 static void pose_mass(dm_boundary_eig *e, dm_boundary *bw)
 {
     const dm_members *ms = bw->ms;
-    const dm_boundary_kernels *kr = boundary_kernels();
+    const dm_boundary_kernels *kr = e->kr;
     int nB = e->nB, nv = e->nv;
     double *P = e->T; /* a member's Gam' C (its columns: those it reaches) */
     dm_boundary_mass(bw, e->Mbb, nB);
@@ -205,7 +207,7 @@ static void pose_mass(dm_boundary_eig *e, dm_boundary *bw)
  * columns. */
 static void apply_M(const dm_boundary_eig *e, const double *X, int ncol, double *Y)
 {
-    const dm_boundary_kernels *kr = boundary_kernels();
+    const dm_boundary_kernels *kr = e->kr;
     int nr = e->nr, nB = e->nB, nv = e->nv;
     kr->mult(nB, ncol, nB, e->Mbb, nB, X, nr, 0, Y, nr);
     for (int a = 0; a < e->nrun; a++) { /* B's runs alone (column_runs) */
@@ -229,8 +231,8 @@ static void block_diag_times(const dm_boundary_eig *e, const double *A, const do
                              const double *X, int ncol, double *Y)
 {
     int nr = e->nr, nB = e->nB;
-    boundary_kernels()->mult(nB, ncol, nB, A, nB, X, nr, 0, Y, nr);
-    boundary_kernels()->scale_rows(e->nv, ncol, v, X + nB, nr, Y + nB, nr);
+    e->kr->mult(nB, ncol, nB, A, nB, X, nr, 0, Y, nr);
+    e->kr->scale_rows(e->nv, ncol, v, X + nB, nr, Y + nB, nr);
 }
 
 /* Y = K X; and X = K^-1 X in place (S's Cholesky factor from the statics). */
@@ -243,7 +245,7 @@ static void apply_K(const dm_boundary_eig *e, const dm_boundary *bw, const doubl
 static void solve_K(const dm_boundary_eig *e, const dm_boundary *bw, double *X, int ncol)
 {
     int nr = e->nr, nB = e->nB;
-    boundary_kernels()->cholesky_solve(nB, bw->S, nB, X, nr, ncol);
+    e->kr->cholesky_solve(nB, bw->S, nB, X, nr, ncol);
     for (int c = 0; c < ncol; c++)
         for (int i = 0; i < e->nv; i++)
             X[(size_t)c * nr + nB + i] /= e->d[i];
@@ -281,12 +283,12 @@ static void inverse_K(dm_boundary_eig *e, const dm_boundary *bw)
     int nB = e->nB;
     double *Ui = e->D, *UiT = e->T; /* scratch: the count's, the block's */
     memcpy(Ui, bw->S, sizeof(double) * nB * nB); /* the statics' factor */
-    boundary_kernels()->inverse_upper(nB, Ui, nB);
+    e->kr->inverse_upper(nB, Ui, nB);
     for (int c = 0; c < nB; c++)
         for (int r = c + 1; r < nB; r++)
             Ui[(size_t)c * nB + r] = 0;
     transpose(Ui, nB, nB, nB, UiT);
-    boundary_kernels()->mult_upper(nB, nB, nB, Ui, nB, UiT, nB, e->Sinv, nB);
+    e->kr->mult_upper(nB, nB, nB, Ui, nB, UiT, nB, e->Sinv, nB);
     for (int c = 0; c < nB; c++)
         for (int r = c + 1; r < nB; r++)
             e->Sinv[(size_t)c * nB + r] = e->Sinv[(size_t)r * nB + c];
@@ -304,18 +306,18 @@ static void inverse_K_times(const dm_boundary_eig *e, const double *X, int ncol,
  * (both hold nr x 2 pmax). */
 static void rotate_block(dm_boundary_eig *e, const double *Q, int q)
 {
-    boundary_kernels()->mult(e->nr, e->p, e->p, e->X, e->nr, Q, q, 0, e->T, e->nr);
+    e->kr->mult(e->nr, e->p, e->p, e->X, e->nr, Q, q, 0, e->T, e->nr);
     double *old = e->X;
     e->X = e->T, e->T = old;
 }
 
 /* G (upper triangle, p x p) = U'U, U^-1 left in it; -1 when G is not
  * positive definite. */
-static int factor_inverse(int p, double *G)
+static int factor_inverse(const dm_boundary_eig *e, int p, double *G)
 {
-    if (boundary_kernels()->cholesky_upper(p, G, p))
+    if (e->kr->cholesky_upper(p, G, p))
         return -1;
-    boundary_kernels()->inverse_upper(p, G, p);
+    e->kr->inverse_upper(p, G, p);
     return 0;
 }
 
@@ -329,16 +331,16 @@ static int standard_form(dm_boundary_eig *e, double *G)
 {
     int p = e->p;
     double *H = e->H;
-    if (factor_inverse(p, G))
+    if (factor_inverse(e, p, G))
         return -1;
     for (int j = 0; j < p; j++)
         for (int i = j + 1; i < p; i++) {
             G[(size_t)j * p + i] = 0;
             H[(size_t)j * p + i] = H[(size_t)i * p + j]; /* H whole */
         }
-    boundary_kernels()->mult_upper_in_place(p, p, H, p, G, p);     /* H U^-1 */
+    e->kr->mult_upper_in_place(p, p, H, p, G, p);     /* H U^-1 */
     transpose(H, p, p, p, e->T);                         /* U^-T H */
-    boundary_kernels()->mult_upper_in_place(p, p, e->T, p, G, p); /* U^-T H U^-1 */
+    e->kr->mult_upper_in_place(p, p, e->T, p, G, p); /* U^-T H U^-1 */
     return 0;
 }
 
@@ -353,17 +355,17 @@ static int ritz_on_start(dm_boundary_eig *e, const dm_boundary *bw)
     apply_K(e, bw, e->X, p, e->KX);
     apply_M(e, e->X, p, MX);
     transpose(e->X, nr, p, nr, e->T); /* X'KX and X'MX, their upper triangles */
-    boundary_kernels()->mult_upper(p, p, nr, e->T, p, e->KX, nr, e->H, p);
-    boundary_kernels()->mult_upper(p, p, nr, e->T, p, MX, nr, G, p);
+    e->kr->mult_upper(p, p, nr, e->T, p, e->KX, nr, e->H, p);
+    e->kr->mult_upper(p, p, nr, e->T, p, MX, nr, G, p);
     if (standard_form(e, G))
         return -1;
     /* its eigenpairs as dsyev makes them: tridiagonal form (the kernels)
      * and dsteqr, the eigenvectors Q~ into KW (free between filters) */
     double *Qt = e->KW, *sub = e->work;
-    boundary_kernels()->tridiagonalise(p, e->T, p, e->w, sub, Qt, p);
+    e->kr->tridiagonalise(p, e->T, p, e->w, sub, Qt, p);
     if (LAPACKE_dsteqr_work(LAPACK_COL_MAJOR, 'V', p, e->w, sub, Qt, p, e->work + p))
         return -1;
-    boundary_kernels()->mult(p, p, p, G, p, Qt, p, 0, e->H, p); /* Q = U^-1 Q~ */
+    e->kr->mult(p, p, p, G, p, Qt, p, 0, e->H, p); /* Q = U^-1 Q~ */
     rotate_block(e, e->H, p);
     return 0;
 }
@@ -387,7 +389,7 @@ static void residuals(dm_boundary_eig *e)
             C[(size_t)j * 2 * p + i] = q;
             C[(size_t)j * 2 * p + p + i] = -e->w[j] * q;
         }
-    boundary_kernels()->mult(nr, p, 2 * p, e->KX, nr, C, 2 * p, 0, e->T, nr);
+    e->kr->mult(nr, p, 2 * p, e->KX, nr, C, 2 * p, 0, e->T, nr);
     inverse_K_times(e, e->T, p, e->W);
     for (int j = 0; j < p; j++)
         e->s[j] = fabs(cblas_ddot(nr, e->T + (size_t)j * nr, 1, e->W + (size_t)j * nr, 1));
@@ -437,12 +439,12 @@ static int rescale(dm_boundary_eig *e, double *Y, double *MY, double *Yp)
     int nr = e->nr, p = e->p;
     double *G = e->H, *m[3] = {Y, MY, Yp};
     transpose(Y, nr, p, nr, e->T); /* T is free while the filter runs */
-    boundary_kernels()->mult_upper(p, p, nr, e->T, p, MY, nr, G, p);
-    if (factor_inverse(p, G))
+    e->kr->mult_upper(p, p, nr, e->T, p, MY, nr, G, p);
+    if (factor_inverse(e, p, G))
         return -1;
     for (int t = 0; t < 3; t++) /* by R^-1 (a product: dtrsm took 2.5 times as long) */
         if (m[t])
-            boundary_kernels()->mult_upper_in_place(nr, p, m[t], nr, G, p);
+            e->kr->mult_upper_in_place(nr, p, m[t], nr, G, p);
     return 0;
 }
 
@@ -471,7 +473,7 @@ static int filter(dm_boundary_eig *e, int degree, double b, double theta1)
         }
         inverse_K_times(e, MY, e->p, Yn);
         /* T_1 = t, T_j+1 = 2 t T_j - T_j-1 */
-        boundary_kernels()->chebyshev_step(np, c, Y, j ? Yp : NULL, Yn);
+        e->kr->chebyshev_step(np, c, Y, j ? Yp : NULL, Yn);
         double *old = Yp;
         Yp = Y, Y = Yn, Yn = old;
     }
@@ -534,7 +536,7 @@ static int count_reduced(dm_boundary_eig *e, dm_boundary *bw, double sigma, int 
             int i1 = ra[2] + ra[3] < rb[2] + rb[3] ? ra[2] + ra[3] : rb[2] + rb[3];
             if (i1 <= i0)
                 continue; /* no member reaches both */
-            boundary_kernels()->mult(rb[1], ra[1], i1 - i0, e->T + (size_t)i0 * nB + rb[0], nB,
+            e->kr->mult(rb[1], ra[1], i1 - i0, e->T + (size_t)i0 * nB + rb[0], nB,
                                      e->B + (size_t)ra[0] * nv + i0, nv, 1,
                                      e->D + (size_t)ra[0] * nB + rb[0], nB);
         }
