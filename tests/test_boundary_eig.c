@@ -599,12 +599,12 @@ static void cholesky_inverse_on_every_path(void **state)
 }
 
 /* The tridiagonal form (tridiagonalise: the Rayleigh-Ritz's eigenproblem
- * as dsyev makes it, the reduction by the kernels and dsteqr): every
- * path gives the baseline's bits; Q is orthogonal to 4 n eps and Q T Q'
- * is A to 8 n eps |A| (a backward-stable reduction's bounds, n
- * reflectors of 2 n-long products); with dsteqr, the eigenvalues are
- * dsyev's within the same 8 n eps |A| (both backward stable) and the
- * eigenvectors A-orthogonal residuals |A q - lambda q| within it too.
+ * as dsyev makes it, the reduction and the QL iteration by the kernels):
+ * every path gives the baseline's bits; Q is orthogonal to 4 n eps and
+ * Q T Q' is A to 8 n eps |A| (a backward-stable reduction's bounds, n
+ * reflectors of 2 n-long products); with tridiagonal_eigen, the
+ * eigenvalues are dsyev's within the same 8 n eps |A| (both backward
+ * stable) and the eigenvectors' residuals |A q - lambda q| within it too.
  * Spectra from 1 to 1e4 (the projected problems' spread) in a random
  * orthogonal basis, with a pair 1e-9 apart (the symmetric robots'
  * modes), and a diagonal matrix (no reflector at all). */
@@ -683,11 +683,22 @@ static void tridiagonal_form_on_every_path(void **state)
                 fail_msg("order %d, kind %d: Q'Q - I %.3g, Q T Q' - A %.3g (|A| %.3g)", n, kind,
                          orth, back, amax);
             /* the pipeline against dsyev */
-            double w[MAXN], ws[MAXN], work[4 * MAXN], s2[LD * MAXN];
+            double w[MAXN], ws[MAXN], s2[LD * MAXN];
             memcpy(w, bd, sizeof w);
             double sub[MAXN];
             memcpy(sub, be, sizeof sub);
-            assert_int_equal(LAPACKE_dsteqr_work(LAPACK_COL_MAJOR, 'V', n, w, sub, bq, LD, work), 0);
+            double w0[MAXN], sub0[MAXN], q0[LD * MAXN]; /* the form, for the other paths */
+            memcpy(w0, w, sizeof w0), memcpy(sub0, sub, sizeof sub0), memcpy(q0, bq, sizeof q0);
+            assert_int_equal(dm_boundary_kernels_of(DM_ISA_DEFAULT)->tridiagonal_eigen(n, w, sub, bq, LD, n), 0);
+            for (int p = 0; p < DM_ISA_COUNT; p++) {
+                if (!dm_isa_available((dm_isa)p) || p == DM_ISA_DEFAULT)
+                    continue;
+                double wp[MAXN], subp[MAXN], qp[LD * MAXN];
+                memcpy(wp, w0, sizeof wp), memcpy(subp, sub0, sizeof subp), memcpy(qp, q0, sizeof qp);
+                assert_int_equal(dm_boundary_kernels_of((dm_isa)p)->tridiagonal_eigen(n, wp, subp, qp, LD, n), 0);
+                if (memcmp(wp, w, sizeof(double) * n) || memcmp(qp, bq, sizeof(double) * LD * n))
+                    fail_msg("path %s, order %d: not the baseline's eigenpairs", dm_isa_name((dm_isa)p), n);
+            }
             memcpy(s2, A, sizeof s2);
             assert_int_equal(LAPACKE_dsyev(LAPACK_COL_MAJOR, 'N', 'U', n, s2, LD, ws), 0);
             for (int j = 0; j < n; j++) {
@@ -710,6 +721,130 @@ static void tridiagonal_form_on_every_path(void **state)
                   "dsyev's\n", checked, worst_ev);
 }
 
+/* T (order n: d, e) times column j of Z (nz = n rows, ld) minus
+ * lambda_j z_j, its largest entry (long double) */
+static double tridiagonal_residual(int n, const double *d, const double *e, const double *Z,
+                                   int ld, int j, double lambda)
+{
+    double res = 0;
+    const double *z = Z + (size_t)j * ld;
+    for (int i = 0; i < n; i++) {
+        ldbl t = (ldbl)d[i] * z[i] - (ldbl)lambda * z[i];
+        if (i > 0)
+            t += (ldbl)e[i - 1] * z[i - 1];
+        if (i + 1 < n)
+            t += (ldbl)e[i] * z[i + 1];
+        res = fmax(res, fabs((double)t));
+    }
+    return res;
+}
+
+/* tridiagonal_eigen (the QL iteration the Rayleigh-Ritz runs) on
+ * tridiagonals that take each of its branches: random ones, graded up
+ * (QL) and down (QR: the block read backwards), one split by a zero and
+ * by a negligible coupling (two blocks), 2 x 2 blocks (solved directly),
+ * Wilkinson's W21+ (pairs of eigenvalues equal to 1e-14 and worse), a
+ * diagonal one, orders 1 to 40. Every path gives the baseline's bits;
+ * the eigenvalues ascend and are dsterf's (LAPACK's root-free QL, an
+ * independent code) within 8 n eps |T|, the eigenvectors orthonormal to
+ * 4 n eps with residuals |T w - lambda w| within 8 n eps |T| (both
+ * backward stable); on a Z of more rows, Z W to 8 n eps |Z|. NaN is
+ * refused (-1), not iterated for ever. */
+static void tridiagonal_eigen_on_every_path(void **state)
+{
+    (void)state;
+    enum { MAXN = 40, LD = MAXN + 3, KINDS = 8 };
+    const int dims[] = {1, 2, 3, 4, 7, 20, 21, 40};
+    dm_rng rng = {.state = 0x5e9a};
+    int checked = 0;
+    double worst_ev = 0, worst_res = 0;
+    for (size_t a = 0; a < sizeof dims / sizeof dims[0]; a++)
+        for (int kind = 0; kind < KINDS; kind++) {
+            int n = dims[a];
+            double d[MAXN], e[MAXN], tnorm = 0;
+            for (int i = 0; i < n; i++) {
+                d[i] = dm_rng_normal(&rng), e[i] = i + 1 < n ? dm_rng_normal(&rng) : 0;
+                if (kind == 1 || kind == 2) /* graded 1 .. 1e8, up or down */
+                    d[i] = pow(1e8, (double)(kind == 1 ? i : n - 1 - i) / (n > 1 ? n - 1 : 1)),
+                    e[i] *= 1e-2 * sqrt(d[i]);
+                if (kind == 5) /* Wilkinson's W+: |i - m|, couplings 1 */
+                    d[i] = fabs(i - 0.5 * (n - 1)), e[i] = 1;
+                if (kind == 6) /* diagonal */
+                    e[i] = 0;
+                if (kind == 7) /* 2 x 2 blocks */
+                    e[i] = i % 2 ? 0 : e[i];
+            }
+            if (kind == 3 && n > 3)
+                e[n / 2] = 0;
+            if (kind == 4 && n > 3)
+                e[n / 3] = 1e-20;
+            for (int i = 0; i < n; i++)
+                tnorm = fmax(tnorm, fabs(d[i]) + fabs(e[i]) + (i ? fabs(e[i - 1]) : 0));
+            double bw[MAXN], bz[LD * MAXN];
+            for (int p = 0; p < DM_ISA_COUNT; p++) {
+                if (!dm_isa_available((dm_isa)p))
+                    continue;
+                double w[MAXN], sub[MAXN], z[LD * MAXN];
+                memcpy(w, d, sizeof w), memcpy(sub, e, sizeof sub);
+                for (int c = 0; c < n; c++)
+                    for (int r = 0; r < n; r++)
+                        z[r + c * LD] = r == c;
+                assert_int_equal(dm_boundary_kernels_of((dm_isa)p)->tridiagonal_eigen(n, w, sub, z, LD, n), 0);
+                if (p == DM_ISA_DEFAULT)
+                    memcpy(bw, w, sizeof w), memcpy(bz, z, sizeof z);
+                else if (memcmp(w, bw, sizeof(double) * n) || memcmp(z, bz, sizeof(double) * LD * n))
+                    fail_msg("path %s, order %d, kind %d: not the baseline's bits",
+                             dm_isa_name((dm_isa)p), n, kind);
+                checked++;
+            }
+            double ref[MAXN], sub[MAXN];
+            memcpy(ref, d, sizeof ref), memcpy(sub, e, sizeof sub);
+            assert_int_equal(LAPACKE_dsterf(n, ref, sub), 0);
+            for (int j = 0; j < n; j++) {
+                if (j > 0 && !(bw[j] >= bw[j - 1]))
+                    fail_msg("order %d, kind %d: eigenvalue %d below the one before", n, kind, j);
+                worst_ev = fmax(worst_ev, fabs(bw[j] - ref[j]) / tnorm);
+                if (!(fabs(bw[j] - ref[j]) <= 8 * n * DBL_EPSILON * tnorm))
+                    fail_msg("order %d, kind %d: eigenvalue %d %.17g, dsterf's %.17g", n, kind, j,
+                             bw[j], ref[j]);
+                double res = tridiagonal_residual(n, d, e, bz, LD, j, bw[j]);
+                worst_res = fmax(worst_res, res / tnorm);
+                if (!(res <= 8 * n * DBL_EPSILON * tnorm))
+                    fail_msg("order %d, kind %d: eigenvector %d's residual %.3g", n, kind, j, res);
+                for (int i = 0; i <= j; i++) {
+                    ldbl dot = 0;
+                    for (int r = 0; r < n; r++)
+                        dot += (ldbl)bz[r + i * LD] * bz[r + j * LD];
+                    if (!(fabs((double)dot - (i == j)) <= 4 * n * DBL_EPSILON))
+                        fail_msg("order %d, kind %d: w%d'w%d - %d = %.3g", n, kind, i, j, i == j,
+                                 (double)dot - (i == j));
+                }
+            }
+            /* on Z of nz = n + 3 rows: Z W, the same rotations */
+            double z0[LD * MAXN], z[LD * MAXN], w[MAXN], zmax = 0;
+            for (int i = 0; i < LD * n; i++)
+                z0[i] = z[i] = dm_rng_normal(&rng), zmax = fmax(zmax, fabs(z0[i]));
+            memcpy(w, d, sizeof w), memcpy(sub, e, sizeof sub);
+            assert_int_equal(dm_boundary_kernels_of(DM_ISA_DEFAULT)->tridiagonal_eigen(n, w, sub, z, LD, n + 3), 0);
+            for (int j = 0; j < n; j++)
+                for (int r = 0; r < n + 3; r++) {
+                    ldbl zw = 0;
+                    for (int c = 0; c < n; c++)
+                        zw += (ldbl)z0[r + c * LD] * bz[c + j * LD];
+                    if (!(fabs((double)zw - z[r + j * LD]) <= 8 * n * DBL_EPSILON * zmax * sqrt(n)))
+                        fail_msg("order %d, kind %d: (Z W)_%d,%d off by %.3g", n, kind, r, j,
+                                 fabs((double)zw - z[r + j * LD]));
+                }
+        }
+    for (int p = 0; p < DM_ISA_COUNT; p++) /* NaN: refused, not iterated for ever */
+        if (dm_isa_available((dm_isa)p)) {
+            double d[3] = {1, NAN, 3}, e[2] = {0.5, 0.5}, z[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+            assert_int_equal(dm_boundary_kernels_of((dm_isa)p)->tridiagonal_eigen(3, d, e, z, 3, 3), -1);
+        }
+    print_message("tridiagonal eigenproblems: %d checked on every path; eigenvalues within %.2g "
+                  "|T| of dsterf's, residuals %.2g |T|\n", checked, worst_ev, worst_res);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -718,6 +853,7 @@ int main(void)
         cmocka_unit_test(kernels_give_the_same_bits_on_every_path),
         cmocka_unit_test(cholesky_inverse_on_every_path),
         cmocka_unit_test(tridiagonal_form_on_every_path),
+        cmocka_unit_test(tridiagonal_eigen_on_every_path),
     };
     return cmocka_run_group_tests_name("boundary_eig", tests, NULL, NULL);
 }

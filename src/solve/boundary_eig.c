@@ -3,7 +3,7 @@
  * the bound). The block's products, the Cholesky factors and their
  * inverses and the projected eigenproblems' tridiagonal forms go through
  * the path's kernels (boundary_kernels.c), the tridiagonal eigenproblems
- * through LAPACK's dsteqr. */
+ * too (dsteqr's algorithm). */
 #include <assert.h>
 #include <cblas.h>
 #include <math.h>
@@ -359,11 +359,12 @@ static int ritz_on_start(dm_boundary_eig *e, const dm_boundary *bw)
     e->kr->mult_upper(p, p, nr, e->T, p, MX, nr, G, p);
     if (standard_form(e, G))
         return -1;
-    /* its eigenpairs as dsyev makes them: tridiagonal form (the kernels)
-     * and dsteqr, the eigenvectors Q~ into KW (free between filters) */
+    /* its eigenpairs as dsyev makes them: the tridiagonal form and its
+     * QL iteration (the kernels), the eigenvectors Q~ into KW (free
+     * between filters) */
     double *Qt = e->KW, *sub = e->work;
     e->kr->tridiagonalise(p, e->T, p, e->w, sub, Qt, p);
-    if (LAPACKE_dsteqr_work(LAPACK_COL_MAJOR, 'V', p, e->w, sub, Qt, p, e->work + p))
+    if (e->kr->tridiagonal_eigen(p, e->w, sub, Qt, p, p))
         return -1;
     e->kr->mult(p, p, p, G, p, Qt, p, 0, e->H, p); /* Q = U^-1 Q~ */
     rotate_block(e, e->H, p);

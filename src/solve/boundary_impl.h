@@ -90,6 +90,10 @@ typedef struct dm_boundary_kernels {
      * as dsytrd and dorgtr give them to dsteqr; A's lower triangle is
      * overwritten */
     void (*tridiagonalise)(int n, double *A, int lda, double *d, double *e, double *Q, int ldq);
+    /* The tridiagonal (d, e) of order n = W Lambda W': d becomes Lambda
+     * ascending, Z (nz rows, ldz; n columns) Z W, e is destroyed; dsteqr's
+     * algorithm ('V'). -1 when it does not converge (or for NaN). */
+    int (*tridiagonal_eigen)(int n, double *d, double *e, double *Z, int ldz, int nz);
     /* Yn = 2/c (Yn - c Y) - Yp over n entries; with Yp NULL, 1/c (Yn - c Y) */
     void (*chebyshev_step)(size_t n, double c, const double *Y, const double *Yp, double *Yn);
 } dm_boundary_kernels;

@@ -17,6 +17,7 @@
  * a fixed order whatever the vector width: each entry's k products are
  * added in order, the vectors holding neighbouring rows. */
 #include <assert.h>
+#include <float.h>
 #include <math.h>
 
 #include "boundary_impl.h"
@@ -427,11 +428,218 @@ static void tridiagonalise(int n, double *A, int lda, double *d, double *e, doub
         }
 }
 
+/* sqrt(a^2 + b^2), squared directly where no square can over- or
+ * underflow (all the reduced problem's numbers), else scaled */
+INLINE double pythag(double a, double b)
+{
+    double m = fmax(fabs(a), fabs(b));
+    if (m > 1e-150 && m < 1e150)
+        return sqrt(a * a + b * b);
+    if (!(m > 0) || isinf(m))
+        return m;
+    a /= m, b /= m;
+    return m * sqrt(a * a + b * b);
+}
+
+/* A plane rotation [c s; -s c] (f, g)' = (r, 0)': c >= 0, r with f's sign */
+INLINE void rotation(double f, double g, double *c, double *s, double *r)
+{
+    if (g == 0) {
+        *c = 1, *s = 0, *r = f;
+    } else if (f == 0) {
+        *c = 0, *s = copysign(1, g), *r = fabs(g);
+    } else {
+        double h = pythag(f, g);
+        *c = fabs(f) / h, *r = copysign(h, f), *s = g / *r;
+    }
+}
+
+/* Columns x, y (n entries) = (c x - s y, s x + c y): each entry as
+ * written, the path's vectors then one at a time. */
+INLINE void rotate_columns(int n, double c, double s, double *x, double *y)
+{
+    int i = 0;
+    vec cv = (vec){0} + c, sv = (vec){0} + s;
+    for (; i + VW <= n; i += VW) {
+        vec a = *(vec *)(x + i), b = *(vec *)(y + i);
+        *(vec *)(x + i) = cv * a - sv * b;
+        *(vec *)(y + i) = sv * a + cv * b;
+    }
+    for (; i < n; i++) {
+        double a = x[i], b = y[i];
+        x[i] = c * a - s * b;
+        y[i] = s * a + c * b;
+    }
+}
+
+/* The eigenpairs of the symmetric 2 x 2 [a b; b c]: rt1 (the larger in
+ * magnitude) with unit eigenvector (cs, sn), and rt2; rt2 from rt1 and
+ * the determinant, where the sum would cancel (dlaev2's way). */
+static void eigen2(double a, double b, double c, double *rt1, double *rt2, double *cs, double *sn)
+{
+    double sm = a + c, df = a - c, tb = 2 * b, rt = pythag(df, tb);
+    double big = fabs(a) > fabs(c) ? a : c, small = fabs(a) > fabs(c) ? c : a;
+    int sgn1 = sm < 0 ? -1 : 1, sgn2 = df >= 0 ? 1 : -1;
+    if (sm != 0) {
+        *rt1 = 0.5 * (sm + sgn1 * rt);
+        *rt2 = (big / *rt1) * small - (b / *rt1) * b;
+    } else {
+        *rt1 = 0.5 * rt, *rt2 = -0.5 * rt;
+    }
+    double v = df + sgn2 * rt; /* the eigenvector (v, -tb) of rt1 up to scale */
+    if (fabs(v) > fabs(tb)) {
+        double ct = -tb / v;
+        *sn = 1 / sqrt(1 + ct * ct), *cs = ct * *sn;
+    } else if (tb == 0) {
+        *cs = 1, *sn = 0;
+    } else {
+        double tn = -v / tb;
+        *cs = 1 / sqrt(1 + tn * tn), *sn = tn * *cs;
+    }
+    if (sgn1 == sgn2) { /* the other root's vector came out: turn it */
+        double t = *cs;
+        *cs = -*sn, *sn = t;
+    }
+}
+
+/* One unreduced block of tridiagonal_eigen by implicit QL with
+ * Wilkinson's shift, walked in the direction dir from its first row l
+ * (dir -1: QR on the block below l, as QL on the block read backwards).
+ * Logical row k is row l + dir k; the coupling of logical rows k and
+ * k + 1 is E(k); Z's column of logical row k is ZC(k). *iter counts the
+ * sweeps (at most maxit: -1). */
+static int ql_block(int len, int l, int dir, double *d, double *e, double *Z, int ldz, int nz,
+                    int *iter, int maxit)
+{
+#define D(k) d[l + dir * (k)]
+#define E(k) e[dir > 0 ? l + (k) : l - (k) - 1]
+#define ZC(k) (Z + (size_t)(l + dir * (k)) * ldz)
+    const double eps2 = 0.25 * DBL_EPSILON * DBL_EPSILON, safmin = DBL_MIN;
+    for (int lo = 0; lo < len;) {
+        int m = lo;
+        for (; m + 1 < len; m++) { /* a negligible coupling splits the block */
+            double t = E(m) * E(m);
+            if (t <= eps2 * fabs(D(m)) * fabs(D(m + 1)) + safmin)
+                break;
+        }
+        if (m + 1 < len)
+            E(m) = 0;
+        if (m == lo) { /* converged */
+            lo++;
+            continue;
+        }
+        if (m == lo + 1) { /* a 2 x 2 block: directly */
+            double rt1, rt2, c, s;
+            eigen2(D(lo), E(lo), D(lo + 1), &rt1, &rt2, &c, &s);
+            /* rt1's vector c z0 + s z1 into z0, rt2's c z1 - s z0 into z1 */
+            rotate_columns(nz, c, s, ZC(lo + 1), ZC(lo));
+            D(lo) = rt1, D(lo + 1) = rt2;
+            E(lo) = 0;
+            lo += 2;
+            continue;
+        }
+        if ((*iter)++ == maxit)
+            return -1;
+        double p = D(lo), g = (D(lo + 1) - p) / (2 * E(lo)), r = pythag(g, 1);
+        g = D(m) - p + E(lo) / (g + copysign(r, g));
+        double s = 1, c = 1;
+        p = 0;
+        for (int i = m - 1; i >= lo; i--) {
+            double f = s * E(i), b = c * E(i);
+            rotation(g, f, &c, &s, &r);
+            if (i != m - 1)
+                E(i + 1) = r;
+            g = D(i + 1) - p;
+            r = (D(i) - g) * s + 2 * c * b;
+            p = s * r;
+            D(i + 1) = g + p;
+            g = c * r - b;
+            rotate_columns(nz, c, s, ZC(i), ZC(i + 1)); /* (c zi - s zi1, s zi + c zi1) */
+        }
+        D(lo) -= p;
+        E(lo) = g;
+    }
+    return 0;
+#undef D
+#undef E
+#undef ZC
+}
+
+/* The symmetric tridiagonal T (diagonal d, subdiagonal e; n) = W Lambda
+ * W': d becomes Lambda ascending, Z (nz rows, ldz) becomes Z W, e is
+ * destroyed. What dsteqr ('V') computes, by its algorithm: the matrix
+ * split where a coupling is negligible, each block by implicit QL or QR
+ * with Wilkinson's shift (QR where the block's last diagonal is the
+ * smaller), 2 x 2 blocks directly, a selection sort at the end. Own code
+ * for its rotations of Z: dsteqr applies them through dlasr, scalar in
+ * Debian's OpenBLAS 0.3.21 (with dlartg and dsteqr itself 6.6 % of a
+ * chen2018 sweep's time, AVX2); here each is the path's vectors down two
+ * columns, every entry as written (the same bits on every path). -1 after
+ * 30 n sweeps without convergence, or for a block out of the range dsteqr
+ * would rescale (never a reduced problem's). */
+static int tridiagonal_eigen(int n, double *d, double *e, double *Z, int ldz, int nz)
+{
+    assert(n >= 0 && ldz >= nz);
+    const double ssfmax = sqrt(1 / DBL_MIN) / 3;
+    const double ssfmin = sqrt(DBL_MIN) / (0.25 * DBL_EPSILON * DBL_EPSILON);
+    const double eps = 0.5 * DBL_EPSILON;
+    int iter = 0, maxit = 30 * n;
+    for (int l = 0; l < n;) {
+        if (l > 0)
+            e[l - 1] = 0;
+        int m = l;
+        for (; m + 1 < n; m++) {
+            double t = fabs(e[m]);
+            if (t == 0)
+                break;
+            if (t <= sqrt(fabs(d[m])) * sqrt(fabs(d[m + 1])) * eps) {
+                e[m] = 0;
+                break;
+            }
+        }
+        int len = m - l + 1, first = l;
+        l = m + 1;
+        if (len == 1)
+            continue;
+        double anorm = 0;
+        for (int i = first; i <= m; i++) {
+            double ei = i < m ? e[i] : 0;
+            if (!isfinite(d[i]) || !isfinite(ei))
+                return -1;
+            anorm = fmax(anorm, fmax(fabs(d[i]), fabs(ei)));
+        }
+        if (anorm == 0)
+            continue;
+        if (!(anorm >= ssfmin && anorm <= ssfmax))
+            return -1;
+        int rev = fabs(d[m]) < fabs(d[first]);
+        if (ql_block(len, rev ? m : first, rev ? -1 : 1, d, e, Z, ldz, nz, &iter, maxit))
+            return -1;
+    }
+    for (int i = 0; i + 1 < n; i++) { /* ascending: selection sort, columns swapped */
+        int k = i;
+        for (int j = i + 1; j < n; j++)
+            if (d[j] < d[k])
+                k = j;
+        if (k != i) {
+            double t = d[k];
+            d[k] = d[i], d[i] = t;
+            double *a = Z + (size_t)i * ldz, *b = Z + (size_t)k * ldz;
+            for (int r = 0; r < nz; r++) {
+                double u = a[r];
+                a[r] = b[r], b[r] = u;
+            }
+        }
+    }
+    return 0;
+}
+
 const dm_boundary_kernels DM_ISA_TABLE(dm_boundary_kernels_) = {
     .cholesky_upper = cholesky_upper,
     .inverse_upper = inverse_upper,
     .cholesky_solve = cholesky_solve,
     .tridiagonalise = tridiagonalise,
+    .tridiagonal_eigen = tridiagonal_eigen,
     .scale_rows = scale_rows,
     .chebyshev_step = chebyshev_step,
     .mult = mult,
