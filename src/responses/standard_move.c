@@ -836,13 +836,21 @@ static double interval_ends(const node *a, const node *b, double h)
                   larger(dm_dot3(b->l, b->l), offset_norm2(b->l, b->dl, -h)));
 }
 
-/* Whether sqrt(sq) + x + y (rounded as written) can exceed t, decided
- * without the root where sq is far enough below: the test is exact, the
- * root is taken only within 1e-12 of the threshold. */
-static inline int may_exceed(double sq, double x, double y, double t)
+/* The squares sq below which sqrt(sq) + x + y (rounded as written)
+ * cannot exceed t: 1e-12 short of the threshold's square, with room for
+ * the sum's rounding; -inf where no square is (t too close to x + y). */
+static inline double quiet_below(double x, double y, double t)
 {
     double r = t - x - y - 1e-12 * (t + x + y);
-    return !(r > 0 && sq < r * r * (1 - 1e-12));
+    return r > 0 ? r * r * (1 - 1e-12) : -INFINITY;
+}
+
+/* Whether sqrt(sq) + x + y can exceed t, decided without the root where
+ * sq is far enough below: the test is exact, the root is taken only
+ * within 1e-12 of the threshold. */
+static inline int may_exceed(double sq, double x, double y, double t)
+{
+    return !(sq < quiet_below(x, y, t));
 }
 
 static void note_sample(phase *ph, const node *nd, double t)
@@ -1052,6 +1060,29 @@ static void keep_candidate(phase *ph, scan_result *sr, int i, double bound, cons
     memcpy(cd->v, v, sizeof(double) * ph->c->nm);
 }
 
+/* Whether the batch's points (sums o, nb of them; the squared start ends
+ * of the node before ps) leave everything as it is: no sample above the
+ * largest, no interval whose bound may exceed it, nothing beyond the
+ * band (the loop of scan_batch would decide nothing; most of an
+ * undamped window's batches). The same tests without the loop's
+ * branches: the thresholds do not move within such a batch. */
+static int batch_is_quiet(const phase *ph, const double *o, int nb, double x, double fast0,
+                          double ps)
+{
+    double ythr = quiet_below(0, 0, ph->L), ethr = quiet_below(x, fast0, ph->L * (1 + MAX_REL));
+    if (ph->tol >= 0) {
+        ythr = fmin(ythr, quiet_below(0, 0, ph->tol));
+        ethr = fmin(ethr, quiet_below(x, fast0, ph->tol));
+    }
+    int quiet = 1;
+    for (int r = 0; r < nb; r++) {
+        double ends = larger(ps, o[ROW_END * BLOCK + r]);
+        ps = o[ROW_START * BLOCK + r];
+        quiet &= o[ROW_YY * BLOCK + r] < ythr && ends < ethr;
+    }
+    return quiet;
+}
+
 /* The scan's points of one batch (nb of them, the first node i0 + 1; prev
  * the node before, its squared start ends in *prev_start): samples,
  * candidates, the last point above the band; prev left at the last. */
@@ -1061,6 +1092,11 @@ static void scan_batch(phase *ph, scan_result *sr, int i0, int nb, double H, int
 {
     const double *o = ph->w->sums;
     double h = H / 2, x = s->slow2 * h * h / 2, *qp = ph->w->stack, *vp = qp + ph->w->nmax;
+    if (batch_is_quiet(ph, o, nb, x, s->fast0, *prev_start)) {
+        *prev_start = o[ROW_START * BLOCK + nb - 1];
+        batch_node(ph, nb - 1, ns, prev);
+        return;
+    }
     for (int r = 0; r < nb; r++) {
         int i = i0 + r + 1, cand = 0;
         double yy = o[ROW_YY * BLOCK + r], ends = larger(*prev_start, o[ROW_END * BLOCK + r]);
