@@ -628,22 +628,14 @@ static void transition_parts(double om, double z, double h, double cs[4])
     cs[0] = cs[1] = cs[2] = cs[3] = NAN;
 }
 
-/* The parts over h / 2 from those over h, by the half-angle formulas
- * (cos^2(x/2) = (1 + cos x) / 2, sin x = 2 sin(x/2) cos(x/2), the decay's
- * square root): for angles up to pi/2, where 1 + cos x >= 1 loses
+/* Whether a mode's parts over h / 2 may come from those over h (angle
+ * x there) by the half-angle formulas (cos^2(x/2) = (1 + cos x) / 2,
+ * sin x = 2 sin(x/2) cos(x/2), the decay's square root; the kernel's
+ * halve_transitions): for angles up to pi/2, where 1 + cos x >= 1 loses
  * nothing, each halving adds about an ulp to the parts (some 40 ulps at
- * the deepest level, against the maxima's 1e-9). -1 where they do not
- * apply (a larger angle, or a mode without parts). */
-static int halve_parts(const double cs[4], double half[4])
-{
-    if (!(cs[3] <= M_PI / 2))
-        return -1;
-    half[0] = sqrt((1 + cs[0]) * 0.5);
-    half[1] = cs[1] / (2 * half[0]);
-    half[2] = sqrt(cs[2]);
-    half[3] = cs[3] * 0.5;
-    return 0;
-}
+ * the deepest level, against the maxima's 1e-9). Not for a larger angle,
+ * nor for a mode without parts (NaN). */
+static int halves_apply(double x) { return x <= M_PI / 2; }
 
 /* Transition of carried mode j over h: (h, h') <- [a11 a12; a21 a22]
  * (h, h'), from its parts over h (an underdamped mode: closed form, as
@@ -720,30 +712,33 @@ static const double *level_transitions(const phase *ph, int level)
     int nmax = w->nmax, f = ph->family, kmax = w->kmax;
     double *t = w->trans[f] + (size_t)TRANS_ROWS * nmax * level;
     if (!w->have[f][level]) {
-        double h = step_of(ph, level), a[4], cs[4], up[4];
+        double h = step_of(ph, level), a[4], cs[4];
         double *rt = w->rtrans[f] + (size_t)TRANS_ROWS * kmax * level;
         /* the level above, where this direction made it: its parts halved
-         * instead of a sine, a cosine and an exponential */
+         * instead of a sine, a cosine and an exponential, all the modes
+         * side by side (the kernel: halve_parts and mode_transition's
+         * operations), then those it does not serve one by one */
         const double *above = level && w->have[f][level - 1] ? t - (size_t)TRANS_ROWS * nmax : NULL;
-        for (int j = 0; j < ph->c->nm; j++) {
-            int s = ph->c->src[j];
+        const carried *c = ph->c;
+        if (above)
+            w->kr->halve_transitions(c->nm, nmax, above, t, c->rz, c->iwd, c->wwd);
+        for (int j = 0; j < c->nm; j++) {
+            int s = c->src[j];
             if (s >= 0 && w->rhave[f][level]) {
                 for (int r = 0; r < TRANS_ROWS; r++)
                     t[r * nmax + j] = rt[r * kmax + s];
                 continue;
             }
-            if (above)
-                up[0] = above[4 * nmax + j], up[1] = above[5 * nmax + j],
-                up[2] = above[6 * nmax + j], up[3] = above[7 * nmax + j];
-            if (!above || halve_parts(up, cs))
-                transition_parts(ph->c->om[j], ph->c->z[j], h, cs);
-            mode_transition(ph->c, j, h, cs, a);
-            double x[TRANS_ROWS] = {a[0], a[1], a[2], a[3], cs[0], cs[1], cs[2], cs[3]};
-            for (int r = 0; r < TRANS_ROWS; r++)
-                t[r * nmax + j] = x[r];
+            if (!above || !halves_apply(above[7 * nmax + j])) {
+                transition_parts(c->om[j], c->z[j], h, cs);
+                mode_transition(c, j, h, cs, a);
+                double x[TRANS_ROWS] = {a[0], a[1], a[2], a[3], cs[0], cs[1], cs[2], cs[3]};
+                for (int r = 0; r < TRANS_ROWS; r++)
+                    t[r * nmax + j] = x[r];
+            }
             if (s >= 0)
                 for (int r = 0; r < TRANS_ROWS; r++)
-                    rt[r * kmax + s] = x[r];
+                    rt[r * kmax + s] = t[r * nmax + j];
         }
         w->have[f][level] = 1;
         w->rhave[f][level] = 1; /* (every direction carries all the retained modes) */
