@@ -126,7 +126,8 @@ int dm_standard_moves(dm_move_ws *ws, const dm_model *model, const dm_modes *mod
 
 /* The same on the member engine's reduced model (dm_boundary, issue 39):
  * the k retained modes are the reduced eigenvectors Y (nred x k,
- * dm_boundary_reduced_vectors' coordinates, M_red-normalised) with
+ * dm_boundary_reduced_vectors' coordinates, M_red-normalised; MY =
+ * M_red Y beside them, leading dimension nred, or NULL to make it) with
  * circular frequencies omega, at bw's last solve's pose (`pose`; eig the
  * solver that served it, whose M_red and K_red products and K_red solves
  * the preparation uses). The loads are T' G (dm_boundary_inertial_loads)
@@ -138,7 +139,7 @@ int dm_standard_moves(dm_move_ws *ws, const dm_model *model, const dm_modes *mod
  * the model is formed. */
 int dm_standard_moves_reduced(dm_move_ws *ws, dm_boundary *bw, dm_boundary_eig *eig,
                               const dm_robot *robot, const dm_pose *pose, const double *Y,
-                              const double *omega, int k, const double (*dir)[3], int ndir,
+                              const double *MY, const double *omega, int k, const double (*dir)[3], int ndir,
                               const dm_move_opts *opts, dm_move_result *res, dm_error *err);
 
 /* ---- integrate_trajectory.c: trajectories --------------------------------- */

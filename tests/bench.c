@@ -863,7 +863,8 @@ static void members_row(const char *preset, int mesh)
         for (int r = 0; r < REPS; r++) {
             dm_move_result mv[3];
             double a = now_s();
-            dm_standard_moves_reduced(mw, be, eig, &rb, &pose, Y, om, 10, XYZ, 3, &mopt, mv, NULL);
+            dm_standard_moves_reduced(mw, be, eig, &rb, &pose, Y, dm_boundary_eig_mass_vectors(eig),
+                                      om, 10, XYZ, 3, &mopt, mv, NULL);
             double b = now_s();
             dm_standard_moves(mw, md, modes, 10, st, XYZ, 3, &mopt, mv, NULL);
             double c = now_s();

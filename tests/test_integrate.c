@@ -623,8 +623,8 @@ static int moves_of(dm_move_ws *mw, dm_analysis *an, const dm_pose_result *res, 
 {
     if (an->last_members)
         return dm_standard_moves_reduced(mw, an->boundary, an->eig, an->robot, &res->pose,
-                                         an->reduced, res->modes->omega_rad_s, k, dir, ndir, mo,
-                                         mr, err);
+                                         an->reduced, dm_boundary_eig_mass_vectors(an->eig),
+                                         res->modes->omega_rad_s, k, dir, ndir, mo, mr, err);
     return dm_standard_moves(mw, an->model, res->modes, k, an->statics, dir, ndir, mo, mr, err);
 }
 

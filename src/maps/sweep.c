@@ -168,8 +168,9 @@ static void analyse_point(const sweep_ctx *c, sweep_worker *w, const int idx[3],
         dm_analysis *a = w->an;
         int rc = a->last_members
                      ? dm_standard_moves_reduced(w->move, a->boundary, a->eig, c->rb, &res.pose,
-                                                 a->reduced, res.modes->omega_rad_s, c->k, xyz, 3,
-                                                 &c->o.move, mv, NULL)
+                                                 a->reduced, dm_boundary_eig_mass_vectors(a->eig),
+                                                 res.modes->omega_rad_s, c->k, xyz, 3, &c->o.move,
+                                                 mv, NULL)
                      : dm_standard_moves(w->move, a->model, res.modes, c->k, a->statics, xyz, 3,
                                          &c->o.move, mv, NULL);
         if (rc) {

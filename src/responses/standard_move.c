@@ -1321,10 +1321,11 @@ int dm_standard_moves(dm_move_ws *w, const dm_model *md, const dm_modes *mo, int
 
 int dm_standard_moves_reduced(dm_move_ws *w, dm_boundary *bw, dm_boundary_eig *eig,
                               const dm_robot *rb, const dm_pose *pose, const double *Y,
-                              const double *omega, int k, const double (*dir)[3], int ndir,
-                              const dm_move_opts *o, dm_move_result *res, dm_error *err)
+                              const double *MY, const double *omega, int k,
+                              const double (*dir)[3], int ndir, const dm_move_opts *o,
+                              dm_move_result *res, dm_error *err)
 {
-    space sp = {dm_boundary_reduced_size(bw), dm_boundary_platform_row(bw), Y, NULL, omega, NULL, NULL, bw, eig};
+    space sp = {dm_boundary_reduced_size(bw), dm_boundary_platform_row(bw), Y, MY, omega, NULL, NULL, bw, eig};
     return moves_in(w, &sp, rb, pose, k, dir, ndir, o, res, err);
 }
 

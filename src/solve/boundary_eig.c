@@ -45,6 +45,7 @@ struct dm_boundary_eig {
     double *X, *W, *KW, *MW, *T; /* nr x 2p each (X and T trade buffers: rotate_block) */
     double *KX;          /* K and M times the block before its Ritz rotation, side by
                             side: nr x 2p (ritz_on_start, for residuals) */
+    double *MQ;          /* M times the Ritz vectors (residuals; nr x p): the moves' M Phi */
     double *H, *Z, *w, *s, *est, *work; /* projected problem (2p x 2p), residual norms */
     double ahead;        /* estimates(): the wanted clusters' worst first-order estimate */
     double *Sinv, *dinv; /* K^-1 explicitly for the filter: S^-1 (nB x nB), 1/d (nv) */
@@ -62,7 +63,7 @@ void dm_boundary_eig_free(dm_boundary_eig *e)
     if (!e)
         return;
     double *a[] = {e->d, e->B, e->Mbb, e->D,   e->X,    e->KX,   e->W,    e->KW, e->MW, e->T,
-                   e->H, e->Z, e->w,   e->s,   e->est,  e->work, e->Sinv, e->dinv, e->Bt};
+                   e->MQ, e->H, e->Z, e->w,   e->s,   e->est,  e->work, e->Sinv, e->dinv, e->Bt};
     for (size_t i = 0; i < sizeof a / sizeof *a; i++)
         free(a[i]);
     free(e->iwork);
@@ -145,10 +146,10 @@ dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
     e->lwork = 26 * q + q * q, e->liwork = 10 * q;
     size_t n2 = (size_t)nr * q;
     double **a[] = {&e->d, &e->B, &e->Mbb, &e->D,   &e->X,    &e->KX,   &e->W,
-                    &e->KW, &e->MW, &e->T, &e->H,   &e->Z,    &e->w,    &e->s,
+                    &e->KW, &e->MW, &e->T, &e->MQ, &e->H,   &e->Z,    &e->w,    &e->s,
                     &e->est, &e->work, &e->Sinv, &e->dinv, &e->Bt};
     size_t sz[] = {e->nv, (size_t)e->nv * nB, (size_t)nB * nB, (size_t)nB * nB,
-                   n2, n2, n2, n2, n2, n2,
+                   n2, n2, n2, n2, n2, n2, n2,
                    (size_t)q * q, (size_t)q * q, q, q, q, e->lwork, (size_t)nB * nB, e->nv,
                    (size_t)nB * e->nv};
     int fail = 0;
@@ -372,8 +373,9 @@ static int ritz_on_start(dm_boundary_eig *e, const dm_boundary *bw)
 }
 
 /* Residuals R = K X - M X Theta of the Ritz vectors into T, as
- * [KX MX] [Q; -Q Theta] from the products ritz_on_start kept (one
- * product instead of rotating both); preconditioned W = K^-1 R, and
+ * (KX) Q - (MX Q) Theta from the products ritz_on_start kept (the flops
+ * of one product by [Q; -Q Theta]; M X Q is kept: the moves' M Phi, a
+ * product by M fewer a pose); preconditioned W = K^-1 R, and
  * s_j = r_j' K^-1 r_j. K^-1 is the filter's explicit one (inverse_K):
  * s only steers the iteration (estimates; the certified bounds come from
  * counts, dm_boundary_bounds), and the inverse's relative error, some
@@ -383,14 +385,14 @@ static int ritz_on_start(dm_boundary_eig *e, const dm_boundary *bw)
 static void residuals(dm_boundary_eig *e)
 {
     int nr = e->nr, p = e->p;
-    double *C = e->Z; /* [Q; -Q Theta] (2p x p); X'MX's factor is done with */
-    for (int j = 0; j < p; j++)
-        for (int i = 0; i < p; i++) {
-            double q = e->H[(size_t)j * p + i];
-            C[(size_t)j * 2 * p + i] = q;
-            C[(size_t)j * 2 * p + p + i] = -e->w[j] * q;
-        }
-    e->kr->mult(nr, p, 2 * p, e->KX, nr, C, 2 * p, 0, e->T, nr);
+    e->kr->mult(nr, p, p, e->KX, nr, e->H, p, 0, e->T, nr);
+    e->kr->mult(nr, p, p, e->KX + (size_t)nr * p, nr, e->H, p, 0, e->MQ, nr);
+    for (int j = 0; j < p; j++) {
+        double *r = e->T + (size_t)j * nr, th = e->w[j];
+        const double *mq = e->MQ + (size_t)j * nr;
+        for (int i = 0; i < nr; i++)
+            r[i] -= th * mq[i];
+    }
     inverse_K_times(e, e->T, p, e->W);
     for (int j = 0; j < p; j++)
         e->s[j] = fabs(cblas_ddot(nr, e->T + (size_t)j * nr, 1, e->W + (size_t)j * nr, 1));
@@ -823,6 +825,11 @@ int dm_boundary_eig_count(dm_boundary_eig *e, dm_boundary *bw, double sigma, int
 void dm_boundary_eig_mult_M(const dm_boundary_eig *e, const double *Y, int ncol, double *MY)
 {
     apply_M(e, Y, ncol, MY);
+}
+
+const double *dm_boundary_eig_mass_vectors(const dm_boundary_eig *e)
+{
+    return e->MQ;
 }
 
 void dm_boundary_eig_mult_K(const dm_boundary_eig *e, const dm_boundary *bw, const double *Y, int ncol,
