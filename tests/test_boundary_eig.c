@@ -845,6 +845,137 @@ static void tridiagonal_eigen_on_every_path(void **state)
                   "|T| of dsterf's, residuals %.2g |T|\n", checked, worst_ev, worst_res);
 }
 
+/* LAPACK's count (dsytrf 'L' and its blocks' signs), the one the kernel
+ * replaced: the reference for matrices without a known spectrum */
+static int lapack_negatives(int n, double *A, int lda)
+{
+    lapack_int ipiv[64];
+    double work[64 * 64];
+    assert_true(n <= 64);
+    if (LAPACKE_dsytrf_work(LAPACK_COL_MAJOR, 'L', n, A, lda, ipiv, work, 64 * 64))
+        return -1;
+    int neg = 0;
+    for (int k = 0; k < n; k++) {
+        double a = A[k + k * lda];
+        if (ipiv[k] > 0) {
+            neg += a < 0;
+            continue;
+        }
+        double b = A[k + 1 + k * lda], c = A[k + 1 + (k + 1) * lda], det = a * c - b * b;
+        neg += det < 0 ? 1 : (a + c < 0 ? 2 : 0);
+        k++;
+    }
+    return neg;
+}
+
+/* negatives (the Sturm counts' inertia, Bunch-Kaufman as dsytf2): on
+ * every path the baseline's bits (the factored matrix) and count; on
+ * matrices of known spectrum (Q Lambda Q' in long double, eigenvalues of
+ * both signs, a pair 1e-9 apart) at shifts 1e-6 |A| below and above every
+ * eigenvalue and between them, the number below the shift; on random
+ * symmetric matrices (and ones with zero or tiny diagonals, which take
+ * 2 x 2 pivots, or a tiny first diagonal beside large ones, which takes
+ * interchanges) LAPACK's count; singular (a zero pivot column) and NaN
+ * refused. Orders 1 to 40. */
+static void negatives_on_every_path(void **state)
+{
+    (void)state;
+    enum { MAXN = 40, LD = MAXN + 1 };
+    const int dims[] = {1, 2, 3, 5, 12, 24, 40};
+    dm_rng rng = {.state = 0x1e9b};
+    int checked = 0;
+    for (size_t a = 0; a < sizeof dims / sizeof dims[0]; a++)
+        for (int kind = 0; kind < 5; kind++) {
+            int n = dims[a];
+            double A[LD * MAXN], Q[LD * MAXN], lam[MAXN], tau[MAXN], amax = 0;
+            for (int i = 0; i < n; i++) /* both signs, |lambda| from 1 to 1e4 */
+                lam[i] = (i % 3 == 1 ? -1 : 1) * pow(1e4, n > 1 ? (double)i / (n - 1) : 0);
+            if (n > 3)
+                lam[3] = lam[0] * (1 + 1e-9);
+            for (int i = 0; i < LD * MAXN; i++)
+                Q[i] = dm_rng_normal(&rng);
+            assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, n, Q, LD, tau), 0);
+            assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, n, n, n, Q, LD, tau), 0);
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < n; i++) {
+                    ldbl sum = 0;
+                    for (int r = 0; r < n; r++)
+                        sum += kind < 2 ? (ldbl)Q[i + r * LD] * Q[j + r * LD] * lam[r] : 0;
+                    A[i + j * LD] = kind < 2 ? (double)sum : dm_rng_normal(&rng);
+                }
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < j; i++)
+                    A[i + j * LD] = A[j + i * LD];
+            if (kind == 3) /* zero and tiny diagonals: 2 x 2 pivots */
+                for (int i = 0; i < n; i++)
+                    A[i + i * LD] = i % 2 ? 1e-12 : 0;
+            if (kind == 4) /* a tiny first pivot beside large ones: interchanges */
+                for (int i = 0; i < n; i++)
+                    A[i + i * LD] = i ? 30 * dm_rng_normal(&rng) : 1e-20;
+            for (int i = 0; i < LD * n; i++)
+                amax = fmax(amax, fabs(A[i]));
+            /* the shifts: around each eigenvalue and between (kinds 0, 1), or 0 and random */
+            double shifts[2 * MAXN + 2];
+            int ns = 0;
+            if (kind < 2) {
+                for (int i = 0; i < n; i++) {
+                    shifts[ns++] = lam[i] - 1e-6 * amax;
+                    shifts[ns++] = lam[i] + 1e-6 * amax;
+                }
+                shifts[ns++] = 0;
+            } else {
+                shifts[ns++] = 0;
+                for (int r = 0; r < 4; r++)
+                    shifts[ns++] = amax * dm_rng_normal(&rng);
+            }
+            for (int t = 0; t < ns; t++) {
+                double S[LD * MAXN], base[LD * MAXN];
+                int count = -2;
+                for (int p = 0; p < DM_ISA_COUNT; p++) {
+                    if (!dm_isa_available((dm_isa)p))
+                        continue;
+                    memcpy(S, A, sizeof S);
+                    for (int i = 0; i < n; i++)
+                        S[i + i * LD] -= shifts[t];
+                    for (int j = 0; j < n; j++) /* only the lower triangle is read */
+                        for (int i = 0; i < j; i++)
+                            S[i + j * LD] = NAN;
+                    int c = dm_boundary_kernels_of((dm_isa)p)->negatives(n, S, LD);
+                    if (p == DM_ISA_DEFAULT)
+                        count = c, memcpy(base, S, sizeof S);
+                    else if (c != count || memcmp(S, base, sizeof(double) * LD * n))
+                        fail_msg("path %s, order %d, kind %d: not the baseline's count or bits",
+                                 dm_isa_name((dm_isa)p), n, kind);
+                    checked++;
+                }
+                int want = 0;
+                if (kind < 2) {
+                    for (int i = 0; i < n; i++)
+                        want += lam[i] < shifts[t];
+                } else {
+                    memcpy(S, A, sizeof S);
+                    for (int i = 0; i < n; i++)
+                        S[i + i * LD] -= shifts[t];
+                    want = lapack_negatives(n, S, LD);
+                }
+                if (count != want)
+                    fail_msg("order %d, kind %d, shift %.17g: %d negative, expected %d", n, kind,
+                             shifts[t], count, want);
+            }
+        }
+    for (int p = 0; p < DM_ISA_COUNT; p++)
+        if (dm_isa_available((dm_isa)p)) {
+            const dm_boundary_kernels *kr = dm_boundary_kernels_of((dm_isa)p);
+            double two[4] = {0, 1, 1, 0}, sing[9] = {1, 0, 0, 0, 0, 0, 0, 0, 2};
+            double zero[4] = {0, 0, 0, 0}, nan3[9] = {1, 0.5, 0, 0.5, NAN, 0.5, 0, 0.5, 3};
+            assert_int_equal(kr->negatives(2, two, 2), 1); /* a 2 x 2 pivot, eigenvalues -1, 1 */
+            assert_int_equal(kr->negatives(3, sing, 3), -1);
+            assert_int_equal(kr->negatives(2, zero, 2), -1);
+            assert_int_equal(kr->negatives(3, nan3, 3), -1);
+        }
+    print_message("inertia: %d counts checked on every path\n", checked);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -854,6 +985,7 @@ int main(void)
         cmocka_unit_test(cholesky_inverse_on_every_path),
         cmocka_unit_test(tridiagonal_form_on_every_path),
         cmocka_unit_test(tridiagonal_eigen_on_every_path),
+        cmocka_unit_test(negatives_on_every_path),
     };
     return cmocka_run_group_tests_name("boundary_eig", tests, NULL, NULL);
 }

@@ -29,14 +29,14 @@ dm_boundary *dm_boundary_alloc(const dm_members *ms, dm_error *err)
         bw->liwork = 3 + 5 * bw->nred;
         double **arrays[] = {&bw->S,  &bw->Sk,  &bw->D,   &bw->F,    &bw->X6,
                              &bw->Mbb, &bw->z,   &bw->Kr,  &bw->Mr,   &bw->wr,
-                             &bw->work, &bw->wsy, &bw->wcount, &bw->shW, &bw->shZt, &bw->shZ};
+                             &bw->work, &bw->wcount, &bw->shW, &bw->shZt, &bw->shZ};
         size_t sizes[] = {nB * nB, nB * nB, nB * nB, nB, nB * 6, nB * nB,
-                          (size_t)ms->n, nr * nr, nr * nr, nr, (size_t)bw->lwork, nB * 64, nimax,
+                          (size_t)ms->n, nr * nr, nr * nr, nr, (size_t)bw->lwork, nimax,
                           ncmax * nr, nr * nimax, (size_t)ms->n * nr};
         for (size_t k = 0; k < sizeof sizes / sizeof *sizes; k++)
             fail |= !(*arrays[k] = malloc(sizeof(double) * sizes[k]));
-        bw->ipiv = malloc(sizeof(lapack_int) * (nB + (size_t)bw->liwork));
-        fail |= !bw->ipiv;
+        bw->iwork = malloc(sizeof(lapack_int) * (size_t)bw->liwork);
+        fail |= !bw->iwork;
     }
     if (fail) {
         dm_boundary_free(bw);
@@ -51,11 +51,11 @@ void dm_boundary_free(dm_boundary *bw)
     if (!bw)
         return;
     double *arrays[] = {bw->S,    bw->Sk,  bw->D,      bw->F,   bw->X6,   bw->Mbb,
-                        bw->z,    bw->Kr,  bw->Mr,     bw->wr,  bw->work, bw->wsy,
+                        bw->z,    bw->Kr,  bw->Mr,     bw->wr,  bw->work,
                         bw->wcount, bw->shW, bw->shZt, bw->shZ};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; k++)
         free(arrays[k]);
-    free(bw->ipiv);
+    free(bw->iwork);
     free(bw);
 }
 

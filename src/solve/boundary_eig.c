@@ -543,7 +543,7 @@ static int count_reduced(dm_boundary_eig *e, dm_boundary *bw, double sigma, int 
                                      e->B + (size_t)ra[0] * nv + i0, nv, 1,
                                      e->D + (size_t)ra[0] * nB + rb[0], nB);
         }
-    int neg = dm_boundary_negatives(bw, e->D, nB);
+    int neg = dm_boundary_negatives(e->D, nB);
     *count = below + neg;
     return neg < 0 ? -1 : 0;
 }

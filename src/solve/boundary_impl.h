@@ -31,13 +31,13 @@ struct dm_boundary {
     double gl[DM_MEMBERS_N][3]; /* gravity in each member's frame */
     int nred;       /* reduced DOFs: boundary + each member's kept modes and residual vectors */
     double *Kr, *Mr, *wr; /* the reduced problem, then its eigenvectors (Kr) and values */
-    double *work, *wsy;   /* dsygvd's and dsytrf's workspaces */
+    double *work;         /* dsygvd's workspace */
     double *wcount;       /* the largest member interior: a count's 1 / (lambda_j - sigma) */
     double *shW, *shZt, *shZ; /* the shapes' scratch: a member's coefficients
                                * (ncoef x nred), its interior transposed
                                * (nred x ni), the modes in (boundary, interiors) (n x nred) */
     int lwork, liwork;
-    lapack_int *ipiv;     /* nB, then dsygvd's liwork */
+    lapack_int *iwork;    /* dsygvd's integer workspace (liwork) */
 };
 
 /* The boundary's mass through the clamped members, M_b + sum C' Mhat C,
@@ -55,7 +55,7 @@ void dm_boundary_member_dofs(dm_boundary *bw, int m, const double *y, double *xb
 
 /* Negative eigenvalues of the symmetric n x n D (lower triangle,
  * destroyed; n <= nB) by Sylvester's inertia; -1 if singular. */
-int dm_boundary_negatives(dm_boundary *bw, double *D, int n);
+int dm_boundary_negatives(double *D, int n);
 
 /* The reduced solve's dense products (boundary_kernels.c), built once
  * per instruction-set path; every path gives the same bits. Column-major
@@ -94,6 +94,10 @@ typedef struct dm_boundary_kernels {
      * ascending, Z (nz rows, ldz; n columns) Z W, e is destroyed; dsteqr's
      * algorithm ('V'). -1 when it does not converge (or for NaN). */
     int (*tridiagonal_eigen)(int n, double *d, double *e, double *Z, int ldz, int nz);
+    /* The negative eigenvalues of the symmetric A (n x n, lda; lower
+     * triangle read and destroyed) by its Bunch-Kaufman factor (dsytf2's
+     * pivoting); -1 when a pivot column vanishes (singular) or is NaN. */
+    int (*negatives)(int n, double *A, int lda);
     /* Yn = 2/c (Yn - c Y) - Yp over n entries; with Yp NULL, 1/c (Yn - c Y) */
     void (*chebyshev_step)(size_t n, double c, const double *Y, const double *Yp, double *Yn);
 } dm_boundary_kernels;

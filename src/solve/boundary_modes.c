@@ -40,26 +40,11 @@ void dm_boundary_mass(dm_boundary *bw, double *T, int ld)
         memcpy(T + (size_t)c * ld, Mbb + (size_t)c * bw->nB, sizeof(double) * bw->nB);
 }
 
-/* Sylvester's inertia from D's Bunch-Kaufman factor. */
-int dm_boundary_negatives(dm_boundary *bw, double *D, int n)
+/* Sylvester's inertia from D's Bunch-Kaufman factor (the path's kernel:
+ * dsytf2's pivoting, the blocks' signs). */
+int dm_boundary_negatives(double *D, int n)
 {
-    lapack_int info = LAPACKE_dsytrf_work(LAPACK_COL_MAJOR, 'L', n, D, n, bw->ipiv, bw->wsy,
-                                          64 * n);
-    if (info)
-        return -1;
-    int neg = 0;
-    for (int k = 0; k < n; k++) {
-        double a = D[(size_t)k * n + k];
-        if (bw->ipiv[k] > 0) {
-            neg += a < 0;
-            continue;
-        }
-        double b = D[(size_t)k * n + k + 1], c = D[(size_t)(k + 1) * n + k + 1];
-        double det = a * c - b * b;
-        neg += det < 0 ? 1 : (a + c < 0 ? 2 : 0);
-        k++;
-    }
-    return neg;
+    return boundary_kernels()->negatives(n, D, n);
 }
 
 /* What every count at one pose shares: M_BB (the members' couplings are
@@ -103,7 +88,7 @@ static int count_at(dm_boundary *bw, const count_pose *cp, double sigma, int *co
             }
         congruence(bw, m, G, -sigma * sigma, bw->D);
     }
-    int neg = dm_boundary_negatives(bw, bw->D, nB);
+    int neg = dm_boundary_negatives(bw->D, nB);
     if (neg < 0)
         return dm_fail(err, DM_ENUMERIC, "count: the shift is an eigenvalue of the boundary problem");
     *count = below + neg;
@@ -154,7 +139,7 @@ int dm_boundary_reduced_modes(dm_boundary *bw, int k, double *lambda, dm_error *
     int nr = bw->nred;
     assert(k <= nr);
     reduced_matrices(bw);
-    lapack_int *iwork = bw->ipiv + bw->nB;
+    lapack_int *iwork = bw->iwork;
     if (LAPACKE_dsygvd_work(LAPACK_COL_MAJOR, 1, 'V', 'L', nr, bw->Kr, nr, bw->Mr, nr, bw->wr,
                             bw->work, bw->lwork, iwork, bw->liwork))
         return dm_fail(err, DM_ENUMERIC, "reduced eigenproblem (member bases) failed");
