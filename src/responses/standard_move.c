@@ -103,6 +103,7 @@ struct dm_move_ws {
      * the parts they are made of (TRANS_ROWS: cos, sin, decay, angle) */
     double *trans[2];
     unsigned char have[2][MAX_LEVEL + 1];
+    short slow[2][MAX_LEVEL + 3];        /* slow_at's counts by level (-1: not yet) */
     /* the retained modes' transitions (4 x kmax a level), the same in every
      * direction: made by the first, copied by the others */
     double *rtrans[2];
@@ -761,6 +762,17 @@ static int slow_count(const carried *c, double wlim)
     return n;
 }
 
+/* The modes slow over intervals of half-length step_of(level) (omega h <
+ * sqrt 2), counted once a direction and family: a halving asked it at
+ * every node. */
+static int slow_at(const phase *ph, int level)
+{
+    short *n = &ph->w->slow[ph->family][level];
+    if (*n < 0)
+        *n = (short)slow_count(ph->c, SQRT2 / step_of(ph, level));
+    return *n;
+}
+
 /* y at a state, and l, l' of its ns slowest modes (the sums:
  * standard_move_kernels.c). */
 static void eval_node(const phase *ph, const double *q, const double *v, int ns, node *nd)
@@ -890,7 +902,7 @@ static void split(phase *ph, int level, const double *q, const double *v, const 
     const double *t = level_transitions(ph, level + 1);
     step_modes(ph, t, q, v, hv->qm, hv->vm);
     double half = step_of(ph, level + 2);
-    int ns = slow_count(ph->c, SQRT2 / half);
+    int ns = slow_at(ph, level + 2);
     eval_node(ph, hv->qm, hv->vm, ns, &hv->m);
     hv->a = *a;
     hv->b = *b;
@@ -969,7 +981,7 @@ static int coarse_level(const phase *ph, const double *b)
     int level = 0;
     for (; (1 << level) < MAX_INTERVALS; level++) {
         double h = step_of(ph, level + 1);
-        slack_of(ph, b, slow_count(ph->c, SQRT2 / h), &s);
+        slack_of(ph, b, slow_at(ph, level + 1), &s);
         if (s.slow2 * h * h / 2 + s.fast0 <= COARSE_SLACK * size)
             break;
     }
@@ -1134,7 +1146,7 @@ static void scan_phase(phase *ph, double *q, double *v, scan_result *sr)
     state_bounds(ph, q, v, bb);
     int level = coarse_level(ph, bb), N = 1 << level;
     double H = step_of(ph, level);
-    int ns = slow_count(ph->c, SQRT2 / (H / 2));
+    int ns = slow_at(ph, level + 1); /* (H / 2 is step_of(level + 1) exactly) */
     const double *pw = level_powers(ph, level);
     double *qa = w->scan, *va = qa + nmax;
     memcpy(qa, q, sizeof(double) * nm);
@@ -1257,6 +1269,7 @@ static void one_move(dm_move_ws *w, carried *c, double alpha, double beta, const
         c->q[j] = c->v[j] = 0;
     }
     memset(w->have, 0, sizeof w->have);
+    memset(w->slow, -1, sizeof w->slow);
     double A = o->amax_ms2;
     /* the move's halves are both scanned before either is refined, the
      * second (where the peak usually is: the deceleration adds to the
