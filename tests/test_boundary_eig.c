@@ -478,6 +478,26 @@ static void kernels_give_the_same_bits_on_every_path(void **state)
     free(A), free(X), free(Y0), free(bound), free(ref);
 }
 
+/* A (n x n, ld) = Q diag(lam) Q', symmetric to the last bit: Q
+ * orthogonal (the QR of n x n normals), the sums in long double; with
+ * diagonal set, diag(lam) itself (Q drawn all the same). */
+static void with_spectrum(dm_rng *rng, int n, const double *lam, int diagonal, double *A, int ld)
+{
+    double Q[n * n], tau[n];
+    for (int i = 0; i < n * n; i++)
+        Q[i] = dm_rng_normal(rng);
+    assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, n, Q, n, tau), 0);
+    assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, n, n, n, Q, n, tau), 0);
+    for (int j = 0; j < n; j++)
+        for (int i = j; i < n; i++) {
+            ldbl sum = 0;
+            for (int r = 0; r < n; r++)
+                sum += diagonal ? (ldbl)(i == r) * (j == r) * lam[r]
+                                : (ldbl)Q[i + r * n] * Q[j + r * n] * lam[r];
+            A[i + j * ld] = A[j + i * ld] = (double)sum;
+        }
+}
+
 /* The Cholesky kernels (cholesky_upper, inverse_upper: the
  * Rayleigh-Ritz's standard form, the Cholesky QRs, S^-1; cholesky_solve:
  * the statics, K_red^-1 for the moves): every path gives the baseline's
@@ -500,27 +520,14 @@ static void cholesky_inverse_on_every_path(void **state)
     for (size_t a = 0; a < sizeof dims / sizeof dims[0]; a++)
         for (size_t c = 0; c < sizeof conds / sizeof conds[0]; c++) {
             int n = dims[a];
-            double G[LD * MAXN], Q[LD * MAXN], base[LD * MAXN], lap[LD * MAXN], y[LD * MAXN];
+            double G[LD * MAXN], base[LD * MAXN], lap[LD * MAXN], y[LD * MAXN];
             double sol[MAXN], b[MAXN] = {0}; /* a right-hand side, the same on every path */
             for (int i = 0; i < n; i++)
                 b[i] = dm_rng_normal(&rng);
-            /* G = Q diag(kappa^(-i/(n-1))) Q', Q orthogonal (a QR of normals) */
-            for (int i = 0; i < LD * MAXN; i++)
-                Q[i] = dm_rng_normal(&rng);
-            double tau[MAXN];
-            assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, n, Q, LD, tau), 0);
-            assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, n, n, n, Q, LD, tau), 0);
-            for (int j = 0; j < n; j++)
-                for (int i = 0; i < n; i++) {
-                    ldbl sum = 0;
-                    for (int r = 0; r < n; r++)
-                        sum += (ldbl)Q[i + r * LD] * Q[j + r * LD] *
-                               pow(conds[c], n > 1 ? -(double)r / (n - 1) : 0);
-                    G[i + j * LD] = (double)sum;
-                }
-            for (int j = 0; j < n; j++) /* symmetric to the last bit */
-                for (int i = j + 1; i < n; i++)
-                    G[i + j * LD] = G[j + i * LD];
+            double lam[MAXN]; /* G = Q diag(kappa^(-i/(n-1))) Q' */
+            for (int r = 0; r < n; r++)
+                lam[r] = pow(conds[c], n > 1 ? -(double)r / (n - 1) : 0);
+            with_spectrum(&rng, n, lam, 0, G, LD);
             memcpy(lap, G, sizeof G);
             assert_int_equal(LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', n, lap, LD), 0);
             assert_int_equal(LAPACKE_dtrtri(LAPACK_COL_MAJOR, 'U', 'N', n, lap, LD), 0);
@@ -619,27 +626,13 @@ static void tridiagonal_form_on_every_path(void **state)
     for (size_t a = 0; a < sizeof dims / sizeof dims[0]; a++)
         for (int kind = 0; kind < 2; kind++) { /* 0: a random basis, 1: diagonal */
             int n = dims[a];
-            double A[LD * MAXN], Q[LD * MAXN], lam[MAXN], tau[MAXN];
+            double A[LD * MAXN] = {0}, lam[MAXN];
             for (int i = 0; i < n; i++)
                 lam[i] = pow(1e4, n > 1 ? (double)i / (n - 1) : 0);
             if (n > 3)
                 lam[2] = lam[1] * (1 + 1e-9);
-            for (int i = 0; i < LD * MAXN; i++)
-                Q[i] = dm_rng_normal(&rng);
-            assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, n, Q, LD, tau), 0);
-            assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, n, n, n, Q, LD, tau), 0);
+            with_spectrum(&rng, n, lam, kind, A, LD);
             double amax = 0;
-            for (int j = 0; j < n; j++)
-                for (int i = 0; i < n; i++) {
-                    ldbl sum = 0;
-                    for (int r = 0; r < n; r++)
-                        sum += kind ? (ldbl)(i == r) * (j == r) * lam[r]
-                                    : (ldbl)Q[i + r * LD] * Q[j + r * LD] * lam[r];
-                    A[i + j * LD] = (double)sum;
-                }
-            for (int j = 0; j < n; j++)
-                for (int i = j + 1; i < n; i++)
-                    A[i + j * LD] = A[j + i * LD];
             for (int i = 0; i < n * LD; i++)
                 amax = fmax(amax, fabs(A[i]));
             double bd[MAXN], be[MAXN], bq[LD * MAXN];
@@ -887,25 +880,17 @@ static void negatives_on_every_path(void **state)
     for (size_t a = 0; a < sizeof dims / sizeof dims[0]; a++)
         for (int kind = 0; kind < 5; kind++) {
             int n = dims[a];
-            double A[LD * MAXN], Q[LD * MAXN], lam[MAXN], tau[MAXN], amax = 0;
+            double A[LD * MAXN] = {0}, lam[MAXN], amax = 0;
             for (int i = 0; i < n; i++) /* both signs, |lambda| from 1 to 1e4 */
                 lam[i] = (i % 3 == 1 ? -1 : 1) * pow(1e4, n > 1 ? (double)i / (n - 1) : 0);
             if (n > 3)
                 lam[3] = lam[0] * (1 + 1e-9);
-            for (int i = 0; i < LD * MAXN; i++)
-                Q[i] = dm_rng_normal(&rng);
-            assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, n, Q, LD, tau), 0);
-            assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, n, n, n, Q, LD, tau), 0);
-            for (int j = 0; j < n; j++)
-                for (int i = 0; i < n; i++) {
-                    ldbl sum = 0;
-                    for (int r = 0; r < n; r++)
-                        sum += kind < 2 ? (ldbl)Q[i + r * LD] * Q[j + r * LD] * lam[r] : 0;
-                    A[i + j * LD] = kind < 2 ? (double)sum : dm_rng_normal(&rng);
-                }
-            for (int j = 0; j < n; j++)
-                for (int i = 0; i < j; i++)
-                    A[i + j * LD] = A[j + i * LD];
+            if (kind < 2)
+                with_spectrum(&rng, n, lam, 0, A, LD);
+            else /* random, symmetric */
+                for (int j = 0; j < n; j++)
+                    for (int i = j; i < n; i++)
+                        A[i + j * LD] = A[j + i * LD] = dm_rng_normal(&rng);
             if (kind == 3) /* zero and tiny diagonals: 2 x 2 pivots */
                 for (int i = 0; i < n; i++)
                     A[i + i * LD] = i % 2 ? 1e-12 : 0;
