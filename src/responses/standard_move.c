@@ -717,8 +717,9 @@ static const double *level_transitions(const phase *ph, int level)
         double *rt = w->rtrans[f] + (size_t)TRANS_ROWS * kmax * level;
         /* the level above, where this direction made it: its parts halved
          * instead of a sine, a cosine and an exponential, all the modes
-         * side by side (the kernel: halve_parts and mode_transition's
-         * operations), then those it does not serve one by one */
+         * side by side (the kernel halve_transitions: the half-angle
+         * formulas, then mode_transition's operations), then those it
+         * does not serve (halves_apply) one by one */
         const double *above = level && w->have[f][level - 1] ? t - (size_t)TRANS_ROWS * nmax : NULL;
         const carried *c = ph->c;
         if (above)

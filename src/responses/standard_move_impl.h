@@ -34,11 +34,11 @@ typedef struct dm_move_kernels {
                         double *out);
     /* A level's transitions of nm underdamped modes from the level
      * above's (rows nmax apart: a11, a12, a21, a22, then cos, sin, decay
-     * and angle): the parts by the half-angle formulas, the transitions
-     * from them and each mode's factors rz, iwd, wwd, as halve_parts and
-     * mode_transition of standard_move.c make them one mode at a time
-     * (the same operations: the same bits). Valid only for the modes
-     * whose angle above is at most pi / 2. */
+     * and angle): the parts by the half-angle formulas (standard_move.c,
+     * halves_apply), the transitions from them and each mode's factors
+     * rz, iwd, wwd as mode_transition makes them one mode at a time (the
+     * same operations: the same bits). Valid only for the modes whose
+     * angle above is at most pi / 2. */
     void (*halve_transitions)(int nm, int nmax, const double *above, double *t, const double *rz,
                               const double *iwd, const double *wwd);
 } dm_move_kernels;

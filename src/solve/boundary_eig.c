@@ -46,13 +46,13 @@ struct dm_boundary_eig {
     double *KX;          /* K and M times the block before its Ritz rotation, side by
                             side: nr x 2p (ritz_on_start, for residuals) */
     double *MQ;          /* M times the Ritz vectors (residuals; nr x p): the moves' M Phi */
-    double *H, *Z, *w, *s, *est, *work; /* projected problem (2p x 2p), residual norms */
+    double *H, *Z, *w, *s, *est, *work; /* projected problem (2p x 2p), residual norms;
+                                           work: the tridiagonal form's subdiagonal */
     double ahead;        /* estimates(): the wanted clusters' worst first-order estimate */
     double *Sinv, *dinv; /* K^-1 explicitly for the filter: S^-1 (nB x nB), 1/d (nv) */
     int plan;            /* the next warm start's first degree (0: measure it) */
     double b;            /* the last solve's filter end, 1 / its block's top Ritz value */
-    lapack_int *iwork;
-    int lwork, liwork, nstart;
+    int nstart;
     dm_rng rng;
     double sigma; /* the last solve's count: its shift and the modes below it */
     int count;
@@ -66,7 +66,6 @@ void dm_boundary_eig_free(dm_boundary_eig *e)
                    e->MQ, e->H, e->Z, e->w,   e->s,   e->est,  e->work, e->Sinv, e->dinv, e->Bt};
     for (size_t i = 0; i < sizeof a / sizeof *a; i++)
         free(a[i]);
-    free(e->iwork);
     free(e->run);
     free(e);
 }
@@ -143,19 +142,17 @@ dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
     e->kr = boundary_kernels();
     e->ms = bw->ms, e->k = k, e->pmax = p, e->p = k + GUARD < p ? k + GUARD : p, e->nr = nr, e->nB = nB, e->nv = nr - nB;
     e->rng.state = 0x39e1;
-    e->lwork = 26 * q + q * q, e->liwork = 10 * q;
     size_t n2 = (size_t)nr * q;
     double **a[] = {&e->d, &e->B, &e->Mbb, &e->D,   &e->X,    &e->KX,   &e->W,
                     &e->KW, &e->MW, &e->T, &e->MQ, &e->H,   &e->Z,    &e->w,    &e->s,
                     &e->est, &e->work, &e->Sinv, &e->dinv, &e->Bt};
     size_t sz[] = {e->nv, (size_t)e->nv * nB, (size_t)nB * nB, (size_t)nB * nB,
                    n2, n2, n2, n2, n2, n2, n2,
-                   (size_t)q * q, (size_t)q * q, q, q, q, e->lwork, (size_t)nB * nB, e->nv,
+                   (size_t)q * q, (size_t)q * q, q, q, q, q, (size_t)nB * nB, e->nv,
                    (size_t)nB * e->nv};
     int fail = 0;
     for (size_t i = 0; i < sizeof sz / sizeof *sz; i++)
         fail |= !(*a[i] = malloc(sizeof(double) * sz[i]));
-    fail |= !(e->iwork = malloc(sizeof(lapack_int) * (e->liwork + 2 * q)));
     fail |= !(e->run = malloc(sizeof(int) * 4 * nB * DM_MEMBERS_N));
     if (fail) {
         dm_boundary_eig_free(e);
