@@ -429,23 +429,29 @@ static int estimates(dm_boundary_eig *e)
 }
 
 /* Cholesky QR of the block Y (M-orthonormal again, the same span): R'R =
- * Y'MY, and Y, MY and the recurrence's previous term Yp (when non-NULL)
- * right-multiplied by R^-1. The same transform on both terms keeps the
- * three-term recurrence exact (p(A) Y R^-1 = (p(A) Y) R^-1), and after it
- * the block's columns are far from parallel again however much the filter
- * amplified the lowest modes. -1 when Y'MY is not positive definite. */
-static int rescale(dm_boundary_eig *e, double *Y, double *MY, double *Yp)
+ * Y'MY, R^-1 into H (rescale_factor); the filter's step then goes on
+ * from Y, MY and the recurrence's previous term, and its result and Y
+ * (the next step's previous term) are right-multiplied by R^-1
+ * (rescale_block): the recurrence is linear in its terms, so the step
+ * commutes with the transform (p(A) Y R^-1 = (p(A) Y) R^-1), and two
+ * blocks are transformed instead of Y, MY and the previous term. After
+ * it the block's columns are far from parallel again however much the
+ * filter amplified the lowest modes. -1 when Y'MY is not positive
+ * definite. */
+static int rescale_factor(dm_boundary_eig *e, const double *Y, const double *MY)
 {
     int nr = e->nr, p = e->p;
-    double *G = e->H, *m[3] = {Y, MY, Yp};
+    double *G = e->H;
     transpose(Y, nr, p, nr, e->T); /* T is free while the filter runs */
     e->kr->mult_upper(p, p, nr, e->T, p, MY, nr, G, p);
-    if (factor_inverse(e, p, G))
-        return -1;
-    for (int t = 0; t < 3; t++) /* by R^-1 (a product: dtrsm took 2.5 times as long) */
-        if (m[t])
-            e->kr->mult_upper_in_place(nr, p, m[t], nr, G, p);
-    return 0;
+    return factor_inverse(e, p, G);
+}
+
+/* Y = Y R^-1 by rescale_factor's R^-1 (a product: dtrsm took 2.5 times as
+ * long) */
+static void rescale_block(dm_boundary_eig *e, double *Y)
+{
+    e->kr->mult_upper_in_place(e->nr, e->p, Y, e->nr, e->H, e->p);
 }
 
 /* X = T_d((A - c) / c) X, A = K^-1 M (eigenvalues mu = 1/lambda), c = b/2:
@@ -466,14 +472,19 @@ static int filter(dm_boundary_eig *e, int degree, double b, double theta1)
     double *Y = e->X, *Yp = e->W, *Yn = e->KW, *MY = e->MW;
     for (int j = 0; j < degree; j++, skew *= g1) {
         apply_M(e, Y, e->p, MY);
-        if (skew * g1 > SKEW_MAX) {
-            if (rescale(e, Y, MY, j ? Yp : NULL))
+        int rescaled = skew * g1 > SKEW_MAX;
+        if (rescaled) {
+            if (rescale_factor(e, Y, MY))
                 return -1;
             skew = 1;
         }
         inverse_K_times(e, MY, e->p, Yn);
         /* T_1 = t, T_j+1 = 2 t T_j - T_j-1 */
         e->kr->chebyshev_step(np, c, Y, j ? Yp : NULL, Yn);
+        if (rescaled) {
+            rescale_block(e, Yn);
+            rescale_block(e, Y);
+        }
         double *old = Yp;
         Yp = Y, Y = Yn, Yn = old;
     }
