@@ -1169,8 +1169,7 @@ static void scan_phase(phase *ph, double *q, double *v, scan_result *sr)
             sr->stopped = 1; /* y = 0 + what can still move: below both for good */
             break;
         }
-        w->kr->batch_nodes(nm, ns, pw, qa, va, ph->c->p4, ph->yp, H / 2, w->Qb, w->Vb,
-                               w->sums);
+        w->kr->batch_nodes(nm, ns, pw, qa, va, ph->c->p4, ph->yp, H / 2, w->Qb, w->Vb, w->sums);
         int nb = N - i0 < BLOCK ? N - i0 : BLOCK;
         scan_batch(ph, sr, i0, nb, H, ns, &s, qa, va, &prev, &prev_start);
         batch_state(ph, nb - 1, qa, va);

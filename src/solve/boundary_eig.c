@@ -548,8 +548,8 @@ static int count_reduced(dm_boundary_eig *e, dm_boundary *bw, double sigma, int 
             if (i1 <= i0)
                 continue; /* no member reaches both */
             e->kr->mult(rb[1], ra[1], i1 - i0, e->T + (size_t)i0 * nB + rb[0], nB,
-                                     e->B + (size_t)ra[0] * nv + i0, nv, 1,
-                                     e->D + (size_t)ra[0] * nB + rb[0], nB);
+                        e->B + (size_t)ra[0] * nv + i0, nv, 1, e->D + (size_t)ra[0] * nB + rb[0],
+                        nB);
         }
     int neg = dm_boundary_negatives(e->D, nB);
     *count = below + neg;

@@ -341,8 +341,9 @@ INLINE void rank2_in_order(int n, const double *v, double a, const double *w, do
  * dsyr2, dlarf's dgemv and dger: 91 000 and 46 000 instructions at n =
  * 20, 40 % of dsyev's; here 60 000 for both). 'U' reduces from the last
  * column: here the lower form's reduction of P A P (P reversing the
- * order), reversed back. That order matters: dsteqr then chases the same
- * tridiagonal as dsyev's (from the first column instead, its QL sweeps
+ * order), reversed back. That order matters: the QL iteration
+ * (tridiagonal_eigen, dsteqr's algorithm) then chases the same
+ * tridiagonal as dsyev's (from the first column instead, dsteqr's sweeps
  * took 18 % more instructions on the projected problems). The same
  * operations in a fixed order on every path. A's lower triangle holds the
  * reflectors afterwards. No scaling: the reduced problem's standard
