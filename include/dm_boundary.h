@@ -151,10 +151,10 @@ int dm_boundary_eig_count(dm_boundary_eig *e, dm_boundary *bw, double sigma, int
  * projection). */
 void dm_boundary_eig_mult_M(const dm_boundary_eig *e, const double *Y, int ncol, double *MY);
 
-/* M_red times the last dm_boundary_eig_solve's Ritz vectors (nred x its
- * block, leading dimension nred: the first k columns M_red times
- * dm_boundary_reduced_vectors' k), made with the residuals of its last
- * projection; valid until e's next solve. */
+/* M_red times the last dm_boundary_eig_solve's Ritz vectors of the
+ * wanted clusters (nred x at least k, leading dimension nred: the first k
+ * columns M_red times dm_boundary_reduced_vectors' k), made with the
+ * residuals of its last projection; valid until e's next solve. */
 const double *dm_boundary_eig_mass_vectors(const dm_boundary_eig *e);
 
 /* KY = K_red Y, and Y = K_red^-1 Y in place (any ncol), in the same

@@ -369,46 +369,61 @@ static int ritz_on_start(dm_boundary_eig *e, const dm_boundary *bw)
     return 0;
 }
 
-/* Residuals R = K X - M X Theta of the Ritz vectors into T, as
- * (KX) Q - (MX Q) Theta from the products ritz_on_start kept (the flops
- * of one product by [Q; -Q Theta]; M X Q is kept: the moves' M Phi, a
- * product by M fewer a pose); preconditioned W = K^-1 R, and
- * s_j = r_j' K^-1 r_j. K^-1 is the filter's explicit one (inverse_K):
- * s only steers the iteration (estimates; the certified bounds come from
- * counts, dm_boundary_bounds), and the inverse's relative error, some
+/* The last wanted cluster's end: the Ritz values within CLUSTER of each
+ * other share one bound (estimates), so the k-th value's cluster is
+ * wanted whole. */
+static int wanted_end(const dm_boundary_eig *e)
+{
+    int b = e->k - 1;
+    while (b + 1 < e->p && e->w[b + 1] <= e->w[b] * (1 + CLUSTER))
+        b++;
+    return b;
+}
+
+/* Residuals R = K X - M X Theta of the first ncol Ritz vectors (the
+ * wanted clusters': the only ones a bound is asked of) into T, as
+ * K (X Q) - (M X Q) Theta: K X Q made afresh on the rotated block (K is
+ * block-diagonal: nB^2 + nv products a column, where rotating K X took
+ * nr p), M X Q from the product ritz_on_start kept (M's product costs
+ * more than the rotation; M X Q is kept: the moves' M Phi, a product by M
+ * fewer a pose); preconditioned W = K^-1 R, and s_j = r_j' K^-1 r_j.
+ * K^-1 is the filter's explicit one (inverse_K): s only steers the
+ * iteration (estimates; the certified bounds come from counts,
+ * dm_boundary_bounds), and the inverse's relative error, some
  * kappa(S) eps, is far below the estimates' own first-order slack. Its
  * product takes a tenth of the triangular solves' time (dpotrs was 3 %
  * of a chen2018 sweep's instructions). */
-static void residuals(dm_boundary_eig *e)
+static void residuals(dm_boundary_eig *e, const dm_boundary *bw, int ncol)
 {
     int nr = e->nr, p = e->p;
-    e->kr->mult(nr, p, p, e->KX, nr, e->H, p, 0, e->T, nr);
-    e->kr->mult(nr, p, p, e->KX + (size_t)nr * p, nr, e->H, p, 0, e->MQ, nr);
-    for (int j = 0; j < p; j++) {
+    apply_K(e, bw, e->X, ncol, e->T);
+    e->kr->mult(nr, ncol, p, e->KX + (size_t)nr * p, nr, e->H, p, 0, e->MQ, nr);
+    for (int j = 0; j < ncol; j++) {
         double *r = e->T + (size_t)j * nr, th = e->w[j];
         const double *mq = e->MQ + (size_t)j * nr;
         for (int i = 0; i < nr; i++)
             r[i] -= th * mq[i];
     }
-    inverse_K_times(e, e->T, p, e->W);
-    for (int j = 0; j < p; j++)
+    inverse_K_times(e, e->T, ncol, e->W);
+    for (int j = 0; j < ncol; j++)
         e->s[j] = fabs(cblas_ddot(nr, e->T + (size_t)j * nr, 1, e->W + (size_t)j * nr, 1));
 }
 
 /* est_j: the relative bound of dm_boundary.h from the residuals s and the
- * Ritz values' clusters; INFINITY for a cluster that reaches the block's
- * top (no gap known above it); ahead: the wanted clusters' largest x / rho,
- * the estimate's first-order part, finite below the top even where the
- * bound is not (what the filter must remove). Returns the last wanted
- * cluster's end. */
-static int estimates(dm_boundary_eig *e)
+ * Ritz values' clusters, for the wanted clusters (columns 0..top,
+ * wanted_end); INFINITY for a cluster that reaches the block's top (no
+ * gap known above it); ahead: their largest x / rho, the estimate's
+ * first-order part, finite below the top even where the bound is not
+ * (what the filter must remove). */
+static void estimates(dm_boundary_eig *e, int top)
 {
-    int p = e->p, top = 0;
+    int p = e->p;
     e->ahead = 0;
-    for (int a = 0; a < p;) {
+    for (int a = 0; a <= top;) {
         int b = a;
         while (b + 1 < p && e->w[b + 1] <= e->w[b] * (1 + CLUSTER))
             b++;
+        assert(b <= top); /* a cluster ends at top (wanted_end) */
         double sum = 0, delta = INFINITY;
         for (int i = a; i <= b; i++)
             sum += e->s[i] / (e->w[i] * e->w[i] * e->w[i]);
@@ -418,14 +433,10 @@ static int estimates(dm_boundary_eig *e)
         for (int i = a; i <= b; i++) {
             double rho = 1 / e->w[i], x = delta > 0 ? sum / delta : INFINITY;
             e->est[i] = x < rho ? x / (rho - x) : INFINITY;
-            if (a < e->k)
-                e->ahead = fmax(e->ahead, x / rho);
+            e->ahead = fmax(e->ahead, x / rho);
         }
-        if (a < e->k)
-            top = b;
         a = b + 1;
     }
-    return top;
 }
 
 /* Cholesky QR of the block Y (M-orthonormal again, the same span): R'R =
@@ -634,8 +645,9 @@ static int converge(dm_boundary_eig *e, const dm_boundary *bw, int planned, int 
     if (ritz_on_start(e, bw))
         return -1;
     for (int round = 0;; round++) {
-        residuals(e);
-        *top = estimates(e);
+        *top = wanted_end(e);
+        residuals(e, bw, *top + 1);
+        estimates(e, *top);
         int done = 1;
         for (int j = 0; j <= *top; j++)
             done &= e->est[j] <= DM_BOUNDARY_EIG_TOL;
