@@ -131,10 +131,13 @@ void dm_boundary_eig_seed_load(dm_boundary_eig *e, const void *seed);
 void dm_boundary_eig_forget(dm_boundary_eig *e);
 
 /* The last successful solve's completeness count: its shift sigma (just
- * above the k-th mode's cluster) and the reduced problem's eigenvalues
- * below it. A count of the whole model at sigma (dm_boundary_count)
- * larger than this one means the member bases miss a mode there. */
-void dm_boundary_eig_count_point(const dm_boundary_eig *e, double *sigma, int *count);
+ * above the k-th mode's cluster), the reduced problem's eigenvalues below
+ * it (count), and the whole model's there (whole, dm_boundary_count; -1
+ * when sigma is singular for it), which the solve makes first: where it
+ * equals the Ritz values below sigma it proves count equal too, and the
+ * reduced problem is not counted. A whole count larger than count means
+ * the member bases miss a mode there. */
+void dm_boundary_eig_count_point(const dm_boundary_eig *e, double *sigma, int *count, int *whole);
 
 /* The reduced problem's eigenvalues below sigma at the last solve's pose,
  * by the Wittrick-Williams count the solver certifies itself with

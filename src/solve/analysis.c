@@ -120,8 +120,9 @@ static int reduced_modes(dm_analysis *an, dm_error *err)
     int reduced_count, whole_count;
     int rc = dm_boundary_eig_solve(an->eig, an->boundary, an->lambda, NULL, &an->member_info, err);
     if (!rc) {
-        dm_boundary_eig_count_point(an->eig, &sigma, &reduced_count);
-        rc = dm_boundary_count(an->boundary, sigma, &whole_count, err);
+        dm_boundary_eig_count_point(an->eig, &sigma, &reduced_count, &whole_count);
+        if (whole_count < 0) /* singular there: the count's own error */
+            rc = dm_boundary_count(an->boundary, sigma, &whole_count, err);
     }
     if (!rc && whole_count != reduced_count)
         rc = dm_fail(err, DM_ENUMERIC,

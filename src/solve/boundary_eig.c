@@ -55,7 +55,7 @@ struct dm_boundary_eig {
     int nstart;
     dm_rng rng;
     double sigma; /* the last solve's count: its shift and the modes below it */
-    int count;
+    int count, whole; /* (whole: the whole model's there, -1 if singular; proven_by_whole_count) */
 };
 
 void dm_boundary_eig_free(dm_boundary_eig *e)
@@ -765,6 +765,26 @@ static void plan_next(dm_boundary_eig *e, int top, const dm_boundary_eig_info *i
     e->plan -= spare;
 }
 
+/* The whole model's Wittrick-Williams count at sigma (dm_boundary_count,
+ * kept in e->whole; -1 when sigma is singular for it) proves the solve
+ * complete when it is top + 1: the Ritz values are upper bounds of the
+ * reduced problem's eigenvalues (a subspace of it), which are upper
+ * bounds of the model's (the reduction is a projection), so the reduced
+ * count lies between the top + 1 Ritz values below sigma and the whole
+ * count: it is top + 1 too, and its own count is not made (a sixth of a
+ * warm solve's products). Any other whole count leaves the question to
+ * the reduced count: a mode the iteration missed (restart), or one the
+ * bases miss (the caller compares the counts). */
+static int proven_by_whole_count(dm_boundary_eig *e, dm_boundary *bw, double sigma, int top)
+{
+    if (dm_boundary_count(bw, sigma, &e->whole, NULL))
+        e->whole = -1;
+    if (e->whole != top + 1)
+        return 0;
+    e->sigma = sigma, e->count = top + 1;
+    return 1;
+}
+
 int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, double *estimate,
                           dm_boundary_eig_info *info, dm_error *err)
 {
@@ -791,12 +811,15 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
         }
         /* just above the wanted clusters (their values are within the
          * tolerance, far below the shift's 1e-9; the counts resolve ~1e-11) */
-        if (count_reduced(e, bw, e->w[top] * (1 + COUNT_SHIFT), &count)) {
+        double sigma = e->w[top] * (1 + COUNT_SHIFT);
+        if (proven_by_whole_count(e, bw, sigma, top))
+            break;
+        if (count_reduced(e, bw, sigma, &count)) {
             e->nstart = 0, e->plan = 0;
             return dm_fail(err, DM_ENUMERIC, "reduced eigensolver: the count's shift is singular");
         }
         if (count == top + 1) {
-            e->sigma = e->w[top] * (1 + COUNT_SHIFT), e->count = count;
+            e->sigma = sigma, e->count = count;
             break;
         }
         if (count < top + 1 || attempt == MAX_RESTARTS) { /* Ritz values are upper bounds */
@@ -829,9 +852,9 @@ void dm_boundary_eig_forget(dm_boundary_eig *e)
     e->rng.state = 0x39e1; /* as allocated: a cold solve's bits depend on its pose alone */
 }
 
-void dm_boundary_eig_count_point(const dm_boundary_eig *e, double *sigma, int *count)
+void dm_boundary_eig_count_point(const dm_boundary_eig *e, double *sigma, int *count, int *whole)
 {
-    *sigma = e->sigma, *count = e->count;
+    *sigma = e->sigma, *count = e->count, *whole = e->whole;
 }
 
 int dm_boundary_eig_count(dm_boundary_eig *e, dm_boundary *bw, double sigma, int *count,
