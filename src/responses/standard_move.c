@@ -19,9 +19,7 @@
  * what follows the preparation reads only each carried mode's frequency,
  * force and platform translation. */
 #include <assert.h>
-#include <cblas.h>
 #include <math.h>
-#include <lapacke.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -31,6 +29,7 @@
 #include "dm_kinematics.h"
 #include "dm_loads.h"
 #include "dm_static.h"
+#include "dm_symeig.h"
 #include "dm_vec3.h"
 
 void dm_move_opts_default(dm_move_opts *o)
@@ -351,11 +350,12 @@ static const double *retained_m(dm_move_ws *w, const space *sp, int k)
 
 /* x -= B c, c = (M B)' x: x's part in span(B) removed M-orthogonally, for
  * B's m columns M-orthonormal (n x m, M B beside it); c returned. */
-static void project_out(double *x, const double *B, const double *MB, int n, int ldb, int m,
-                        double *c)
+static void project_out(const dm_move_ws *w, double *x, const double *B, const double *MB, int n,
+                        int ldb, int m, double *c)
 {
-    cblas_dgemv(CblasColMajor, CblasTrans, n, m, 1.0, MB, ldb, x, 1, 0.0, c, 1);
-    cblas_dgemv(CblasColMajor, CblasNoTrans, n, m, -1.0, B, ldb, c, 1, 1.0, x, 1);
+    for (int j = 0; j < m; j++)
+        c[j] = dot(w, MB + (size_t)j * ldb, x, n);
+    w->kr->subtract_combination(n, m, B, ldb, c, x);
 }
 
 /* M-orthonormalise Krylov column m of the directions in dirs[0..q) against
@@ -375,9 +375,10 @@ static void orthonormalise(dm_move_ws *w, const space *sp, const double *mphi, i
     double *x[MAXDIR], *mx[MAXDIR], removed[MAXDIR], *c = w->coef;
     for (int r = 0; r < q; r++) {
         x[r] = krylov(w, dirs[r], m), mx[r] = m_krylov(w, dirs[r], m);
-        project_out(x[r], sp->phi, mphi, n, n, k, c);
+        project_out(w, x[r], sp->phi, mphi, n, n, k, c);
         if (m > 0)
-            project_out(x[r], krylov(w, dirs[r], 0), m_krylov(w, dirs[r], 0), n, w->n, m, c + k);
+            project_out(w, x[r], krylov(w, dirs[r], 0), m_krylov(w, dirs[r], 0), n, w->n, m,
+                        c + k);
         removed[r] = dot(w, c, c, k + m);
     }
     on_block(w, sp, OP_MULT_M, (const double *const *)x, mx, q);
@@ -442,7 +443,7 @@ static void ritz_modes(dm_move_ws *w, const space *sp, int ndir, const int *nkep
     q = 0;
     for (int d = 0; d < ndir; d++) {
         int m = nkept[d];
-        double KR[MAXRITZ * MAXRITZ], ev[MAXRITZ], work[64], xG[MAXRITZ];
+        double KR[MAXRITZ * MAXRITZ], Z[MAXRITZ * MAXRITZ], ev[MAXRITZ], xG[MAXRITZ];
         const double *G = w->G + (size_t)d * n;
         for (int j = 0; j < m; j++) {
             xG[j] = dot(w, x[q + j], G, n);
@@ -452,13 +453,13 @@ static void ritz_modes(dm_move_ws *w, const space *sp, int ndir, const int *nkep
         for (int j = 0; j < m; j++) /* symmetric */
             for (int i = 0; i < j; i++)
                 KR[j * m + i] = KR[i * m + j] = 0.5 * (KR[j * m + i] + KR[i * m + j]);
-        if (m && !LAPACKE_dsyev_work(LAPACK_COL_MAJOR, 'V', 'U', m, KR, m, ev, work, 64)) {
+        if (m && !dm_symeig(m, KR, m, ev, Z, m)) {
             for (int i = 0; i < m; i++) {
                 if (!(ev[i] > 0))
                     continue;
                 double g = 0, phiP[3] = {0, 0, 0};
                 for (int j = 0; j < m; j++) {
-                    double z = KR[i * m + j];
+                    double z = Z[i * m + j];
                     g += z * xG[j];
                     for (int c3 = 0; c3 < 3; c3++)
                         phiP[c3] += z * x[q + j][pd + c3];

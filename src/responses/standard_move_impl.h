@@ -13,6 +13,10 @@
 typedef struct dm_move_kernels {
     /* a'b over n values, in four partial sums */
     double (*dot)(const double *a, const double *b, int n);
+    /* x[i] -= sum_j c[j] B[i + j ldb] over m columns, in j order (n
+     * entries) */
+    void (*subtract_combination)(int n, int m, const double *B, int ldb, const double *c,
+                                 double *x);
     /* one step of nm modes' (q, v) by their transitions t (4 rows nmax
      * apart: a11, a12, a21, a22) */
     void (*step_modes)(int nm, const double *t, int nmax, const double *q, const double *v,

@@ -25,6 +25,21 @@ static double dot(const double *a, const double *b, int n)
     return (s[0] + s[1]) + (s[2] + s[3]);
 }
 
+/* Each entry's terms subtracted in column order: a column at a time
+ * down the entries, in the path's vectors (the same bits as one entry
+ * at a time). */
+static void subtract_combination(int n, int m, const double *B, int ldb, const double *c,
+                                 double *x)
+{
+    for (int j = 0; j < m; j++) {
+        const double *restrict b = B + (size_t)j * ldb;
+        double *restrict y = x, cj = c[j];
+#pragma omp simd
+        for (int i = 0; i < n; i++)
+            y[i] -= cj * b[i];
+    }
+}
+
 static void step_modes(int nm, const double *t, int nmax, const double *q, const double *v,
                        double *qo, double *vo)
 {
@@ -169,6 +184,7 @@ static void halve_transitions(int nm, int nmax, const double *above, double *t, 
 const dm_move_kernels DM_ISA_TABLE(dm_move_kernels_) = {
     .halve_transitions = halve_transitions,
     .dot = dot,
+    .subtract_combination = subtract_combination,
     .step_modes = step_modes,
     .node_sums = node_sums,
     .batch_nodes = batch_nodes,

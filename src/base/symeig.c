@@ -1,0 +1,102 @@
+/* Small symmetric eigenproblems by cyclic Jacobi (dm_symeig.h). */
+#include "dm_symeig.h"
+
+#include <assert.h>
+#include <float.h>
+#include <math.h>
+#include <stddef.h>
+
+enum { MAX_SWEEPS = 50 };
+
+#define AT(i, j) A[(i) + (size_t)(j) * lda]
+#define VT(i, j) V[(i) + (size_t)(j) * ldv]
+
+/* One rotation in the plane (p, q) that zeroes A(p, q), applied to A's
+ * rows and columns and to V's columns (Rutishauser's form: the update
+ * of each entry as a small correction, tau = s / (1 + c)). 0 when the
+ * entry is already negligible (then made 0: below half an ulp of its
+ * diagonal pair, it moves no eigenvalue by more than that). */
+static int annihilate(int n, double *A, int lda, double *V, int ldv, int p, int q)
+{
+    double apq = AT(p, q), app = AT(p, p), aqq = AT(q, q);
+    if (fabs(apq) <= 0.5 * DBL_EPSILON * sqrt(fabs(app)) * sqrt(fabs(aqq))) {
+        AT(p, q) = AT(q, p) = 0;
+        return 0;
+    }
+    double theta = (aqq - app) / (2 * apq);
+    double t = fabs(theta) > 1e150 ? 0.5 / theta /* theta^2 would overflow */
+                                   : copysign(1, theta) / (fabs(theta) + sqrt(theta * theta + 1));
+    double c = 1 / sqrt(t * t + 1), s = t * c, tau = s / (1 + c);
+    AT(p, p) = app - t * apq;
+    AT(q, q) = aqq + t * apq;
+    AT(p, q) = AT(q, p) = 0;
+    for (int r = 0; r < n; r++) {
+        if (r == p || r == q)
+            continue;
+        double g = AT(r, p), h = AT(r, q);
+        AT(r, p) = AT(p, r) = g - s * (h + g * tau);
+        AT(r, q) = AT(q, r) = h + s * (g - h * tau);
+    }
+    for (int r = 0; r < n; r++) {
+        double g = VT(r, p), h = VT(r, q);
+        VT(r, p) = g - s * (h + g * tau);
+        VT(r, q) = h + s * (g - h * tau);
+    }
+    return 1;
+}
+
+/* A's upper triangle mirrored into the lower, V = I; -1 for a non-finite
+ * entry. */
+static int start(int n, double *A, int lda, double *V, int ldv)
+{
+    for (int j = 0; j < n; j++) {
+        for (int i = 0; i <= j; i++) {
+            if (!isfinite(AT(i, j)))
+                return -1;
+            AT(j, i) = AT(i, j);
+        }
+        for (int i = 0; i < n; i++)
+            VT(i, j) = i == j;
+    }
+    return 0;
+}
+
+/* w ascending, V's columns with them (a selection sort: n is small). */
+static void sort_pairs(int n, double *w, double *V, int ldv)
+{
+    for (int i = 0; i + 1 < n; i++) {
+        int k = i;
+        for (int j = i + 1; j < n; j++)
+            if (w[j] < w[k])
+                k = j;
+        if (k == i)
+            continue;
+        double t = w[i];
+        w[i] = w[k], w[k] = t;
+        for (int r = 0; r < n; r++) {
+            t = VT(r, i);
+            VT(r, i) = VT(r, k), VT(r, k) = t;
+        }
+    }
+}
+
+int dm_symeig(int n, double *A, int lda, double *w, double *V, int ldv)
+{
+    assert(n >= 1 && lda >= n && ldv >= n);
+    if (start(n, A, lda, V, ldv))
+        return -1;
+    for (int sweep = 0;; sweep++) {
+        int rotated = 0;
+        for (int p = 0; p < n; p++)
+            for (int q = p + 1; q < n; q++)
+                rotated |= annihilate(n, A, lda, V, ldv, p, q);
+        if (!rotated)
+            break;
+        if (sweep == MAX_SWEEPS)
+            return -1;
+    }
+    for (int j = 0; j < n; j++)
+        w[j] = AT(j, j);
+    sort_pairs(n, w, V, ldv);
+    return 0;
+}
