@@ -1,6 +1,7 @@
-/* dm_symeig.h — the eigenpairs of a small symmetric matrix by cyclic
- * Jacobi: the standard moves' Ritz problems, at most 4 x 4 a direction
- * (dm_integrate.h, the load-dependent Ritz vectors). LAPACK's dsyev
+/* dm_symeig.h — small symmetric eigenproblems by cyclic Jacobi: the
+ * eigenpairs of the standard moves' Ritz problems, at most 4 x 4 a
+ * direction (dm_integrate.h, the load-dependent Ritz vectors), and the
+ * singular values of the pose's 3 x 3 Jacobian. LAPACK's dsyev
  * spends its time there in set-up (dlamch, the scaling checks, the
  * workspace): 9 200 instructions a 3 x 3 call, 2 % of a chen2018 sweep's
  * time; Jacobi's rotations need some 600 (docs/model-choices.md,
@@ -17,5 +18,16 @@
  * over their gaps, as dsyev's). Returns 0, or -1 for a non-finite entry
  * or no convergence in 50 sweeps (quadratic convergence takes 4-6). */
 int dm_symeig(int n, double *A, int lda, double *w, double *V, int ldv);
+
+/* The singular values s (n, descending) of A (m x n, m >= n, lda;
+ * overwritten): the square roots of A'A's eigenvalues, by the same
+ * rotations applied to A's columns alone (one-sided Jacobi: A'A is never
+ * formed, so a small singular value keeps its accuracy instead of
+ * drowning in A'A's rounding), each column pair rotated until its
+ * cosine is below an ulp. What the pose's Jacobian condition number needs
+ * (dm_kinematics.h): LAPACK's dgesvd took 14 000 instructions a 3 x 3
+ * call, 1.5 % of a sweep's time. -1 for a non-finite entry or no
+ * convergence in 50 sweeps. */
+int dm_symeig_singular_values(int m, int n, double *A, int lda, double *s);
 
 #endif

@@ -3,7 +3,8 @@
  * dsyev within c n eps |A| (c = 4: both solvers' backward errors, a few
  * ulps of |A| each), eigenvectors orthonormal to 4 n eps and residuals
  * |A v - w v| within 4 n eps |A|; w ascending; NaN refused. Orders 1-8
- * (the moves ask at most 4). */
+ * (the moves ask at most 4). The singular values (the pose's Jacobian:
+ * 3 x 3) against known ones and dgesvd's. */
 #include "dm_test.h"
 
 #include <float.h>
@@ -142,6 +143,63 @@ static void diagonal_and_leading_dimension(void **state)
     }
 }
 
+/* Singular values: of A = U diag(sig) V' (U m x n orthonormal columns,
+ * V orthogonal; sig down to 1e-12 of the largest, and an exact zero)
+ * within 4 n eps sig_max (a backward-stable bound, as dgesvd's), and of
+ * random matrices against dgesvd's within the same; descending. */
+static void singular_values_known_and_random(void **state)
+{
+    (void)state;
+    dm_rng rng = {0x51ab};
+    double sigs[][4] = {{3, 2, 1, 0.5}, {1, 1e-5, 1e-10, 1e-12}, {2, 2, 2, 0}, {7, 1, 1 + 1e-9, 4}};
+    for (int trial = 0; trial < 120; trial++) {
+        int n = 1 + trial % 4, m = n + (trial / 4) % 3;
+        double A[8 * 4], B[8 * 4], U[8 * 8], V[4 * 4], tau[8], s[4], ref[4];
+        const double *sig = sigs[trial % 4];
+        int known = trial % 2;
+        for (int i = 0; i < m * m; i++)
+            U[i] = dm_rng_normal(&rng);
+        assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, m, m, U, m, tau), 0);
+        assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, m, m, m, U, m, tau), 0);
+        for (int i = 0; i < n * n; i++)
+            V[i] = dm_rng_normal(&rng);
+        assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, n, V, n, tau), 0);
+        assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, n, n, n, V, n, tau), 0);
+        for (int j = 0; j < n; j++)
+            for (int i = 0; i < m; i++) {
+                long double sum = 0;
+                for (int r = 0; r < n; r++)
+                    sum += (long double)U[i + r * m] * sig[r] * V[j + r * n];
+                A[i + j * m] = known ? (double)sum : dm_rng_normal(&rng);
+            }
+        double smax = 0;
+        if (known) {
+            for (int r = 0; r < n; r++)
+                ref[r] = sig[r], smax = fmax(smax, sig[r]);
+            for (int i = 1; i < n; i++) /* descending */
+                for (int j = i; j > 0 && ref[j] > ref[j - 1]; j--) {
+                    double t = ref[j];
+                    ref[j] = ref[j - 1], ref[j - 1] = t;
+                }
+        } else {
+            double sup[4], u1[1], vt1[1];
+            memcpy(B, A, sizeof(double) * m * n);
+            assert_int_equal(LAPACKE_dgesvd(LAPACK_COL_MAJOR, 'N', 'N', m, n, B, m, ref, u1, 1,
+                                            vt1, 1, sup), 0);
+            smax = ref[0];
+        }
+        memcpy(B, A, sizeof(double) * m * n);
+        assert_int_equal(dm_symeig_singular_values(m, n, B, m, s), 0);
+        for (int j = 0; j < n; j++) {
+            if (j > 0)
+                assert_true(s[j] <= s[j - 1]);
+            assert_true(fabs(s[j] - ref[j]) <= TOL(n) * smax);
+        }
+    }
+    double nan3[9] = {1, 0, 0, 0, 1, 0, 0, NAN, 1}, s3[3];
+    assert_int_equal(dm_symeig_singular_values(3, 3, nan3, 3, s3), -1);
+}
+
 static void non_finite_refused(void **state)
 {
     (void)state;
@@ -157,6 +215,7 @@ int main(void)
         cmocka_unit_test(known_spectra),
         cmocka_unit_test(random_against_dsyev),
         cmocka_unit_test(diagonal_and_leading_dimension),
+        cmocka_unit_test(singular_values_known_and_random),
         cmocka_unit_test(non_finite_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

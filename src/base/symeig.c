@@ -1,4 +1,5 @@
-/* Small symmetric eigenproblems by cyclic Jacobi (dm_symeig.h). */
+/* Small symmetric eigenproblems and singular values by cyclic Jacobi
+ * (dm_symeig.h). */
 #include "dm_symeig.h"
 
 #include <assert.h>
@@ -98,5 +99,63 @@ int dm_symeig(int n, double *A, int lda, double *w, double *V, int ldv)
     for (int j = 0; j < n; j++)
         w[j] = AT(j, j);
     sort_pairs(n, w, V, ldv);
+    return 0;
+}
+
+/* Columns p and q of A (m rows) made orthogonal by one rotation (the
+ * two-sided rotation of A'A's entry (p, q), applied to A's columns); 0
+ * when their cosine is already below an ulp. */
+static int orthogonalise(int m, double *A, int lda, int p, int q)
+{
+    double *a = A + (size_t)p * lda, *b = A + (size_t)q * lda, app = 0, aqq = 0, apq = 0;
+    for (int r = 0; r < m; r++) {
+        app += a[r] * a[r];
+        aqq += b[r] * b[r];
+        apq += a[r] * b[r];
+    }
+    if (fabs(apq) <= DBL_EPSILON * sqrt(app) * sqrt(aqq))
+        return 0;
+    double theta = (aqq - app) / (2 * apq);
+    double t = fabs(theta) > 1e150 ? 0.5 / theta
+                                   : copysign(1, theta) / (fabs(theta) + sqrt(theta * theta + 1));
+    double c = 1 / sqrt(t * t + 1), s = t * c, tau = s / (1 + c);
+    for (int r = 0; r < m; r++) {
+        double g = a[r], h = b[r];
+        a[r] = g - s * (h + g * tau);
+        b[r] = h + s * (g - h * tau);
+    }
+    return 1;
+}
+
+int dm_symeig_singular_values(int m, int n, double *A, int lda, double *s)
+{
+    assert(n >= 1 && m >= n && lda >= m);
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < m; i++)
+            if (!isfinite(A[i + (size_t)j * lda]))
+                return -1;
+    for (int sweep = 0;; sweep++) {
+        int rotated = 0;
+        for (int p = 0; p < n; p++)
+            for (int q = p + 1; q < n; q++)
+                rotated |= orthogonalise(m, A, lda, p, q);
+        if (!rotated)
+            break;
+        if (sweep == MAX_SWEEPS)
+            return -1;
+    }
+    for (int j = 0; j < n; j++) {
+        const double *a = A + (size_t)j * lda;
+        double ss = 0;
+        for (int r = 0; r < m; r++)
+            ss += a[r] * a[r];
+        s[j] = sqrt(ss);
+    }
+    for (int i = 0; i + 1 < n; i++) /* descending */
+        for (int j = i + 1; j < n; j++)
+            if (s[j] > s[i]) {
+                double t = s[i];
+                s[i] = s[j], s[j] = t;
+            }
     return 0;
 }

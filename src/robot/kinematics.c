@@ -7,6 +7,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "dm_symeig.h"
 #include "dm_vec3.h"
 
 /* One chain's geometry: nominal, or the real one with the geometry errors. */
@@ -70,13 +71,12 @@ static void place_chains(const dm_robot *rb, int real, const double P[3], const 
 
 static double condition_number(const double J[9])
 {
-    /* J is row-major; LAPACKE's row-major path would allocate its
-     * transpose at every call, and poses must not allocate */
-    double a[9], s[3], u[1], vt[1], work[16];
+    /* J is row-major: its columns' singular values are J's */
+    double a[9], s[3];
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
             a[i + 3 * j] = J[3 * i + j];
-    if (LAPACKE_dgesvd_work(LAPACK_COL_MAJOR, 'N', 'N', 3, 3, a, 3, s, u, 1, vt, 1, work, 16))
+    if (dm_symeig_singular_values(3, 3, a, 3, s))
         return INFINITY;
     return s[2] > 0 ? s[0] / s[2] : INFINITY;
 }
