@@ -129,6 +129,38 @@ static void error_is_linear_in_gravity(void **state)
     assert_true(fabs(rx.static_error[0]) > 0.1 * scale); /* sideways gravity moves it sideways */
 }
 
+/* The worst direction of a compliance whose translational block is
+ * Q diag(1, 3, 2) Q' (rotational rows and columns anything): the largest
+ * value 3 within 4 eps, its direction Q's second column within 1e-14,
+ * signed so that its largest component is positive; the rotational part
+ * is not read. */
+static void worst_compliance_direction(void **state)
+{
+    (void)state;
+    double c = cos(0.3), s = sin(0.3), c2 = cos(1.1), s2 = sin(1.1);
+    /* Q = Rz(0.3) Rx(1.1), columns */
+    double Q[3][3] = {{c, s, 0}, {-s * c2, c * c2, s2}, {s * s2, -c * s2, c2}};
+    double lam[3] = {1, 3, 2}, C[36];
+    for (int i = 0; i < 36; i++)
+        C[i] = 7.0 + i; /* rotational and coupling entries: not read */
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            double v = 0;
+            for (int k = 0; k < 3; k++)
+                v += Q[k][i] * lam[k] * Q[k][j];
+            C[i + 6 * j] = v;
+        }
+    double m, dir[3];
+    assert_int_equal(dm_compliance_worst(C, &m, dir), 0);
+    assert_true(fabs(m - 3) <= 4 * 3 * 2.3e-16);
+    double sign = fabs(Q[1][1]) >= fabs(Q[1][0]) && fabs(Q[1][1]) >= fabs(Q[1][2])
+                      ? (Q[1][1] > 0 ? 1 : -1)
+                      : (fabs(Q[1][0]) >= fabs(Q[1][2]) ? (Q[1][0] > 0 ? 1 : -1)
+                                                         : (Q[1][2] > 0 ? 1 : -1));
+    for (int k = 0; k < 3; k++)
+        assert_true(fabs(dir[k] - sign * Q[1][k]) <= 1e-14);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -136,6 +168,7 @@ int main(void)
         cmocka_unit_test(compliance_matches_lu_solve),
         cmocka_unit_test(massless_links_give_compliance_times_weight),
         cmocka_unit_test(error_is_linear_in_gravity),
+        cmocka_unit_test(worst_compliance_direction),
     };
     return cmocka_run_group_tests_name("static", tests, NULL, NULL);
 }
