@@ -99,8 +99,8 @@ void dm_analysis_forget(dm_analysis *an);
  * (kmax of them), NULL where the full model served a member analysis (its
  * vectors are not in the members' coordinates). dm_analysis_track
  * matches families ref (track_dim x kr) against the last run's kc modes;
- * -1 (nothing assigned) where track_vectors is NULL. work: 2 track_dim kr
- * + kr kc doubles. */
+ * -1 (nothing assigned) where track_vectors is NULL. work: track_dim
+ * (kr + kc) + kr kc doubles. */
 int dm_analysis_track_dim(const dm_analysis *an);
 const double *dm_analysis_track_vectors(const dm_analysis *an, const dm_pose_result *res);
 int dm_analysis_track(dm_analysis *an, const dm_pose_result *res, const double *ref, int kr,

@@ -154,6 +154,14 @@ int dm_boundary_eig_count(dm_boundary_eig *e, dm_boundary *bw, double sigma, int
  * projection). */
 void dm_boundary_eig_mult_M(const dm_boundary_eig *e, const double *Y, int ncol, double *MY);
 
+/* C (na x nb, leading dimension na) = A'B for na and nb reduced vectors
+ * (nred each, leading dimension nred): their products through the
+ * path's kernels, each entry's sum in order (the same bits on every
+ * path; OpenBLAS's dgemm packed both operands at every call: mode
+ * tracking's MACs). work: nred na doubles. */
+void dm_boundary_eig_products(const dm_boundary_eig *e, const double *A, int na, const double *B,
+                              int nb, double *C, double *work);
+
 /* M_red times the last dm_boundary_eig_solve's Ritz vectors of the
  * wanted clusters (nred x at least k, leading dimension nred: the first k
  * columns M_red times dm_boundary_reduced_vectors' k), made with the

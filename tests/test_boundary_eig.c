@@ -172,7 +172,8 @@ static void missed_mode_is_recovered(dm_boundary *bw, dm_boundary_eig *walked, t
  * column not of this block is off by O(1)), and a start from them at the
  * same pose converges at once to the same values (each within its 1e-12
  * bound plus the reduced pair's rounding: 1e-11 apart from a start with
- * other columns, 1e-9 allowed). */
+ * other columns, 1e-9 allowed). Their Gram by dm_boundary_eig_products
+ * is the plain sums' to the bit. */
 static void the_block_is_kept(dm_boundary *bw, dm_boundary_eig *walked, int block,
                               const double *want)
 {
@@ -183,13 +184,20 @@ static void the_block_is_kept(dm_boundary *bw, dm_boundary_eig *walked, int bloc
     assert_non_null(MY);
     dm_boundary_reduced_vectors(bw, block, Y);
     dm_boundary_eig_mult_M(walked, Y, block, MY);
+    /* (and dm_boundary_eig_products gives each entry's sum in order: the
+     * plain loop's bits) */
+    double *G = malloc(sizeof(double) * block * block), *work = malloc(sizeof(double) * nr * block);
+    assert_true(G && work);
+    dm_boundary_eig_products(walked, Y, block, MY, block, G, work);
     for (int a = 0; a < block; a++)
         for (int b = 0; b < block; b++) {
             double g = 0;
             for (int i = 0; i < nr; i++)
                 g += Y[(size_t)a * nr + i] * MY[(size_t)b * nr + i];
             worst = fmax(worst, fabs(g - (a == b)));
+            assert_true(G[a + (size_t)b * block] == g);
         }
+    free(G), free(work);
     if (worst > 1e-8)
         print_error("the block's %d vectors: |Y'MY - I| = %.2e\n", block, worst);
     assert_true(worst <= 1e-8);

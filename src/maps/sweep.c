@@ -77,7 +77,7 @@ static int worker_alloc(const sweep_ctx *c, sweep_worker *w, dm_error *err)
         return err ? err->code : DM_ENOMEM;
     }
     w->move = dm_move_alloc(c->n, c->k, err);
-    w->mac_work = malloc(sizeof(double) * (2 * (size_t)c->n * c->k + (size_t)c->k * c->kc));
+    w->mac_work = malloc(sizeof(double) * ((size_t)c->n * (c->k + c->kc) + (size_t)c->k * c->kc));
     w->mac = malloc(sizeof(double) * c->k);
     w->assign = malloc(sizeof(int) * c->k);
     w->shapes = malloc(sizeof(double) * c->n * c->k);

@@ -324,10 +324,9 @@ int dm_analysis_track(dm_analysis *an, const dm_pose_result *res, const double *
         return -1;
     }
     int nr = dm_boundary_reduced_size(an->boundary);
-    double *MR = work, *a = work + 2 * (size_t)nr * kr, norms2[DM_TRACK_MAX];
+    double *MR = work, *t = MR + (size_t)nr * kr, *a = t + (size_t)nr * kc, norms2[DM_TRACK_MAX];
     dm_boundary_eig_mult_M(an->eig, ref, kr, MR);
-    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, kc, kr, nr, 1.0, an->reduced, nr, MR, nr,
-                0.0, a, kc);
+    dm_boundary_eig_products(an->eig, an->reduced, kc, MR, kr, a, t);
     for (int f = 0; f < kr; f++)
         norms2[f] = cblas_ddot(nr, ref + (size_t)f * nr, 1, MR + (size_t)f * nr, 1);
     dm_modal_track_products(a, norms2, kr, res->modes->freq_hz, kc, an->reduced, nr, assign, mac,

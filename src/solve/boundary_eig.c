@@ -870,6 +870,13 @@ void dm_boundary_eig_mult_M(const dm_boundary_eig *e, const double *Y, int ncol,
     apply_M(e, Y, ncol, MY);
 }
 
+void dm_boundary_eig_products(const dm_boundary_eig *e, const double *A, int na, const double *B,
+                              int nb, double *C, double *work)
+{
+    transpose(A, e->nr, na, e->nr, work); /* A' (na x nr) */
+    e->kr->mult(na, nb, e->nr, work, na, B, e->nr, 0, C, na);
+}
+
 const double *dm_boundary_eig_mass_vectors(const dm_boundary_eig *e)
 {
     return e->MQ;
