@@ -31,7 +31,8 @@ dm_boundary *dm_boundary_alloc(const dm_members *ms, dm_error *err)
                              &bw->Mbb, &bw->z,   &bw->Kr,  &bw->Mr,   &bw->wr,
                              &bw->work, &bw->wcount, &bw->shW, &bw->shZt, &bw->shZ};
         size_t sizes[] = {nB * nB, nB * nB, nB * nB, nB, nB * 6, nB * nB,
-                          (size_t)ms->n, nr * nr, nr * nr, nr, (size_t)bw->lwork, nimax,
+                          (size_t)ms->n, nr * nr, nr * nr, nr, (size_t)bw->lwork,
+                          nimax * (1 + 2 * 9),
                           ncmax * nr, nr * nimax, (size_t)ms->n * nr};
         for (size_t k = 0; k < sizeof sizes / sizeof *sizes; k++)
             fail |= !(*arrays[k] = malloc(sizeof(double) * sizes[k]));

@@ -32,7 +32,9 @@ struct dm_boundary {
     int nred;       /* reduced DOFs: boundary + each member's kept modes and residual vectors */
     double *Kr, *Mr, *wr; /* the reduced problem, then its eigenvectors (Kr) and values */
     double *work;         /* dsygvd's workspace */
-    double *wcount;       /* the largest member interior: a count's 1 / (lambda_j - sigma) */
+    double *wcount;       /* a count's 1 / (lambda_j - sigma) for the largest member
+                             interior (ni), then room for diag(w) Gam and Gam' (ni x nb,
+                             nb <= 9, each) */
     double *shW, *shZt, *shZ; /* the shapes' scratch: a member's coefficients
                                * (ncoef x nred), its interior transposed
                                * (nred x ni), the modes in (boundary, interiors) (n x nred) */
