@@ -10,7 +10,10 @@
 #include <string.h>
 
 #include <cmocka.h>
+#include <lapacke.h>
 #include <stdlib.h>
+
+#include "dm_rng.h"
 
 /* DM_TEST=PATTERN runs only the tests whose names match (cmocka's glob:
  * * and ?), e.g. DM_TEST='standard_move*' build/tests/test_integrate. */
@@ -46,5 +49,16 @@ __attribute__((constructor)) static void dm_test_filter_from_env(void)
             fail();                                                                        \
         }                                                                                  \
     } while (0)
+
+/* Q (n x n, column-major, leading dimension n) a random orthogonal
+ * matrix: the Q of a Gaussian matrix's QR (LAPACK's dgeqrf, dorgqr). */
+static inline void dm_test_random_orthogonal(dm_rng *rng, int n, double *Q)
+{
+    double tau[n > 0 ? n : 1];
+    for (int i = 0; i < n * n; i++)
+        Q[i] = dm_rng_normal(rng);
+    assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, n, Q, n, tau), 0);
+    assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, n, n, n, Q, n, tau), 0);
+}
 
 #endif

@@ -8,7 +8,6 @@
 #include "dm_test.h"
 
 #include <float.h>
-#include <lapacke.h>
 
 #include "dm_rng.h"
 #include "dm_symeig.h"
@@ -20,11 +19,8 @@ enum { NMAX = 8 };
  * double, so that A's spectrum is lam to its rounding). */
 static void with_spectrum(dm_rng *rng, int n, const double *lam, double *A)
 {
-    double Q[NMAX * NMAX], tau[NMAX];
-    for (int i = 0; i < n * n; i++)
-        Q[i] = dm_rng_normal(rng);
-    assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, n, Q, n, tau), 0);
-    assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, n, n, n, Q, n, tau), 0);
+    double Q[NMAX * NMAX];
+    dm_test_random_orthogonal(rng, n, Q);
     for (int j = 0; j < n; j++)
         for (int i = 0; i < n; i++) {
             long double s = 0;
@@ -154,17 +150,11 @@ static void singular_values_known_and_random(void **state)
     double sigs[][4] = {{3, 2, 1, 0.5}, {1, 1e-5, 1e-10, 1e-12}, {2, 2, 2, 0}, {7, 1, 1 + 1e-9, 4}};
     for (int trial = 0; trial < 120; trial++) {
         int n = 1 + trial % 4, m = n + (trial / 4) % 3;
-        double A[8 * 4], B[8 * 4], U[8 * 8], V[4 * 4], tau[8], s[4], ref[4];
+        double A[8 * 4], B[8 * 4], U[8 * 8], V[4 * 4], s[4], ref[4];
         const double *sig = sigs[trial % 4];
         int known = trial % 2;
-        for (int i = 0; i < m * m; i++)
-            U[i] = dm_rng_normal(&rng);
-        assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, m, m, U, m, tau), 0);
-        assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, m, m, m, U, m, tau), 0);
-        for (int i = 0; i < n * n; i++)
-            V[i] = dm_rng_normal(&rng);
-        assert_int_equal(LAPACKE_dgeqrf(LAPACK_COL_MAJOR, n, n, V, n, tau), 0);
-        assert_int_equal(LAPACKE_dorgqr(LAPACK_COL_MAJOR, n, n, n, V, n, tau), 0);
+        dm_test_random_orthogonal(&rng, m, U);
+        dm_test_random_orthogonal(&rng, n, V);
         for (int j = 0; j < n; j++)
             for (int i = 0; i < m; i++) {
                 long double sum = 0;
