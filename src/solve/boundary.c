@@ -209,18 +209,20 @@ int dm_boundary_statics_or_full(dm_boundary *bw, dm_model *md, dm_static *st,
     return rc;
 }
 
-/* Member m's share of T' G for one rigid motion: its nodal accelerations
- * in its frame as the coefficients of its unit loads (dm_member_basis.G:
- * uniform, growing along it, rotational; dm_loads' affine field along a
- * link), their inertia -G c condensed onto the boundary (C' Ghat c) and
- * projected on its kept modes and residual vectors (Gq c, from row q0). */
-static void member_inertial_load(dm_boundary *bw, int m, const dm_link_motion *lm, int q0,
-                                 double *g)
+/* Rigid motions whose loads are made side by side (the products' columns) */
+enum { INERTIAL_BATCH = 4 };
+
+/* Member m's accelerations in its frame for one rigid motion, as the
+ * coefficients c of its unit loads (dm_member_basis.G: uniform, growing
+ * along it, rotational; dm_loads' affine field along a link), negated:
+ * their inertia is -G c. */
+static void member_coefficients(const dm_boundary *bw, int m, const dm_link_motion *lm,
+                                double c[DM_MEMBERS_LOADS])
 {
     const dm_member_basis *mb = &bw->ms->member[m];
     const double *L = bw->mp.lambda[m];
-    int i = mb->chain, nb = mb->nb, nq = mb->nkeep + mb->nres, arm = mb->kind == DM_MEMBER_ARM;
-    double glob[3][3], c[DM_MEMBERS_LOADS], f[9];
+    int i = mb->chain, arm = mb->kind == DM_MEMBER_ARM;
+    double glob[3][3];
     for (int k = 0; k < 3; k++) { /* uniform, growing, rotational (global axes) */
         glob[0][k] = arm ? 0 : lm->aB[i][k];
         glob[1][k] = arm ? lm->aB[i][k] : lm->aP[k] - lm->aB[i][k];
@@ -230,48 +232,69 @@ static void member_inertial_load(dm_boundary *bw, int m, const dm_link_motion *l
         for (int r = 0; r < 3; r++)
             c[3 * part + r] = -(L[3 * r] * glob[part][0] + L[3 * r + 1] * glob[part][1] +
                                 L[3 * r + 2] * glob[part][2]);
-    for (int r = 0; r < nb; r++) {
-        f[r] = 0;
-        for (int a = 0; a < DM_MEMBERS_LOADS; a++)
-            f[r] += mb->Ghat[(size_t)a * nb + r] * c[a];
+}
+
+/* Member m's share of T' G for q rigid motions (columns of G, nred
+ * apart): -G c condensed onto the boundary (C' Ghat c) and projected on
+ * its kept modes and residual vectors (Gq c, from row q0). The products
+ * by Ghat and Gq go through the path's kernels, each entry's sum over the
+ * load cases in order (the loops' bits: the same sums). */
+static void member_inertial_loads(dm_boundary *bw, int m, const dm_link_motion *lm, int q, int q0,
+                                  double *G)
+{
+    const dm_member_basis *mb = &bw->ms->member[m];
+    const dm_boundary_kernels *kr = boundary_kernels();
+    int nb = mb->nb, nq = mb->nkeep + mb->nres, nr = bw->nred;
+    double C[DM_MEMBERS_LOADS * INERTIAL_BATCH], F[9 * INERTIAL_BATCH];
+    assert(q <= INERTIAL_BATCH && nb <= 9);
+    for (int l = 0; l < q; l++)
+        member_coefficients(bw, m, &lm[l], C + l * DM_MEMBERS_LOADS);
+    kr->mult(nb, q, DM_MEMBERS_LOADS, mb->Ghat, nb, C, DM_MEMBERS_LOADS, 0, F, nb);
+    for (int l = 0; l < q; l++) {
+        double *g = G + (size_t)l * nr;
+        const double *f = F + l * nb;
+        for (int a = 0; a < bw->nc[m]; a++)
+            for (int r = 0; r < nb; r++)
+                g[bw->cols[m][a]] += bw->Cc[m][a * nb + r] * f[r];
     }
-    for (int a = 0; a < bw->nc[m]; a++)
-        for (int r = 0; r < nb; r++)
-            g[bw->cols[m][a]] += bw->Cc[m][a * nb + r] * f[r];
-    for (int j = 0; j < nq; j++) {
-        double s = 0;
-        for (int a = 0; a < DM_MEMBERS_LOADS; a++)
-            s += mb->Gq[(size_t)a * nq + j] * c[a];
-        g[q0 + j] = s;
+    kr->mult(nq, q, DM_MEMBERS_LOADS, mb->Gq, nq, C, DM_MEMBERS_LOADS, 0, G + q0, nr);
+}
+
+/* The loads of q <= INERTIAL_BATCH rigid motions: the boundary's own
+ * share -M_b a_B (one product for all of them), then each member's. */
+static void inertial_batch(dm_boundary *bw, const dm_pose *pose, const dm_rigid_motion *motion,
+                           int q, double *G)
+{
+    const dm_members *ms = bw->ms;
+    int nB = bw->nB, nr = bw->nred;
+    dm_link_motion lm[INERTIAL_BATCH];
+    double aB[DM_MEMBERS_MAX_BOUND * INERTIAL_BATCH] = {0}, T[DM_MEMBERS_MAX_BOUND * INERTIAL_BATCH];
+    for (int l = 0; l < q; l++) {
+        const dm_rigid_motion *mo = &motion[l];
+        double *a = aB + (size_t)l * nB;
+        dm_kin_link_accelerations(pose, mo->alpha_dot, mo->alpha_ddot, mo->aP, &lm[l]);
+        for (int i = 0; i < 3; i++) /* the boundary's rigid accelerations */
+            for (int k = 0; k < 3; k++) {
+                a[ms->belbow[i] + k] = lm[l].aB[i][k];
+                a[ms->belbow[i] + 3 + k] = lm[l].arm_alpha[i][k];
+            }
+        for (int k = 0; k < 3; k++)
+            a[ms->bplat + k] = mo->aP[k];
+    }
+    boundary_kernels()->mult(nB, q, nB, ms->Mb, nB, aB, nB, 0, T, nB);
+    for (int l = 0; l < q; l++) /* what acts on the boundary alone: -M_b a_B */
+        for (int r = 0; r < nB; r++)
+            G[(size_t)l * nr + r] = -T[(size_t)l * nB + r];
+    for (int m = 0, q0 = nB; m < DM_MEMBERS_N; m++) {
+        member_inertial_loads(bw, m, lm, q, q0, G);
+        q0 += ms->member[m].nkeep + ms->member[m].nres;
     }
 }
 
 void dm_boundary_inertial_loads(dm_boundary *bw, const dm_pose *pose,
                                 const dm_rigid_motion *motion, int q, double *G)
 {
-    const dm_members *ms = bw->ms;
-    int nB = bw->nB, nr = bw->nred;
-    for (int l = 0; l < q; l++) {
-        const dm_rigid_motion *mo = &motion[l];
-        double *g = G + (size_t)l * nr, aB[DM_MEMBERS_MAX_BOUND] = {0};
-        dm_link_motion lm;
-        dm_kin_link_accelerations(pose, mo->alpha_dot, mo->alpha_ddot, mo->aP, &lm);
-        for (int i = 0; i < 3; i++) /* the boundary's rigid accelerations */
-            for (int k = 0; k < 3; k++) {
-                aB[ms->belbow[i] + k] = lm.aB[i][k];
-                aB[ms->belbow[i] + 3 + k] = lm.arm_alpha[i][k];
-            }
-        for (int k = 0; k < 3; k++)
-            aB[ms->bplat + k] = mo->aP[k];
-        for (int r = 0; r < nB; r++) { /* what acts on the boundary alone: -M_b a_B */
-            double s = 0;
-            for (int c = 0; c < nB; c++)
-                s += ms->Mb[(size_t)c * nB + r] * aB[c];
-            g[r] = -s;
-        }
-        for (int m = 0, q0 = nB; m < DM_MEMBERS_N; m++) {
-            member_inertial_load(bw, m, &lm, q0, g);
-            q0 += ms->member[m].nkeep + ms->member[m].nres;
-        }
-    }
+    for (int l = 0; l < q; l += INERTIAL_BATCH)
+        inertial_batch(bw, pose, motion + l, q - l < INERTIAL_BATCH ? q - l : INERTIAL_BATCH,
+                       G + (size_t)l * bw->nred);
 }
