@@ -4,8 +4,8 @@
  * singular values of the pose's 3 x 3 Jacobian. LAPACK's dsyev
  * spends its time there in set-up (dlamch, the scaling checks, the
  * workspace): 9 200 instructions a 3 x 3 call, 2 % of a chen2018 sweep's
- * time; Jacobi's rotations need some 600 (docs/model-choices.md,
- * "Standard moves: the Ritz modes' eigenproblems"). */
+ * time; Jacobi's rotations need some 2 000 (docs/model-choices.md,
+ * "Standard moves: the Ritz modes' small problems"). */
 #ifndef DM_SYMEIG_H
 #define DM_SYMEIG_H
 
@@ -26,7 +26,7 @@ int dm_symeig(int n, double *A, int lda, double *w, double *V, int ldv);
  * drowning in A'A's rounding), each column pair rotated until its
  * cosine is below an ulp. What the pose's Jacobian condition number needs
  * (dm_kinematics.h): LAPACK's dgesvd took 14 000 instructions a 3 x 3
- * call, 1.5 % of a sweep's time. -1 for a non-finite entry or no
+ * call (this 2 000), 1.5 % of a sweep's time. -1 for a non-finite entry or no
  * convergence in 50 sweeps. */
 int dm_symeig_singular_values(int m, int n, double *A, int lda, double *s);
 

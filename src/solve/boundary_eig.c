@@ -771,8 +771,8 @@ static void plan_next(dm_boundary_eig *e, int top, const dm_boundary_eig_info *i
  * reduced problem's eigenvalues (a subspace of it), which are upper
  * bounds of the model's (the reduction is a projection), so the reduced
  * count lies between the top + 1 Ritz values below sigma and the whole
- * count: it is top + 1 too, and its own count is not made (a sixth of a
- * warm solve's products). Any other whole count leaves the question to
+ * count: it is top + 1 too, and its own count is not made (4 % of a
+ * chen2018 solve's instructions). Any other whole count leaves the question to
  * the reduced count: a mode the iteration missed (restart), or one the
  * bases miss (the caller compares the counts). */
 static int proven_by_whole_count(dm_boundary_eig *e, dm_boundary *bw, double sigma, int top)
