@@ -24,7 +24,8 @@ int dm_symeig(int n, double *A, int lda, double *w, double *V, int ldv);
  * rotations applied to A's columns alone (one-sided Jacobi: A'A is never
  * formed, so a small singular value keeps its accuracy instead of
  * drowning in A'A's rounding), each column pair rotated until its
- * cosine is below an ulp. What the pose's Jacobian condition number needs
+ * cosine is below m ulps (the singular values then within a few m eps of
+ * their own size). What the pose's Jacobian condition number needs
  * (dm_kinematics.h): LAPACK's dgesvd took 14 000 instructions a 3 x 3
  * call (this 2 000), 1.5 % of a sweep's time. -1 for a non-finite entry or no
  * convergence in 50 sweeps. */
