@@ -12,9 +12,28 @@ enum { MAX_SWEEPS = 50 };
 #define AT(i, j) A[(i) + (size_t)(j) * lda]
 #define VT(i, j) V[(i) + (size_t)(j) * ldv]
 
+/* The rotation that zeroes the off-diagonal entry apq of the symmetric
+ * pair [app apq; apq aqq]: t = tan, s = sin and tau = s / (1 + c)
+ * (Rutishauser's form: each entry then updated as a small correction). */
+static void rotation_of(double app, double aqq, double apq, double *t, double *s, double *tau)
+{
+    double theta = (aqq - app) / (2 * apq);
+    *t = fabs(theta) > 1e150 ? 0.5 / theta /* theta^2 would overflow */
+                             : copysign(1, theta) / (fabs(theta) + sqrt(theta * theta + 1));
+    double c = 1 / sqrt(*t * *t + 1);
+    *s = *t * c, *tau = *s / (1 + c);
+}
+
+/* (g, h) = (c g - s h, s g + c h) in that form */
+static inline void rotate(double *g, double *h, double s, double tau)
+{
+    double a = *g, b = *h;
+    *g = a - s * (b + a * tau);
+    *h = b + s * (a - b * tau);
+}
+
 /* One rotation in the plane (p, q) that zeroes A(p, q), applied to A's
- * rows and columns and to V's columns (Rutishauser's form: the update
- * of each entry as a small correction, tau = s / (1 + c)). 0 when the
+ * rows and columns and to V's columns. 0 when the
  * entry is already negligible (then made 0: below half an ulp of its
  * diagonal pair, it moves no eigenvalue by more than that). */
 static int annihilate(int n, double *A, int lda, double *V, int ldv, int p, int q)
@@ -24,25 +43,19 @@ static int annihilate(int n, double *A, int lda, double *V, int ldv, int p, int 
         AT(p, q) = AT(q, p) = 0;
         return 0;
     }
-    double theta = (aqq - app) / (2 * apq);
-    double t = fabs(theta) > 1e150 ? 0.5 / theta /* theta^2 would overflow */
-                                   : copysign(1, theta) / (fabs(theta) + sqrt(theta * theta + 1));
-    double c = 1 / sqrt(t * t + 1), s = t * c, tau = s / (1 + c);
+    double t, s, tau;
+    rotation_of(app, aqq, apq, &t, &s, &tau);
     AT(p, p) = app - t * apq;
     AT(q, q) = aqq + t * apq;
     AT(p, q) = AT(q, p) = 0;
     for (int r = 0; r < n; r++) {
         if (r == p || r == q)
             continue;
-        double g = AT(r, p), h = AT(r, q);
-        AT(r, p) = AT(p, r) = g - s * (h + g * tau);
-        AT(r, q) = AT(q, r) = h + s * (g - h * tau);
+        rotate(&AT(r, p), &AT(r, q), s, tau);
+        AT(p, r) = AT(r, p), AT(q, r) = AT(r, q);
     }
-    for (int r = 0; r < n; r++) {
-        double g = VT(r, p), h = VT(r, q);
-        VT(r, p) = g - s * (h + g * tau);
-        VT(r, q) = h + s * (g - h * tau);
-    }
+    for (int r = 0; r < n; r++)
+        rotate(&VT(r, p), &VT(r, q), s, tau);
     return 1;
 }
 
@@ -118,15 +131,10 @@ static int orthogonalise(int m, double *A, int lda, int p, int q)
     }
     if (fabs(apq) <= m * DBL_EPSILON * sqrt(app) * sqrt(aqq))
         return 0;
-    double theta = (aqq - app) / (2 * apq);
-    double t = fabs(theta) > 1e150 ? 0.5 / theta
-                                   : copysign(1, theta) / (fabs(theta) + sqrt(theta * theta + 1));
-    double c = 1 / sqrt(t * t + 1), s = t * c, tau = s / (1 + c);
-    for (int r = 0; r < m; r++) {
-        double g = a[r], h = b[r];
-        a[r] = g - s * (h + g * tau);
-        b[r] = h + s * (g - h * tau);
-    }
+    double t, s, tau;
+    rotation_of(app, aqq, apq, &t, &s, &tau);
+    for (int r = 0; r < m; r++)
+        rotate(&a[r], &b[r], s, tau);
     return 1;
 }
 

@@ -45,7 +45,8 @@ struct dm_boundary_eig {
     double *X, *W, *KW, *MW, *T; /* nr x 2p each (X and T trade buffers: rotate_block) */
     double *KX;          /* K and M times the block before its Ritz rotation, side by
                             side: nr x 2p (ritz_on_start, for residuals) */
-    double *MQ;          /* M times the Ritz vectors (residuals; nr x p): the moves' M Phi */
+    double *MQ;          /* M times the wanted clusters' Ritz vectors (residuals; nr x
+                            their count, at least k): the moves' M Phi */
     double *H, *Z, *w, *s, *est, *work; /* projected problem (2p x 2p), residual norms;
                                            work: the tridiagonal form's subdiagonal */
     double ahead;        /* estimates(): the wanted clusters' worst first-order estimate */
@@ -369,15 +370,21 @@ static int ritz_on_start(dm_boundary_eig *e, const dm_boundary *bw)
     return 0;
 }
 
-/* The last wanted cluster's end: the Ritz values within CLUSTER of each
- * other share one bound (estimates), so the k-th value's cluster is
- * wanted whole. */
-static int wanted_end(const dm_boundary_eig *e)
+/* The end of the cluster that holds Ritz value a: the values within
+ * CLUSTER of their neighbour share one bound (estimates). */
+static int cluster_end(const dm_boundary_eig *e, int a)
 {
-    int b = e->k - 1;
+    int b = a;
     while (b + 1 < e->p && e->w[b + 1] <= e->w[b] * (1 + CLUSTER))
         b++;
     return b;
+}
+
+/* The last wanted cluster's end: the k-th value's cluster is wanted
+ * whole. */
+static int wanted_end(const dm_boundary_eig *e)
+{
+    return cluster_end(e, e->k - 1);
 }
 
 /* Residuals R = K X - M X Theta of the first ncol Ritz vectors (the
@@ -420,9 +427,7 @@ static void estimates(dm_boundary_eig *e, int top)
     int p = e->p;
     e->ahead = 0;
     for (int a = 0; a <= top;) {
-        int b = a;
-        while (b + 1 < p && e->w[b + 1] <= e->w[b] * (1 + CLUSTER))
-            b++;
+        int b = cluster_end(e, a);
         assert(b <= top); /* a cluster ends at top (wanted_end) */
         double sum = 0, delta = INFINITY;
         for (int i = a; i <= b; i++)
