@@ -68,6 +68,11 @@ void dm_analysis_free(dm_analysis *an);
 int dm_analysis_run(dm_analysis *an, const double P[3], int k, dm_pose_result *res,
                     dm_error *err);
 
+/* The same at a pose already solved (a loaded pose, dm_kin_pose_loaded:
+ * a trajectory's steps). */
+int dm_analysis_run_pose(dm_analysis *an, const dm_pose *pose, int k, dm_pose_result *res,
+                         dm_error *err);
+
 /* Member bases for analyses of `robot` at mesh (na, nb) with up to kmax
  * modes (the rule of dm_boundary_members_for_modes, at the robot's home):
  * built once, shared read-only by every thread's dm_analysis. NULL, err

@@ -165,6 +165,11 @@ typedef struct dm_integ_opts {
     double force_n[3];   /* constant external force at P (part of the initial
                             static equilibrium as well) */
     int nfreq;           /* frequencies reported per sample (<= DM_INTEG_MAXFREQ) */
+    int full_model;      /* 1: every step's modes from the full model; 0: from
+                            member bases (dm_boundary.h) where they serve the
+                            robot and the run is long enough to repay them
+                            (src/responses/integrate_trajectory.c,
+                            use_members), the two equal to their accuracy */
     int force_long;      /* run even beyond DM_WORK_MAX_SECONDS of estimated work */
     /* Zheng fig. 15: also report the mean |error component| along base axes
      * rotated about z by each of these angles (rad) */
@@ -210,6 +215,8 @@ typedef struct dm_integ_summary {
     double truncation_beta_s;  /* > 0: the robot is undamped, and both runs of the
                                   truncation figure had Rayleigh beta = this */
     int aliasing_risk;       /* undamped, > 20 modes, dt > 1.25e-4 s (docs/model.md §4) */
+    long member_steps;       /* steps whose modes the member bases gave (the
+                                rest the full model's; dm_integ_opts.full_model) */
     /* Zheng's coupling index log10 det K over the frozen steps: time mean
      * (each step's value weighted by its length), minimum, maximum */
     double coupling_mean_log10, coupling_min_log10, coupling_max_log10;

@@ -72,6 +72,25 @@ static double history_diff(const history *a, const history *b)
 
 static history H1, H2;
 
+/* Each sample's reported frequencies, for runs whose modes are compared. */
+typedef struct {
+    history h;
+    int nf;
+    double f[MAXS / 8][DM_INTEG_MAXFREQ];
+} freq_history;
+
+static int record_freq(void *user, const dm_integ_sample *s)
+{
+    freq_history *fh = user;
+    if (fh->h.n >= MAXS / 8)
+        return 1;
+    fh->nf = s->nfreq;
+    memcpy(fh->f[fh->h.n], s->freq_hz, sizeof fh->f[0]);
+    return record(&fh->h, s);
+}
+
+static freq_history F1, F2;
+
 #define FROZEN_ZHENG "p2p:from=0.02,-0.01,-0.42;to=0.02,-0.01,-0.42;duration=0.05"
 #define MOVING_ZHENG "circle:centre=0,0,-0.4;radius=0.05;rate=6.283185307179586;duration=0.08"
 
@@ -1201,6 +1220,122 @@ static void runs_do_not_depend_on_threads(void **state)
         }
 }
 
+/* Runs of MEMBER_MIN_STEPS (200) steps or more take their modes from the
+ * member bases, and give what the full model's solver gives: the two
+ * differ by the eigen solvers' accuracy alone. Both leave each mode's
+ * invariant subspace within about 1e-6 rad (the full model's residual
+ * 1e-8, src/solve/modal.c CONVERGED; the members' eigenvalue bound 1e-12,
+ * DM_BOUNDARY_EIG_TOL, whose square root bounds the angle), and the
+ * platform's error is linear in the modes, so the runs agree within
+ * about 2e-6 of its largest value, asked here (measured 1.2e-10 to
+ * 9.7e-10, chen2018 the largest). The frequencies, every retained mode's
+ * at every step, within 5e-10: the members' eigenvalues are certified to
+ * 1e-9 of the model's (dm_boundary_bounds; measured up to 2.6e-11 in
+ * frequency, han2011), the full model's within about 1e-14. A mode
+ * missed or misplaced moves both by far more. With both integrators, from rest (gravity applied suddenly:
+ * every mode rings) along a moving path, on each preset; on two threads
+ * (the pipelined run) bit for bit as on one. */
+static void member_runs(const char *preset, const char *path, const dm_integ_opts *o,
+                        freq_history *fh, dm_integ_summary *sum)
+{
+    dm_robot rb;
+    dm_trajectory tr;
+    dm_error err;
+    assert_int_equal(dm_robot_load(preset, &rb, NULL), 0);
+    assert_int_equal(dm_traj_make(path, &rb, &tr, &err), 0);
+    fh->h.n = 0;
+    assert_int_equal(dm_integrate_trajectory(&rb, &tr, o, record_freq, fh, sum, &err), 0);
+    dm_traj_free(&tr);
+}
+
+static void member_bases_serve_long_runs(void **state)
+{
+    (void)state;
+    const char *robots[3] = {"zheng2017", "chen2018", "han2011"};
+    const char *paths[3] = {
+        "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=0.25",
+        "circle:centre=0,0,-0.5;radius=0.1;rate=12.566;duration=0.25",
+        "circle:centre=0,0,0.96;radius=0.1;rate=12.566;duration=0.25"};
+    double worst = 0, worst_f = 0;
+    for (int r = 0; r < 3; r++)
+        for (int m = 0; m < 2; m++) {
+            dm_integ_opts o;
+            dm_integ_summary s[3];
+            dm_integ_opts_default(&o);
+            o.na = o.nb = 2;
+            o.k = o.nfreq = DM_INTEG_MAXFREQ; /* every retained mode's frequency reported */
+            o.reference = 0;
+            o.from_rest = 1;
+            o.threads = 1;
+            o.method = m ? DM_ODE_CVODE : DM_ODE_CLOSED_FORM;
+            o.rtol = 1e-11;
+            o.atol = 1e-18;
+            member_runs(robots[r], paths[r], &o, &F1, &s[0]);
+            o.full_model = 1;
+            member_runs(robots[r], paths[r], &o, &F2, &s[1]);
+            assert_int_equal(s[0].steps, 250);
+            assert_int_equal(s[0].member_steps, 250);
+            assert_int_equal(s[1].member_steps, 0);
+            assert_int_equal(F1.nf, DM_INTEG_MAXFREQ);
+            double d = history_diff(&F1.h, &F2.h), df = 0;
+            for (int i = 0; i < F1.h.n; i++)
+                for (int j = 0; j < F1.nf; j++)
+                    df = fmax(df, fabs(F1.f[i][j] / F2.f[i][j] - 1));
+            print_message("%s %s: members against the full model %.2e, frequencies %.2e\n",
+                          robots[r], m ? "cvode" : "closed form", d, df);
+            worst = fmax(worst, d), worst_f = fmax(worst_f, df);
+            assert_true(d < 2e-6);
+            assert_true(df < 5e-10);
+            if (m) { /* two threads: the frames solved beside the steps */
+                o.full_model = 0;
+                o.threads = 2;
+                member_runs(robots[r], paths[r], &o, &F2, &s[2]);
+                assert_int_equal(s[2].member_steps, 250);
+                assert_memory_equal(F1.h.e, F2.h.e, sizeof F1.h.e[0] * F1.h.n);
+            }
+        }
+    print_message("largest %.2e, frequencies %.2e\n", worst, worst_f);
+}
+
+/* The full model serves where the bases would not: a run too short to
+ * repay them, joint clearance (each step's load changes the rods'
+ * effective lengths), geometric stiffness (dm_members_serves), every
+ * mode retained, and when asked. */
+static void full_model_where_members_do_not_serve(void **state)
+{
+    (void)state;
+    const char *longp = "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=0.2";
+    const char *shortp = "circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=0.199";
+    dm_robot rb, clear, geo;
+    assert_int_equal(dm_robot_load("zheng2017", &rb, NULL), 0);
+    clear = geo = rb;
+    clear.effects.clearance_m = 2e-5;
+    geo.effects.geometric_stiffness = 1;
+    dm_integ_opts o;
+    dm_integ_summary s;
+    dm_integ_opts_default(&o);
+    o.na = o.nb = 1;
+    o.reference = 0;
+    o.method = DM_ODE_CLOSED_FORM;
+    run_robot(&rb, longp, &o, &H1, &s);
+    assert_int_equal(s.member_steps, 200); /* the control: the shortest run they serve */
+    run_robot(&rb, shortp, &o, &H1, &s);
+    assert_int_equal(s.steps, 199);
+    assert_int_equal(s.member_steps, 0);
+    const dm_robot *no[2] = {&clear, &geo};
+    for (int i = 0; i < 2; i++) {
+        run_robot(no[i], longp, &o, &H1, &s);
+        assert_int_equal(s.member_steps, 0);
+    }
+    o.k = 0; /* every mode */
+    run_robot(&rb, longp, &o, &H1, &s);
+    assert_int_equal(s.member_steps, 0);
+    o.k = 10;
+    o.full_model = 1;
+    run_robot(&rb, longp, &o, &H1, &s);
+    assert_int_equal(s.member_steps, 0);
+}
+
 /* A failing CVODE call is named, with SUNDIALS' name for its flag. */
 static void cvode_failures_are_named(void **state)
 {
@@ -1249,6 +1384,8 @@ int main(int argc, char **argv)
         cmocka_unit_test(paper_trajectories_ten_modes_match_all),
         cmocka_unit_test(truncation_figure_does_not_depend_on_dt),
         cmocka_unit_test(runs_do_not_depend_on_threads),
+        cmocka_unit_test(member_bases_serve_long_runs),
+        cmocka_unit_test(full_model_where_members_do_not_serve),
         cmocka_unit_test(cvode_failures_are_named),
     };
     return cmocka_run_group_tests_name("integrate", tests, NULL, NULL);

@@ -20,6 +20,7 @@ static const char HELP[] =
     "                           [--mesh NA,NB] [--tool X,Y,Z] [--load FX,FY,FZ]\n"
     "                           [--set SECTION.KEY=V]... [--force-long] [--rigid] [--no-budget]\n"
     "                           [--axes-rotation DEG[,DEG...]] [--threads N]\n"
+    "                           [--method auto|partial]\n"
     "                           [--out FILE.csv] [--json]\n"
     "                           [--vtk DIR [--vtk-every N] [--vtk-magnify F]]\n"
     "\n"
@@ -53,6 +54,12 @@ static const char HELP[] =
     "                   without it, one thread solves each step's modes while\n"
     "                   another integrates the step before; the result does not\n"
     "                   depend on N\n"
+    "  --method M       each step's eigen engine: auto (default) takes the modes\n"
+    "                   from member bases built once for the run where they serve\n"
+    "                   the robot (not with joint clearance or geometric stiffness)\n"
+    "                   and it has at least 200 steps to repay them, else the full\n"
+    "                   model; partial: the full model at every step. The two agree\n"
+    "                   to the solvers' accuracy (docs/model-choices.md)\n"
     "  --mesh NA,NB     elements per arm and rod (default: the robot file's)\n"
     "  --set K=V        override a robot-file key (repeatable)\n"
     "  --load FX,FY,FZ  constant external force at the platform centre, N (also in\n"
@@ -73,6 +80,7 @@ static const char HELP[] =
     "                   (--vtk-magnify, default 100), and DIR/trajectory.pvd, the\n"
     "                   time series; DIR must exist\n"
     "  --json           summary as JSON: mean_error_m, peak_error_m, truncation_error,\n"
+    "                   member_steps (steps whose modes the member bases gave),\n"
     "                   coupling_index_log10 and coupling_index_change_log10 {mean, min, max},\n"
     "                   budget\n"
     "\n"
@@ -106,7 +114,7 @@ static int parse(int argc, char **argv, traj_opts *t)
         {"no-reference", 0, 0, 'n'}, {"tool", 1, 0, 't'}, {"load", 1, 0, 'F'},
         {"rigid", 0, 0, 'G'}, {"no-budget", 0, 0, 'B'}, {"axes-rotation", 1, 0, 'X'},
         {"vtk", 1, 0, 'V'}, {"vtk-every", 1, 0, 'E'}, {"vtk-magnify", 1, 0, 'M'},
-        {"force", 1, 0, 'f'}, {0, 0, 0, 0}};
+        {"force", 1, 0, 'f'}, {"method", 1, 0, 'e'}, {0, 0, 0, 0}};
     int c, rc;
     memset(t, 0, sizeof *t);
     dm_cli_begin(&t->sh, "trajectory", HELP, own,
@@ -166,6 +174,11 @@ static int parse(int argc, char **argv, traj_opts *t)
                 t->o.method = DM_ODE_FULL;
             else
                 return dm_cli_usage("trajectory", "--integrator is cvode, closed-form or full", optarg);
+            break;
+        case 'e':
+            if (strcmp(optarg, "auto") && strcmp(optarg, "partial"))
+                return dm_cli_usage("trajectory", "--method is auto or partial", optarg);
+            t->o.full_model = !strcmp(optarg, "partial");
             break;
         case 'f': dm_cli_deprecated("trajectory", "--force FX,FY,FZ", "--load"); /* fall through */
         case 'F':
@@ -381,6 +394,7 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
                             isnan(s->reference_mean_error_m) ? json_null()
                                                              : json_real(s->reference_mean_error_m));
         json_object_set_new(o, "quasi_static", json_boolean(t->o.quasi_static));
+        json_object_set_new(o, "member_steps", json_integer(s->member_steps));
         json_object_set_new(o, "coupling_index_log10",
                             json_pack("{s:f, s:f, s:f}", "mean", s->coupling_mean_log10, "min",
                                       s->coupling_min_log10, "max", s->coupling_max_log10));
@@ -410,6 +424,13 @@ static void print_summary(const traj_opts *t, const dm_robot *rb, const dm_traje
            methods[t->o.method]);
     printf("path        %s, %.6g s in %ld steps of %g s\n", tr->name, s->duration_s, s->steps,
            t->o.dt_s);
+    if (s->member_steps == s->steps)
+        printf("modes       from member bases at every step\n");
+    else if (s->member_steps)
+        printf("modes       from member bases at %ld of %ld steps, the full model's at the "
+               "rest\n", s->member_steps, s->steps);
+    else
+        printf("modes       from the full model at every step\n");
     printf("mean error  %.6e m   (Chen eq. 27: (1/T) sum dt |Delta|)\n", s->mean_error_m);
     printf("peak error  %.6e m\n", s->peak_error_m);
     printf("coupling    log10 lambda_s (Zheng eq. 33) mean %.10g, min %.10g, max %.10g\n",

@@ -9,7 +9,9 @@
 #include <string.h>
 
 #include "dm_integrate.h"
+#include "dm_analysis.h"
 #include "dm_coupling.h"
+#include "dm_effects.h"
 #include "dm_kinematics.h"
 #include "dm_loads.h"
 #include "dm_static.h"
@@ -37,6 +39,12 @@ typedef struct {
     int n, k, ksolve; /* ksolve: modes solved per step (retained or reported) */
     dm_model *md;
     dm_modal *modal;
+    /* the member engine (NULL: the full model's dm_modal serves every
+     * step): the bases, built for the run, and an analysis on them */
+    dm_members *members;
+    dm_analysis *an;
+    long member_steps; /* the steps whose modes it gave */
+    int members_off;   /* it failed a pose: the full model serves the rest */
     int threads;         /* of the all-modes reference's solves */
     struct ref_ahead *ahead; /* the reference's modes, solved ahead */
     dm_static *statics;
@@ -87,6 +95,8 @@ static void free_ws(run_ws *w)
 {
     dm_model_free(w->md);
     dm_modal_free(w->modal);
+    dm_analysis_free(w->an);
+    dm_members_free(w->members);
     ahead_free(w->ahead);
     dm_static_free(w->statics);
     dm_stepper_free(w->stepper);
@@ -159,6 +169,35 @@ static int alloc_ws(run_ws *w, dm_error *err)
         !w->F1 || !w->xout)
         return dm_fail(err, DM_ENOMEM, "out of memory for the trajectory run");
     return DM_OK;
+}
+
+/* Runs of this many steps or more take their modes from member bases:
+ * building them (zheng2017: 9 ms at mesh 4,4, 1.4 ms at 2,2) costs what
+ * 150 steps save at 4,4 and 80 at 2,2 (a step's modes 160 instead of
+ * 220 us, 135 instead of 153 us, the model built and factored either
+ * way; docs/model-choices.md "Member bases along a trajectory"). */
+#define MEMBER_MIN_STEPS 200
+
+/* The member engine for a run it serves and repays: not with joint
+ * clearance (each step's load opens it and changes the rods' effective
+ * lengths, which the bases fix) nor geometric stiffness
+ * (dm_members_serves), nor for every mode, nor when asked not to. Where
+ * the bases cannot be made, the full model serves. */
+static void use_members(run_ws *w, long nsteps)
+{
+    const dm_robot *rb = w->rb;
+    int na = w->md->na, nb = w->md->nb;
+    if (w->o.full_model || nsteps < MEMBER_MIN_STEPS || w->k == w->n ||
+        dm_effects_clearance(&rb->effects))
+        return;
+    w->members = dm_analysis_members(rb, na, nb, w->ksolve, NULL);
+    if (w->members)
+        w->an = dm_analysis_alloc(rb, na, nb, w->ksolve, DM_EIGEN_PARTIAL, NULL);
+    if (!w->an || dm_analysis_use_members(w->an, w->members, NULL)) {
+        dm_analysis_free(w->an);
+        dm_members_free(w->members);
+        w->an = NULL, w->members = NULL;
+    }
 }
 
 /* The real configuration commanded to P while accelerating at a: the
@@ -342,6 +381,29 @@ static int build_at(const dm_pose *pose, dm_model *md, dm_static *st, double *co
     return rc;
 }
 
+/* The modes at a pose whose model and factor are built: from the member
+ * bases while they serve the run, else from the full model, warm from the
+ * steps before. The first pose the bases cannot serve (the analysis
+ * solves it on the full model, cold) hands the rest of the run to the
+ * full model's solver: bases that fail once are likely to again, and
+ * each such solve would start cold. */
+static int solve_modes(run_ws *w, const dm_pose *pose, const dm_model *md, const dm_static *st,
+                       const dm_modes **mo, dm_error *err)
+{
+    if (!w->an || w->members_off)
+        return dm_modal_solve(w->modal, md, st, w->ksolve, mo, err);
+    dm_pose_result res;
+    int rc = dm_analysis_run_pose(w->an, pose, w->ksolve, &res, err);
+    if (rc)
+        return rc;
+    *mo = res.modes;
+    if (res.engine == DM_ENGINE_MEMBERS)
+        w->member_steps++;
+    else
+        w->members_off = 1;
+    return DM_OK;
+}
+
 /* The model, factor and modes at the pose commanded at t0 (a step at the
  * very same pose as the last one keeps them). */
 static int freeze(run_ws *w, double t0, dm_error *err)
@@ -350,7 +412,7 @@ static int freeze(run_ws *w, double t0, dm_error *err)
     int rc = step_pose(w, t0, &pose, err);
     if (fresh_pose(w, &pose) && !rc) {
         rc = build_at(&pose, w->md, w->statics, &w->coupling_log10, err);
-        if (!rc) rc = dm_modal_solve(w->modal, w->md, w->statics, w->ksolve, &w->mo, err);
+        if (!rc) rc = solve_modes(w, &pose, w->md, w->statics, &w->mo, err);
         w->frozen = pose;
         w->have_frozen = !rc;
     }
@@ -568,7 +630,7 @@ static double build_frame(run_ws *w, long j, long nsteps, int ahead)
     f->rc = step_pose(w, t0, &f->pose, &f->err);
     if (!f->rc)
         f->rc = build_at(&f->pose, f->md, f->statics, &f->coupling_log10, &f->err);
-    if (f->rc || j < 4 || !ahead)
+    if (f->rc || j < 4 || !ahead || w->an) /* (the members count their own) */
         return 0;
     double before[3] = {w->shift[(j - 2) % 4], w->shift[(j - 3) % 4], w->shift[(j - 4) % 4]};
     double c0 = omp_get_wtime();
@@ -585,12 +647,13 @@ static void solve_frame(run_ws *w, long j)
     int fresh = fresh_pose(w, &f->pose);
     w->shift[j % 4] = NAN;
     if (!f->rc && fresh) {
-        if (f->counted)
+        int full = !w->an || w->members_off;
+        if (f->counted && full)
             dm_modal_offer_count(w->modal, &f->count);
-        f->rc = dm_modal_solve(w->modal, f->md, f->statics, w->ksolve, &mo, &f->err);
+        f->rc = solve_modes(w, &f->pose, f->md, f->statics, &mo, &f->err);
         dm_modal_stats st;
         dm_modal_last_stats(w->modal, &st);
-        if (!f->rc && st.shift > 0)
+        if (!f->rc && full && st.shift > 0)
             w->shift[j % 4] = st.shift;
     }
     if (!f->rc)
@@ -688,6 +751,7 @@ struct dm_integ_history {
     dm_integ_opts o;
     double duration_s;
     long nsteps, nrec;     /* steps of the run; records held (1: streamed) */
+    long member_steps;     /* steps whose modes the member bases gave */
     size_t len;            /* doubles per record */
     dm_integ_sample first; /* t = 0 */
     double peak0;          /* |platform translation| at t = 0 */
@@ -874,6 +938,7 @@ static void summarise_history(const dm_integ_history *h, const run_stats *rs, do
                               double beta, dm_integ_summary *sum)
 {
     summarise(&h->o, h->n, h->k, h->nsteps, h->duration_s, rs, alpha, beta, sum);
+    sum->member_steps = h->member_steps;
 }
 
 /* Emit step j's sample (slot) after applying it; non-zero: the sink stopped the run. */
@@ -917,11 +982,13 @@ static int run_modal(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
     dm_integ_history *h = NULL;
     run_stats rs = {0};
     int rc = alloc_ws(&w, err);
+    if (!rc) use_members(&w, nsteps);
     if (!rc) rc = alloc_record_ws(&w, err);
     if (!rc && !(h = history_alloc(&w, nsteps, out ? nsteps : 1, err)))
         rc = err ? err->code : DM_ENOMEM;
     for (long j = 0; !rc && j < nsteps; j++) {
         rc = record_step(&w, h, j, out ? j : 0, err);
+        h->member_steps = w.member_steps;
         if (!rc && !out)
             rc = replay_one(h, j, 0, rb->rayleigh_alpha, rb->rayleigh_beta, &rs, sink, user);
     }
@@ -1123,6 +1190,8 @@ static int integrate(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
     run_stats rs = {0};
     rc = alloc_ws(&w, err);
     if (!rc)
+        use_members(&w, nsteps);
+    if (!rc)
         rc = frames_alloc(&w, err);
     if (!rc && w.ahead)
         rc = run_ahead(&w, nsteps, sink, user, &rs, err);
@@ -1142,6 +1211,7 @@ static int integrate(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
             sum->reference_mean_error_m = rs.ref_mean / tr->duration_s;
         }
         sum->truncation_beta_s = w.fig_beta;
+        sum->member_steps = w.member_steps;
     }
     free_ws(&w);
     return rc;

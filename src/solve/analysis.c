@@ -173,17 +173,10 @@ static int run_members(dm_analysis *an, int k, dm_pose_result *res, dm_error *er
     return rc;
 }
 
-int dm_analysis_run(dm_analysis *an, const double P[3], int k, dm_pose_result *res,
-                    dm_error *err)
+/* Everything at res->pose. */
+static int run_at(dm_analysis *an, int k, dm_pose_result *res, dm_error *err)
 {
-    an->last_members = 0; /* nothing of a previous run stands for this one */
-    dm_error_clear(&an->member_error);
-    if (k < 1 || k > an->kmax)
-        return dm_fail(err, DM_EINVAL, "%d modes asked of an analysis made for 1 to %d", k,
-                       an->kmax);
-    int rc = dm_kin_pose(an->robot, P, &res->pose, err);
-    if (rc)
-        return rc;
+    int rc;
     if (an->members) {
         rc = run_members(an, k, res, &an->member_error);
         an->last_members = !rc;
@@ -200,6 +193,34 @@ int dm_analysis_run(dm_analysis *an, const double P[3], int k, dm_pose_result *r
     res->stiffness_min_n_per_m = 1.0 / res->compliance_max_m_per_n;
     res->near_singular = !(res->pose.cond <= an->robot->singular_cond);
     return DM_OK;
+}
+
+/* Nothing of a previous run stands for this one. */
+static int begin_run(dm_analysis *an, int k, dm_error *err)
+{
+    an->last_members = 0;
+    dm_error_clear(&an->member_error);
+    if (k < 1 || k > an->kmax)
+        return dm_fail(err, DM_EINVAL, "%d modes asked of an analysis made for 1 to %d", k,
+                       an->kmax);
+    return DM_OK;
+}
+
+int dm_analysis_run(dm_analysis *an, const double P[3], int k, dm_pose_result *res,
+                    dm_error *err)
+{
+    int rc = begin_run(an, k, err);
+    if (!rc)
+        rc = dm_kin_pose(an->robot, P, &res->pose, err);
+    return rc ? rc : run_at(an, k, res, err);
+}
+
+int dm_analysis_run_pose(dm_analysis *an, const dm_pose *pose, int k, dm_pose_result *res,
+                         dm_error *err)
+{
+    int rc = begin_run(an, k, err);
+    res->pose = *pose;
+    return rc ? rc : run_at(an, k, res, err);
 }
 
 dm_members *dm_analysis_members(const dm_robot *robot, int na, int nb, int kmax, dm_error *err)
