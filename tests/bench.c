@@ -392,8 +392,10 @@ static int discard(void *user, const dm_integ_sample *s)
 /* A paper trajectory's run on |threads| threads: with the all-modes
  * reference (the default run) for threads > 0, without it for < 0, the
  * best of 3 (a run without the reference takes 0.2-0.8 s, where a
- * virtual machine's single runs scatter by 10-20 %). Returns seconds. */
-static double trajectory_time(const char *preset, int threads)
+ * virtual machine's single runs scatter by 10-20 %); each step's modes
+ * from the full model where full_model, else from the member bases where
+ * they serve (the default). Returns seconds. */
+static double trajectory_time(const char *preset, int threads, int full_model)
 {
     dm_robot rb;
     dm_trajectory tr;
@@ -404,6 +406,7 @@ static double trajectory_time(const char *preset, int threads)
     dm_integ_opts_default(&o);
     o.reference = threads > 0;
     o.threads = abs(threads);
+    o.full_model = full_model;
     double dt = INFINITY;
     int rc = 0;
     for (int rep = 0; rep < 3 && !rc; rep++) {
@@ -417,9 +420,10 @@ static double trajectory_time(const char *preset, int threads)
                preset, threads, threads > 1 ? "s" : " ", dt, 1e6 * dt / (rc ? 1 : sum.steps),
                rc ? " FAILED" : "");
     else
-        printf("   %-9s paper trajectory, %ld steps of 1 ms, 10 modes, CVODE, %d thread%s: %6.2f s "
-               "(%4.0f us per step, best of 3)%s\n",
-               preset, sum.steps, -threads, threads < -1 ? "s" : " ", dt,
+        printf("   %-9s paper trajectory, %ld steps of 1 ms, 10 modes, CVODE, %d thread%s, %-12s: "
+               "%6.2f s (%4.0f us per step, best of 3)%s\n",
+               preset, sum.steps, -threads, threads < -1 ? "s" : " ",
+               rc ? "" : sum.member_steps == sum.steps ? "member bases" : "full model", dt,
                1e6 * dt / (rc ? 1 : sum.steps), rc ? " FAILED" : "");
     dm_traj_free(&tr);
     return dt;
@@ -682,6 +686,12 @@ static int run_job(const char *job)
         members_sweep_rows(preset, mesh);
     else if (!strcmp(job, "sweep"))
         sweep_one_thread();
+    else if (!strcmp(job, "trajectories")) /* section 3's paper trajectories alone */
+        for (int p = 0; p < 3; p++)
+            for (int t = 1; t <= 2; t++)
+                for (int full = 0; full < 2; full++)
+                    trajectory_time((const char *[]){"chen2018", "zheng2017", "han2011"}[p], -t,
+                                    full);
     else if (!strcmp(job, "diagnosis p2p")) /* the diagnosis docs' case */
         diagnosis_time(1, "p2p:from=-0.03,-0.02,-0.41;to=0.03,0.02,-0.39;duration=0.05;"
                           "law=bangbang;dwell=0.05");
@@ -980,11 +990,12 @@ int main(int argc, char **argv)
         printf("\n3. throughput (the serial commands first: a sweep leaves OpenMP at its threads)\n");
         for (int p = 0; p < 3; p++)
             for (int t = 1; t <= 2; t++)
-                trajectory_time(presets[p], -t);
+                for (int full = 0; full < 2; full++)
+                    trajectory_time(presets[p], -t, full);
         for (int p = 0; p < 3; p++)
             reference_solve_time(presets[p], 4);
         reference_solve_time("chen2018", 8);
-        double tr1 = trajectory_time("zheng2017", 1), tr2 = trajectory_time("zheng2017", 2);
+        double tr1 = trajectory_time("zheng2017", 1, 0), tr2 = trajectory_time("zheng2017", 2, 0);
         printf("   2 threads / 1 thread: %.2f\n", tr1 / tr2);
         on_every_path("diagnosis p2p");
         on_every_path("diagnosis circle");
