@@ -97,6 +97,11 @@ int dm_analysis_seed_save(const dm_analysis *an, void *seed);
 void dm_analysis_seed_load(dm_analysis *an, const void *seed);
 void dm_analysis_forget(dm_analysis *an);
 
+/* Poses along a smooth path at equal steps, for whichever engine is in
+ * use (dm_modal_follow_path, dm_boundary_eig_follow_path); calling it
+ * again starts a new path. */
+void dm_analysis_follow_path(dm_analysis *an, int on);
+
 /* Mode tracking for whichever engine is in use (dm_modal_track): the
  * vectors families are followed by are the shapes (n) on the full model,
  * the reduced vectors (nred: the same M-products, dm_boundary_eig_mult_M)

@@ -125,6 +125,14 @@ size_t dm_boundary_eig_seed_size(const dm_boundary_eig *e);
 int dm_boundary_eig_seed_save(const dm_boundary_eig *e, void *seed);
 void dm_boundary_eig_seed_load(dm_boundary_eig *e, const void *seed);
 
+/* Poses come along a smooth path at equal steps (a trajectory's): each
+ * warm solve starts from the wanted subspaces of the last three solves
+ * extrapolated (quadratic in the step), as dm_modal_follow_path's, and
+ * needs fewer applications; the results converge to the same bounds
+ * either way. Calling it again (on or off) starts a new path: do so where
+ * the steps stop being equal (a pause, a jump). */
+void dm_boundary_eig_follow_path(dm_boundary_eig *e, int on);
+
 /* Forget what the solves before taught (block, filter plan, guard
  * generator): the next solve is cold and its bits depend on the pose
  * alone, as after dm_boundary_eig_alloc. */

@@ -197,7 +197,8 @@ static void use_members(run_ws *w, long nsteps)
         dm_analysis_free(w->an);
         dm_members_free(w->members);
         w->an = NULL, w->members = NULL;
-    }
+    } else /* the steps' poses: equally spaced in time along the path */
+        dm_analysis_follow_path(w->an, 1);
 }
 
 /* The real configuration commanded to P while accelerating at a: the
@@ -368,6 +369,8 @@ static int fresh_pose(run_ws *w, const dm_pose *pose)
     int fresh = !w->have_frozen || memcmp(pose, &w->frozen, sizeof *pose);
     if (!fresh)
         dm_modal_follow_path(w->modal, 1);
+    if (!fresh && w->an)
+        dm_analysis_follow_path(w->an, 1);
     return fresh;
 }
 

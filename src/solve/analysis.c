@@ -311,6 +311,13 @@ void dm_analysis_forget(dm_analysis *an)
         dm_boundary_eig_forget(an->eig);
 }
 
+void dm_analysis_follow_path(dm_analysis *an, int on)
+{
+    dm_modal_follow_path(an->modal, on);
+    if (an->members)
+        dm_boundary_eig_follow_path(an->eig, on);
+}
+
 int dm_analysis_bounds(dm_analysis *an, int k, double *bound, dm_error *err)
 {
     if (!an->last_members)

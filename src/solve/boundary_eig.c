@@ -55,6 +55,10 @@ struct dm_boundary_eig {
     double b;            /* the last solve's filter end, 1 / its block's top Ritz value */
     int nstart;
     dm_rng rng;
+    /* along a path (dm_boundary_eig_follow_path): the wanted Ritz vectors
+     * of the two solves before the last (hist[0] the later), their count */
+    int path, nhist, hist_m[2], last_m;
+    double *hist[2];
     double sigma; /* the last solve's count: its shift and the modes below it */
     int count, whole; /* (whole: the whole model's there, -1 if singular; proven_by_whole_count) */
 };
@@ -64,7 +68,8 @@ void dm_boundary_eig_free(dm_boundary_eig *e)
     if (!e)
         return;
     double *a[] = {e->d, e->B, e->Mbb, e->D,   e->X,    e->KX,   e->W,    e->KW, e->MW, e->T,
-                   e->MQ, e->H, e->Z, e->w,   e->s,   e->est,  e->work, e->Sinv, e->dinv, e->Bt};
+                   e->MQ, e->H, e->Z, e->w,   e->s,   e->est,  e->work, e->Sinv, e->dinv, e->Bt,
+                   e->hist[0], e->hist[1]};
     for (size_t i = 0; i < sizeof a / sizeof *a; i++)
         free(a[i]);
     free(e->run);
@@ -146,11 +151,11 @@ dm_boundary_eig *dm_boundary_eig_alloc(dm_boundary *bw, int k, dm_error *err)
     size_t n2 = (size_t)nr * q;
     double **a[] = {&e->d, &e->B, &e->Mbb, &e->D,   &e->X,    &e->KX,   &e->W,
                     &e->KW, &e->MW, &e->T, &e->MQ, &e->H,   &e->Z,    &e->w,    &e->s,
-                    &e->est, &e->work, &e->Sinv, &e->dinv, &e->Bt};
+                    &e->est, &e->work, &e->Sinv, &e->dinv, &e->Bt, &e->hist[0], &e->hist[1]};
     size_t sz[] = {e->nv, (size_t)e->nv * nB, (size_t)nB * nB, (size_t)nB * nB,
                    n2, n2, n2, n2, n2, n2, n2,
                    (size_t)q * q, (size_t)q * q, q, q, q, q, (size_t)nB * nB, e->nv,
-                   (size_t)nB * e->nv};
+                   (size_t)nB * e->nv, (size_t)nr * p, (size_t)nr * p};
     int fail = 0;
     for (size_t i = 0; i < sizeof sz / sizeof *sz; i++)
         fail |= !(*a[i] = malloc(sizeof(double) * sz[i]));
@@ -591,6 +596,7 @@ void dm_boundary_eig_start(dm_boundary_eig *e, const double *Y, int ncol)
         e->p = ncol;
     memcpy(e->X, Y, sizeof(double) * e->nr * ncol);
     e->nstart = ncol;
+    e->nhist = 0; /* a start of the caller's: a new path */
 }
 
 /* A seed: everything a warm solve reads of the solves before it — the
@@ -625,6 +631,7 @@ void dm_boundary_eig_seed_load(dm_boundary_eig *e, const void *seed)
     assert(h.p >= 1 && h.p <= e->pmax && h.nstart >= 1 && h.nstart <= h.p);
     e->p = h.p, e->nstart = h.nstart, e->plan = h.plan;
     e->b = h.b, e->w[0] = h.w0, e->rng = h.rng;
+    e->nhist = 0; /* a seed's start: a new path */
     memcpy(e->X, (const char *)seed + sizeof h, sizeof(double) * (size_t)e->nr * h.nstart);
 }
 
@@ -790,6 +797,49 @@ static int proven_by_whole_count(dm_boundary_eig *e, dm_boundary *bw, double sig
     return 1;
 }
 
+/* Along a path, the start of the next solve as dm_modal's (src/solve/
+ * modal.c, extrapolate): the wanted subspaces of the last three solves
+ * (X_t, X_t-1, X_t-2, equally spaced) extrapolated, X_t + (X_t - P_t-1
+ * X_t) or 3 X_t - 3 P_t-1 X_t + P_t-2 X_t, with P_s X_t = X_s X_s' M X_t
+ * the part of X_t in span(X_s) (which aligns the bases: Ritz vectors come
+ * with any sign, pairs in any rotation; M the new pose's, accurate to
+ * first order in the step: enough for a start). The reduced coordinates
+ * are the members' own and the boundary's global ones, continuous along
+ * the path. Only the columns of the wanted clusters at every solve take
+ * part (the guard columns carry unconverged parts of the modes above);
+ * the guards start where they were. The start's error drops from O(h) to
+ * O(h^3), and plan_next lowers the filter's degree as the estimates
+ * allow. Called after pose_mass (M at the new pose) and inverse_K (T is
+ * free). */
+static void extrapolate(dm_boundary_eig *e)
+{
+    int nr = e->nr, m = e->last_m;
+    for (int h = 0; h < e->nhist; h++)
+        m = m < e->hist_m[h] ? m : e->hist_m[h];
+    double *MX = e->W, *C = e->H, *Ht = e->KW, *P[2] = {e->MW, e->T};
+    if (e->nhist > 0)
+        apply_M(e, e->X, m, MX);
+    for (int h = 0; h < e->nhist; h++) {
+        transpose(e->hist[h], nr, m, nr, Ht);
+        e->kr->mult(m, m, nr, Ht, m, MX, nr, 0, C, m);
+        e->kr->mult(nr, m, m, e->hist[h], nr, C, m, 0, P[h], nr);
+    }
+    double *oldest = e->hist[1]; /* X_t joins the history, X_t-2 leaves */
+    e->hist[1] = e->hist[0], e->hist_m[1] = e->hist_m[0];
+    e->hist[0] = oldest, e->hist_m[0] = e->last_m;
+    memcpy(e->hist[0], e->X, sizeof(double) * nr * e->last_m);
+    for (size_t l = 0; e->nhist > 0 && l < (size_t)nr * m; l++)
+        e->X[l] = e->nhist == 1 ? 2 * e->X[l] - P[0][l]
+                                : 3 * (e->X[l] - P[0][l]) + P[1][l];
+    e->nhist += e->nhist < 2;
+}
+
+void dm_boundary_eig_follow_path(dm_boundary_eig *e, int on)
+{
+    e->path = on;
+    e->nhist = 0;
+}
+
 int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, double *estimate,
                           dm_boundary_eig_info *info, dm_error *err)
 {
@@ -799,6 +849,10 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
     pose_mass(e, bw);
     inverse_K(e, bw);
     info->cold = e->nstart == 0;
+    if (e->path && e->nstart)
+        extrapolate(e);
+    else
+        e->nhist = 0;
     random_columns(e, bw, e->nstart);
     int planned = e->nstart == e->p ? e->plan : 0, top = 0;
     for (int attempt = 0;; attempt++, planned = 0) {
@@ -811,7 +865,7 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
             continue;
         }
         if (rc) {
-            e->nstart = 0, e->plan = 0;
+            e->nstart = 0, e->plan = 0, e->nhist = 0;
             return dm_fail(err, DM_ENUMERIC, "reduced eigensolver: no convergence");
         }
         /* just above the wanted clusters (their values are within the
@@ -820,7 +874,7 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
         if (proven_by_whole_count(e, bw, sigma, top))
             break;
         if (count_reduced(e, bw, sigma, &count)) {
-            e->nstart = 0, e->plan = 0;
+            e->nstart = 0, e->plan = 0, e->nhist = 0;
             return dm_fail(err, DM_ENUMERIC, "reduced eigensolver: the count's shift is singular");
         }
         if (count == top + 1) {
@@ -828,7 +882,7 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
             break;
         }
         if (count < top + 1 || attempt == MAX_RESTARTS) { /* Ritz values are upper bounds */
-            e->nstart = 0, e->plan = 0;
+            e->nstart = 0, e->plan = 0, e->nhist = 0;
             return dm_fail(err, DM_ENUMERIC, "reduced eigensolver: %d modes below %d Ritz values",
                            count, top + 1);
         }
@@ -841,6 +895,7 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
     memcpy(bw->Kr, e->X, sizeof(double) * e->nr * e->p);
     plan_next(e, top, info);
     choose_block(e, top);
+    e->last_m = top + 1 < e->p ? top + 1 : e->p;
     for (int j = 0; j < e->k; j++) {
         lambda[j] = e->w[j];
         if (estimate)
@@ -852,7 +907,7 @@ int dm_boundary_eig_solve(dm_boundary_eig *e, dm_boundary *bw, double *lambda, d
 
 void dm_boundary_eig_forget(dm_boundary_eig *e)
 {
-    e->nstart = 0, e->plan = 0, e->b = 0;
+    e->nstart = 0, e->plan = 0, e->b = 0, e->nhist = 0;
     e->p = e->k + GUARD < e->pmax ? e->k + GUARD : e->pmax;
     e->rng.state = 0x39e1; /* as allocated: a cold solve's bits depend on its pose alone */
 }
