@@ -296,9 +296,8 @@ static void iteration_matches_dense_and_reference(void **state)
  * 2 rev/s), a solver that follows it (dm_boundary_eig_follow_path: the
  * last three solves' subspaces extrapolated) meets every bound as the
  * plain warm solver does, in fewer applications of K^-1 M (14 modes at
- * mesh 4,4, measured: chen2018 5.0 -> 3.4 a step, zheng2017 4.1 -> 2.5,
- * han2011 7.5 -> 4.7; 10 modes along the trajectories' circle 8 -> 5,
- * 4 -> 2 and 4 -> 3).
+ * mesh 4,4, measured: chen2018 5.0 -> 2.6 a step, zheng2017 4.1 -> 2.5,
+ * han2011 7.5 -> 4.1).
  * A pause (the
  * path started again) and a jump it was not told of (a pose 30 mm off
  * the path, then back) are solved as well, the bound always checked

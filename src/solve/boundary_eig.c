@@ -802,23 +802,25 @@ static int proven_by_whole_count(dm_boundary_eig *e, dm_boundary *bw, double sig
  * (X_t, X_t-1, X_t-2, equally spaced) extrapolated, X_t + (X_t - P_t-1
  * X_t) or 3 X_t - 3 P_t-1 X_t + P_t-2 X_t, with P_s X_t = X_s X_s' M X_t
  * the part of X_t in span(X_s) (which aligns the bases: Ritz vectors come
- * with any sign, pairs in any rotation; M the new pose's, accurate to
- * first order in the step: enough for a start). The reduced coordinates
+ * with any sign, pairs in any rotation; M X_t the last solve's own, made
+ * with its residuals: accurate to first order in the step, enough for a
+ * start, and a product by M fewer, which took as long as the
+ * applications it saved). The reduced coordinates
  * are the members' own and the boundary's global ones, continuous along
  * the path. Only the columns of the wanted clusters at every solve take
  * part (the guard columns carry unconverged parts of the modes above);
  * the guards start where they were. The start's error drops from O(h) to
  * O(h^3), and plan_next lowers the filter's degree as the estimates
- * allow. Called after pose_mass (M at the new pose) and inverse_K (T is
- * free). */
+ * allow. Called after inverse_K (T is free). */
 static void extrapolate(dm_boundary_eig *e)
 {
     int nr = e->nr, m = e->last_m;
     for (int h = 0; h < e->nhist; h++)
         m = m < e->hist_m[h] ? m : e->hist_m[h];
-    double *MX = e->W, *C = e->H, *Ht = e->KW, *P[2] = {e->MW, e->T};
-    if (e->nhist > 0)
-        apply_M(e, e->X, m, MX);
+    /* M X_t: the last solve's, made with its residuals (the pose before's
+     * M, as good as the new one's to first order) */
+    const double *MX = e->MQ;
+    double *C = e->H, *Ht = e->KW, *P[2] = {e->MW, e->T};
     for (int h = 0; h < e->nhist; h++) {
         transpose(e->hist[h], nr, m, nr, Ht);
         e->kr->mult(m, m, nr, Ht, m, MX, nr, 0, C, m);
