@@ -213,27 +213,54 @@ static void the_block_is_kept(dm_boundary *bw, dm_boundary_eig *walked, int bloc
     free(Y), free(MY);
 }
 
+/* A robot's model at mesh (mesh, mesh), built at home, its member bases
+ * for K14 modes there and a boundary workspace on them. */
+typedef struct {
+    dm_robot rb;
+    dm_model *md;
+    dm_members *ms;
+    dm_boundary *bw;
+} at_home;
+
+static void at_home_make(at_home *h, const char *preset, const char *const *sets, int mesh)
+{
+    dm_pose pose;
+    load(&h->rb, preset, sets);
+    h->md = dm_model_alloc(&h->rb, mesh, mesh, NULL);
+    assert_non_null(h->md);
+    assert_int_equal(dm_kin_pose(&h->rb, h->rb.home_m, &pose, NULL), 0);
+    assert_int_equal(dm_model_build(h->md, &pose, NULL), 0);
+    h->ms = dm_boundary_members_for_modes(h->md, &pose, K14, NULL);
+    assert_non_null(h->ms);
+    h->bw = dm_boundary_alloc(h->ms, NULL);
+    assert_non_null(h->bw);
+}
+
+static void at_home_free(at_home *h)
+{
+    dm_boundary_free(h->bw);
+    dm_members_free(h->ms);
+    dm_model_free(h->md);
+}
+
 static void one_robot(const char *preset, int mesh, int effects, tally *ty)
 {
-    dm_robot rb;
+    at_home h;
     dm_pose pose;
     dm_boundary_statics st;
     double lam[K14], est[K14];
     dm_boundary_eig_info info;
     dm_rng rng = {0x5eed + 97 * mesh + effects};
-    load(&rb, preset, effects ? ALL_EFFECTS : NULL);
-    dm_model *md = dm_model_alloc(&rb, mesh, mesh, NULL);
-    assert_non_null(md);
-    assert_int_equal(dm_kin_pose(&rb, rb.home_m, &pose, NULL), 0);
-    assert_int_equal(dm_model_build(md, &pose, NULL), 0);
-    dm_members *ms = dm_boundary_members_for_modes(md, &pose, K14, NULL);
-    dm_boundary *bw = ms ? dm_boundary_alloc(ms, NULL) : NULL;
-    dm_boundary_eig *e = bw ? dm_boundary_eig_alloc(bw, K14, NULL) : NULL;
+    at_home_make(&h, preset, effects ? ALL_EFFECTS : NULL, mesh);
+    const dm_robot *rb = &h.rb;
+    dm_model *md = h.md;
+    dm_boundary *bw = h.bw;
+    dm_boundary_eig *e = dm_boundary_eig_alloc(bw, K14, NULL);
     assert_non_null(e);
-    double P[3] = {rb.home_m[0], rb.home_m[1], rb.home_m[2]};
+    double P[3] = {rb->home_m[0], rb->home_m[1], rb->home_m[2]};
     for (int s = 0; s <= STEPS; s++) { /* home, then 5 mm steps along x + y/2 */
         P[0] += s ? 0.005 : 0, P[1] += s ? 0.0025 : 0;
-        assert_int_equal(dm_kin_pose(&rb, P, &pose, NULL), 0);
+        assert_int_equal(dm_kin_pose(rb, P, &pose, NULL), 0);
         assert_int_equal(dm_boundary_solve(bw, &pose, &st, NULL), 0);
         dm_error err;
         int rc = dm_boundary_eig_solve(e, bw, lam, est, &info, &err);
@@ -267,9 +294,7 @@ static void one_robot(const char *preset, int mesh, int effects, tally *ty)
     }
     missed_mode_is_recovered(bw, e, ty);
     dm_boundary_eig_free(e);
-    dm_boundary_free(bw);
-    dm_members_free(ms);
-    dm_model_free(md);
+    at_home_free(&h);
 }
 
 static void iteration_matches_dense_and_reference(void **state)
@@ -304,32 +329,28 @@ static void iteration_matches_dense_and_reference(void **state)
  * against the same pair in long double. */
 static void path_walk(const char *preset, tally *ty, int *apps_plain, int *apps_path)
 {
-    dm_robot rb;
+    at_home h;
     dm_pose pose;
     dm_boundary_statics st;
     double lam[2][K14], est[2][K14];
     dm_boundary_eig_info info;
-    load(&rb, preset, NULL);
-    dm_model *md = dm_model_alloc(&rb, 4, 4, NULL);
-    assert_non_null(md);
-    assert_int_equal(dm_kin_pose(&rb, rb.home_m, &pose, NULL), 0);
-    assert_int_equal(dm_model_build(md, &pose, NULL), 0);
-    dm_members *ms = dm_boundary_members_for_modes(md, &pose, K14, NULL);
-    dm_boundary *bw = ms ? dm_boundary_alloc(ms, NULL) : NULL;
-    dm_boundary_eig *e[2] = {bw ? dm_boundary_eig_alloc(bw, K14, NULL) : NULL,
-                             bw ? dm_boundary_eig_alloc(bw, K14, NULL) : NULL};
+    at_home_make(&h, preset, NULL, 4);
+    const dm_robot *rb = &h.rb;
+    dm_boundary *bw = h.bw;
+    dm_boundary_eig *e[2] = {dm_boundary_eig_alloc(bw, K14, NULL),
+                             dm_boundary_eig_alloc(bw, K14, NULL)};
     assert_non_null(e[0]);
     assert_non_null(e[1]);
     dm_boundary_eig_follow_path(e[1], 1);
     enum { NSTEP = 48, PAUSE = 20, JUMP = 34 };
     for (int s = 0; s < NSTEP; s++) {
-        double t = 1e-3 * s, P[3] = {rb.home_m[0] + 0.04 * cos(4 * M_PI * t) - 0.04,
-                                     rb.home_m[1] + 0.04 * sin(4 * M_PI * t), rb.home_m[2]};
+        double t = 1e-3 * s, P[3] = {rb->home_m[0] + 0.04 * cos(4 * M_PI * t) - 0.04,
+                                     rb->home_m[1] + 0.04 * sin(4 * M_PI * t), rb->home_m[2]};
         if (s == JUMP)
             P[0] += 0.03;
         if (s == PAUSE)
             dm_boundary_eig_follow_path(e[1], 1);
-        assert_int_equal(dm_kin_pose(&rb, P, &pose, NULL), 0);
+        assert_int_equal(dm_kin_pose(rb, P, &pose, NULL), 0);
         assert_int_equal(dm_boundary_solve(bw, &pose, &st, NULL), 0);
         for (int i = 0; i < 2; i++) {
             assert_int_equal(dm_boundary_eig_solve(e[i], bw, lam[i], est[i], &info, NULL), 0);
@@ -340,9 +361,7 @@ static void path_walk(const char *preset, tally *ty, int *apps_plain, int *apps_
     }
     for (int i = 0; i < 2; i++)
         dm_boundary_eig_free(e[i]);
-    dm_boundary_free(bw);
-    dm_members_free(ms);
-    dm_model_free(md);
+    at_home_free(&h);
 }
 
 static void following_the_path_saves_applications(void **state)
@@ -380,18 +399,13 @@ static void solve_from(dm_boundary_eig *e, dm_boundary *bw, const dm_robot *rb, 
 static void seed_decides_the_bits(void **state)
 {
     (void)state;
-    dm_robot rb;
+    at_home h;
     dm_pose pose;
     dm_boundary_statics st;
     double lam[K14], est[K14];
-    load(&rb, "zheng2017", NULL);
-    dm_model *md = dm_model_alloc(&rb, 2, 2, NULL);
-    assert_non_null(md);
-    assert_int_equal(dm_kin_pose(&rb, rb.home_m, &pose, NULL), 0);
-    assert_int_equal(dm_model_build(md, &pose, NULL), 0);
-    dm_members *ms = dm_boundary_members_for_modes(md, &pose, K14, NULL);
-    assert_non_null(ms);
-    dm_boundary *bw = dm_boundary_alloc(ms, NULL);
+    at_home_make(&h, "zheng2017", NULL, 2);
+    const dm_robot *rb = &h.rb;
+    dm_boundary *bw = h.bw;
     dm_boundary_eig *e[3];
     for (int i = 0; i < 3; i++)
         assert_non_null(e[i] = dm_boundary_eig_alloc(bw, K14, NULL));
@@ -402,29 +416,27 @@ static void seed_decides_the_bits(void **state)
     for (int i = 0; i < 3; i++)
         out[i] = malloc(sizeof(double) * nout);
     assert_int_equal(dm_boundary_eig_seed_save(e[0], none), 0); /* nothing solved yet */
-    double home[3] = {rb.home_m[0], rb.home_m[1], rb.home_m[2]};
+    double home[3] = {rb->home_m[0], rb->home_m[1], rb->home_m[2]};
     double A[3] = {home[0] + 0.01, home[1], home[2]}, B[3] = {home[0] + 0.02, home[1] + 0.005, home[2]};
     double C[3] = {home[0] - 0.08, home[1] + 0.06, home[2] + 0.05};
     const double *walk[2] = {home, A};
     for (int s = 0; s < 2; s++) {
-        assert_int_equal(dm_kin_pose(&rb, walk[s], &pose, NULL), 0);
+        assert_int_equal(dm_kin_pose(rb, walk[s], &pose, NULL), 0);
         assert_int_equal(dm_boundary_solve(bw, &pose, &st, NULL), 0);
         assert_int_equal(dm_boundary_eig_solve(e[0], bw, lam, est, NULL, NULL), 0);
     }
     assert_int_equal(dm_boundary_eig_seed_save(e[0], seed), 1);
-    assert_int_equal(dm_kin_pose(&rb, C, &pose, NULL), 0);
+    assert_int_equal(dm_kin_pose(rb, C, &pose, NULL), 0);
     assert_int_equal(dm_boundary_solve(bw, &pose, &st, NULL), 0);
     assert_int_equal(dm_boundary_eig_solve(e[1], bw, lam, est, NULL, NULL), 0);
     for (int i = 0; i < 3; i++)
-        solve_from(e[i], bw, &rb, B, seed, out[i]);
+        solve_from(e[i], bw, rb, B, seed, out[i]);
     for (int i = 1; i < 3; i++)
         assert_memory_equal(out[0], out[i], sizeof(double) * nout);
     for (int i = 0; i < 3; i++)
         dm_boundary_eig_free(e[i]), free(out[i]);
     free(seed), free(none);
-    dm_boundary_free(bw);
-    dm_members_free(ms);
-    dm_model_free(md);
+    at_home_free(&h);
 }
 
 /* One product of the kernels in long double: Y = (add ? Y0 : 0) + A X

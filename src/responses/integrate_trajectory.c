@@ -384,6 +384,9 @@ static int build_at(const dm_pose *pose, dm_model *md, dm_static *st, double *co
     return rc;
 }
 
+/* Whether the full model's solver serves the run's next solve. */
+static int full_model_solves(const run_ws *w) { return !w->an || w->members_off; }
+
 /* The modes at a pose whose model and factor are built: from the member
  * bases while they serve the run, else from the full model, warm from the
  * steps before. The first pose the bases cannot serve (the analysis
@@ -393,7 +396,7 @@ static int build_at(const dm_pose *pose, dm_model *md, dm_static *st, double *co
 static int solve_modes(run_ws *w, const dm_pose *pose, const dm_model *md, const dm_static *st,
                        const dm_modes **mo, dm_error *err)
 {
-    if (!w->an || w->members_off)
+    if (full_model_solves(w))
         return dm_modal_solve(w->modal, md, st, w->ksolve, mo, err);
     dm_pose_result res;
     int rc = dm_analysis_run_pose(w->an, pose, w->ksolve, &res, err);
@@ -650,14 +653,16 @@ static void solve_frame(run_ws *w, long j)
     int fresh = fresh_pose(w, &f->pose);
     w->shift[j % 4] = NAN;
     if (!f->rc && fresh) {
-        int full = !w->an || w->members_off;
+        int full = full_model_solves(w);
         if (f->counted && full)
             dm_modal_offer_count(w->modal, &f->count);
         f->rc = solve_modes(w, &f->pose, f->md, f->statics, &mo, &f->err);
         dm_modal_stats st;
-        dm_modal_last_stats(w->modal, &st);
-        if (!f->rc && full && st.shift > 0)
-            w->shift[j % 4] = st.shift;
+        if (!f->rc && full) {
+            dm_modal_last_stats(w->modal, &st);
+            if (st.shift > 0)
+                w->shift[j % 4] = st.shift;
+        }
     }
     if (!f->rc)
         copy_modes(&f->mo, mo, w->n, w->ksolve);
