@@ -429,6 +429,17 @@ static double trajectory_time(const char *preset, int threads, int full_model)
     return dt;
 }
 
+/* The papers' trajectories without the reference on 1 and 2 threads,
+ * each on both engines in turn. */
+static void paper_trajectories(void)
+{
+    const char *presets[] = {"chen2018", "zheng2017", "han2011"};
+    for (int p = 0; p < 3; p++)
+        for (int t = 1; t <= 2; t++)
+            for (int full = 0; full < 2; full++)
+                trajectory_time(presets[p], -t, full);
+}
+
 /* The all-modes reference's solve at a pose (every mode, kept factored:
  * dm_spectrum) against DM_EIGEN_ALL_ARROW (every mode formed) and bare
  * dsygvd on the same matrices; best of 10. */
@@ -687,11 +698,7 @@ static int run_job(const char *job)
     else if (!strcmp(job, "sweep"))
         sweep_one_thread();
     else if (!strcmp(job, "trajectories")) /* section 3's paper trajectories alone */
-        for (int p = 0; p < 3; p++)
-            for (int t = 1; t <= 2; t++)
-                for (int full = 0; full < 2; full++)
-                    trajectory_time((const char *[]){"chen2018", "zheng2017", "han2011"}[p], -t,
-                                    full);
+        paper_trajectories();
     else if (!strcmp(job, "diagnosis p2p")) /* the diagnosis docs' case */
         diagnosis_time(1, "p2p:from=-0.03,-0.02,-0.41;to=0.03,0.02,-0.39;duration=0.05;"
                           "law=bangbang;dwell=0.05");
@@ -988,10 +995,7 @@ int main(int argc, char **argv)
             accuracy(presets[p], meshes[m]);
     if (wanted(argc, argv, "3")) {
         printf("\n3. throughput (the serial commands first: a sweep leaves OpenMP at its threads)\n");
-        for (int p = 0; p < 3; p++)
-            for (int t = 1; t <= 2; t++)
-                for (int full = 0; full < 2; full++)
-                    trajectory_time(presets[p], -t, full);
+        paper_trajectories();
         for (int p = 0; p < 3; p++)
             reference_solve_time(presets[p], 4);
         reference_solve_time("chen2018", 8);

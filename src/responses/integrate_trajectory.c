@@ -124,7 +124,39 @@ static void free_ws(run_ws *w)
     dm_arrow_ldl_release(&w->ldl);
 }
 
-static int alloc_ws(run_ws *w, dm_error *err)
+/* Runs of this many steps or more take their modes from member bases:
+ * building them (zheng2017: 9 ms at mesh 4,4, 1.4 ms at 2,2) costs what
+ * 150 steps save at 4,4 and 80 at 2,2 (a step's modes 160 instead of
+ * 220 us, 135 instead of 153 us, the model built and factored either
+ * way; docs/model-choices.md "Member bases along a trajectory"). */
+#define MEMBER_MIN_STEPS 200
+
+/* The member engine for a run it serves and repays: not with joint
+ * clearance (each step's load opens it and changes the rods' effective
+ * lengths, which the bases fix) nor geometric stiffness
+ * (dm_members_serves), nor for every mode, nor when asked not to. Where
+ * the bases cannot be made, the full model serves. */
+static void use_members(run_ws *w, long nsteps)
+{
+    const dm_robot *rb = w->rb;
+    int na = w->md->na, nb = w->md->nb;
+    if (w->o.full_model || nsteps < MEMBER_MIN_STEPS || w->k == w->n ||
+        dm_effects_clearance(&rb->effects))
+        return;
+    w->members = dm_analysis_members(rb, na, nb, w->ksolve, NULL);
+    if (w->members)
+        w->an = dm_analysis_alloc(rb, na, nb, w->ksolve, DM_EIGEN_PARTIAL, NULL);
+    if (!w->an || dm_analysis_use_members(w->an, w->members, NULL)) {
+        dm_analysis_free(w->an);
+        dm_members_free(w->members);
+        w->an = NULL, w->members = NULL;
+    } else /* the steps' poses: equally spaced in time along the path */
+        dm_analysis_follow_path(w->an, 1);
+}
+
+/* The run's workspaces for nsteps steps (the member engine where it
+ * serves them: use_members). */
+static int alloc_ws(run_ws *w, long nsteps, dm_error *err)
 {
     const dm_integ_opts *o = &w->o;
     w->md = dm_model_alloc(w->rb, o->na ? o->na : w->rb->na, o->nb ? o->nb : w->rb->nb, err);
@@ -168,37 +200,8 @@ static int alloc_ws(run_ws *w, dm_error *err)
     if (!w->x || !w->xd || !w->xr || !w->xrd || !w->xf || !w->xfd || !w->xfout || !w->F0 ||
         !w->F1 || !w->xout)
         return dm_fail(err, DM_ENOMEM, "out of memory for the trajectory run");
+    use_members(w, nsteps);
     return DM_OK;
-}
-
-/* Runs of this many steps or more take their modes from member bases:
- * building them (zheng2017: 9 ms at mesh 4,4, 1.4 ms at 2,2) costs what
- * 150 steps save at 4,4 and 80 at 2,2 (a step's modes 160 instead of
- * 220 us, 135 instead of 153 us, the model built and factored either
- * way; docs/model-choices.md "Member bases along a trajectory"). */
-#define MEMBER_MIN_STEPS 200
-
-/* The member engine for a run it serves and repays: not with joint
- * clearance (each step's load opens it and changes the rods' effective
- * lengths, which the bases fix) nor geometric stiffness
- * (dm_members_serves), nor for every mode, nor when asked not to. Where
- * the bases cannot be made, the full model serves. */
-static void use_members(run_ws *w, long nsteps)
-{
-    const dm_robot *rb = w->rb;
-    int na = w->md->na, nb = w->md->nb;
-    if (w->o.full_model || nsteps < MEMBER_MIN_STEPS || w->k == w->n ||
-        dm_effects_clearance(&rb->effects))
-        return;
-    w->members = dm_analysis_members(rb, na, nb, w->ksolve, NULL);
-    if (w->members)
-        w->an = dm_analysis_alloc(rb, na, nb, w->ksolve, DM_EIGEN_PARTIAL, NULL);
-    if (!w->an || dm_analysis_use_members(w->an, w->members, NULL)) {
-        dm_analysis_free(w->an);
-        dm_members_free(w->members);
-        w->an = NULL, w->members = NULL;
-    } else /* the steps' poses: equally spaced in time along the path */
-        dm_analysis_follow_path(w->an, 1);
 }
 
 /* The real configuration commanded to P while accelerating at a: the
@@ -989,8 +992,7 @@ static int run_modal(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
     run_ws w = {.rb = rb, .tr = tr, .o = *o};
     dm_integ_history *h = NULL;
     run_stats rs = {0};
-    int rc = alloc_ws(&w, err);
-    if (!rc) use_members(&w, nsteps);
+    int rc = alloc_ws(&w, nsteps, err);
     if (!rc) rc = alloc_record_ws(&w, err);
     if (!rc && !(h = history_alloc(&w, nsteps, out ? nsteps : 1, err)))
         rc = err ? err->code : DM_ENOMEM;
@@ -1202,9 +1204,7 @@ static int integrate(const dm_robot *rb, const dm_trajectory *tr, const dm_integ
         return run_modal(rb, tr, o, nsteps, sink, user, sum, NULL, err);
     run_ws w = {.rb = rb, .tr = tr, .o = *o, .threads = threads};
     run_stats rs = {0};
-    rc = alloc_ws(&w, err);
-    if (!rc)
-        use_members(&w, nsteps);
+    rc = alloc_ws(&w, nsteps, err);
     if (!rc)
         rc = frames_alloc(&w, err);
     if (!rc && w.ahead)
