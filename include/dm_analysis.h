@@ -102,6 +102,12 @@ void dm_analysis_forget(dm_analysis *an);
  * again starts a new path. */
 void dm_analysis_follow_path(dm_analysis *an, int on);
 
+/* The member engine's pairs (after dm_analysis_use_members) also converge
+ * to this relative residual (dm_boundary_eig_residual_target; the full
+ * model's is always DM_MODAL_CONVERGED): set to that, results are as
+ * smooth in the robot's parameters on either engine. */
+void dm_analysis_residual_target(dm_analysis *an, double residual);
+
 /* Mode tracking for whichever engine is in use (dm_modal_track): the
  * vectors families are followed by are the shapes (n) on the full model,
  * the reduced vectors (nred: the same M-products, dm_boundary_eig_mult_M)

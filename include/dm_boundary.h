@@ -133,6 +133,15 @@ void dm_boundary_eig_seed_load(dm_boundary_eig *e, const void *seed);
  * the steps stop being equal (a pause, a jump). */
 void dm_boundary_eig_follow_path(dm_boundary_eig *e, int on);
 
+/* Each wanted pair also converges to this relative residual,
+ * ||x - theta K^-1 M x||_K / sqrt(theta) (0, the default: the eigenvalue
+ * bound alone), unless round-off stalls it. The bound of 1e-12 leaves
+ * the vectors within about 1e-6 rad; a residual of 1e-8 (dm_modal's own)
+ * within 1e-8, so that results are as smooth in the robot's parameters
+ * as the full model's (a fit's forward differences need 1e-10:
+ * trajectories set it, dm_integrate.h). */
+void dm_boundary_eig_residual_target(dm_boundary_eig *e, double residual);
+
 /* Forget what the solves before taught (block, filter plan, guard
  * generator): the next solve is cold and its bits depend on the pose
  * alone, as after dm_boundary_eig_alloc. */
@@ -230,12 +239,12 @@ int dm_boundary_bounds(dm_boundary *bw, int k, const double *lambda, double *bou
                        dm_error *err);
 
 /* The basis rule: member bases for k modes keep the fixed-interface modes
- * with eigenvalue <= DM_BOUNDARY_CUT x the k-th eigenvalue at `pose`
- * (found once, on bases that keep every mode: exact), with their residual
- * vectors. NULL (err says why) when the members cannot serve the robot. */
+ * with eigenvalue <= DM_BOUNDARY_CUT x the model's k-th eigenvalue (found
+ * once, by the model's own solver at the pose it is built at), with
+ * their residual vectors. NULL (err says why) when the members cannot
+ * serve the robot. */
 #define DM_BOUNDARY_CUT 100.0
-dm_members *dm_boundary_members_for_modes(const dm_model *model, const dm_pose *pose, int k,
-                                          dm_error *err);
+dm_members *dm_boundary_members_for_modes(const dm_model *model, int k, dm_error *err);
 
 /* T' G in the reduced coordinates (dm_boundary_reduced_vectors'; nred x q,
  * column-major) for the inertial loads G of q rigid motions at `pose`,

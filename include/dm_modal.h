@@ -65,6 +65,14 @@ typedef struct dm_modes {
     int *direction;          /* k: dm_direction with the largest platform energy */
 } dm_modes;
 
+/* Relative residual ||x - theta K^-1 M x||_M (x M-normalised) at which a
+ * Ritz pair counts as converged. To first order it bounds the relative
+ * error of the eigenvalue, and squared over the relative gap to the rest
+ * of the spectrum (Kato-Temple; for a cluster, the gap around it): 1e-8
+ * leaves eigenvalues within ~1e-14 and invariant subspaces within ~1e-6
+ * rad. */
+#define DM_MODAL_CONVERGED 1e-8
+
 /* Workspace for models of `model`'s size and up to kmax modes. */
 dm_modal *dm_modal_alloc(const dm_model *model, int kmax, dm_eigen_method method,
                          dm_error *err);

@@ -785,7 +785,7 @@ static void members_row(const char *preset, int mesh)
     double tbuild = now_s() - t0, t[11] = {0};
     dm_boundary *bw = dm_boundary_alloc(ms, NULL);
     t0 = now_s();
-    dm_members *mr = dm_boundary_members_for_modes(md, &pose, 14, NULL);
+    dm_members *mr = dm_boundary_members_for_modes(md, 14, NULL);
     double trule = now_s() - t0, lam[14], bound[14];
     dm_boundary *br = dm_boundary_alloc(mr, NULL);
     dm_modal *mo = dm_modal_alloc(md, 14, DM_EIGEN_PARTIAL, NULL);

@@ -324,7 +324,7 @@ static void reduced_modes_are_certified(void **state)
                 assert_non_null(md);
                 assert_int_equal(dm_kin_pose(&rb, rb.home_m, &pose, NULL), 0);
                 assert_int_equal(dm_model_build(md, &pose, NULL), 0);
-                dm_members *ms = dm_boundary_members_for_modes(md, &pose, K14, NULL);
+                dm_members *ms = dm_boundary_members_for_modes(md, K14, NULL);
                 dm_members *bad = dm_members_build(md, 0, NULL);
                 assert_true(ms && bad);
                 dm_boundary *bw = dm_boundary_alloc(ms, NULL), *bb = dm_boundary_alloc(bad, NULL);
@@ -424,7 +424,7 @@ static void mode_shapes_match_the_reference(void **state)
             assert_non_null(md);
             assert_int_equal(dm_kin_pose(&rb, rb.home_m, &pose, NULL), 0);
             assert_int_equal(dm_model_build(md, &pose, NULL), 0);
-            dm_members *ms = dm_boundary_members_for_modes(md, &pose, K14, NULL);
+            dm_members *ms = dm_boundary_members_for_modes(md, K14, NULL);
             dm_boundary *bw = ms ? dm_boundary_alloc(ms, NULL) : NULL;
             assert_non_null(bw);
             int n = md->n;
@@ -523,7 +523,7 @@ static void inertial_loads_equal_the_projected_model(void **state)
                 assert_non_null(md);
                 assert_int_equal(dm_kin_pose(&rb, rb.home_m, &pose, NULL), 0);
                 assert_int_equal(dm_model_build(md, &pose, NULL), 0);
-                dm_members *ms = dm_boundary_members_for_modes(md, &pose, 10, NULL);
+                dm_members *ms = dm_boundary_members_for_modes(md, 10, NULL);
                 dm_boundary *bw = ms ? dm_boundary_alloc(ms, NULL) : NULL;
                 assert_non_null(bw);
                 int n = md->n, nr = dm_boundary_reduced_size(bw);

@@ -57,7 +57,7 @@ static const char HELP[] =
     "  --method M       each step's eigen engine: auto (default) takes the modes\n"
     "                   from member bases built once for the run where they serve\n"
     "                   the robot (not with joint clearance or geometric stiffness)\n"
-    "                   and it has at least 200 steps to repay them, else the full\n"
+    "                   and it has at least 25 steps to repay them, else the full\n"
     "                   model; partial: the full model at every step. The two agree\n"
     "                   to the solvers' accuracy (docs/model-choices.md)\n"
     "  --mesh NA,NB     elements per arm and rod (default: the robot file's)\n"

@@ -124,12 +124,14 @@ static void free_ws(run_ws *w)
     dm_arrow_ldl_release(&w->ldl);
 }
 
-/* Runs of this many steps or more take their modes from member bases:
- * building them (zheng2017: 9 ms at mesh 4,4, 1.4 ms at 2,2) costs what
- * 150 steps save at 4,4 and 80 at 2,2 (a step's modes 160 instead of
- * 220 us, 135 instead of 153 us, the model built and factored either
- * way; docs/model-choices.md "Member bases along a trajectory"). */
-#define MEMBER_MIN_STEPS 200
+/* Runs of this many steps or more take their modes from member bases.
+ * Building them costs 1.0-1.3 ms at mesh 2,2, 2.7-3.0 ms at 4,4 and
+ * 6.2-7.6 ms at 8,8 (the model's own solver finds the basis rule's k-th
+ * eigenvalue), which a closed-form run of 25 steps repays on every
+ * preset and mesh measured (a 1 s circle, AVX2: members 0-45 % faster;
+ * 10-15 steps, 0.1 s apart, were not, the warm starts too far apart);
+ * docs/model-choices.md "Member bases along a trajectory". */
+#define MEMBER_MIN_STEPS 25
 
 /* The member engine for a run it serves and repays: not with joint
  * clearance (each step's load opens it and changes the rods' effective
@@ -150,8 +152,13 @@ static void use_members(run_ws *w, long nsteps)
         dm_analysis_free(w->an);
         dm_members_free(w->members);
         w->an = NULL, w->members = NULL;
-    } else /* the steps' poses: equally spaced in time along the path */
+    } else { /* the steps' poses: equally spaced in time along the path */
         dm_analysis_follow_path(w->an, 1);
+        /* the full model's residual: predictions as smooth in the robot's
+         * parameters as its own, which a fit's forward differences need
+         * (test_predict tracker_predictions_are_smooth) */
+        dm_analysis_residual_target(w->an, DM_MODAL_CONVERGED);
+    }
 }
 
 /* The run's workspaces for nsteps steps (the member engine where it

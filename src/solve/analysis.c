@@ -231,7 +231,7 @@ dm_members *dm_analysis_members(const dm_robot *robot, int na, int nb, int kmax,
     dm_pose home;
     dm_members *ms = NULL;
     if (md && !dm_kin_pose(robot, robot->home_m, &home, err) && !dm_model_build(md, &home, err))
-        ms = dm_boundary_members_for_modes(md, &home, kmax < md->n ? kmax : md->n - 1, err);
+        ms = dm_boundary_members_for_modes(md, kmax < md->n ? kmax : md->n - 1, err);
     dm_model_free(md);
     return ms;
 }
@@ -309,6 +309,12 @@ void dm_analysis_forget(dm_analysis *an)
     dm_modal_forget(an->modal);
     if (an->members)
         dm_boundary_eig_forget(an->eig);
+}
+
+void dm_analysis_residual_target(dm_analysis *an, double residual)
+{
+    if (an->members)
+        dm_boundary_eig_residual_target(an->eig, residual);
 }
 
 void dm_analysis_follow_path(dm_analysis *an, int on)

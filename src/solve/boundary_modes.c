@@ -7,6 +7,8 @@
 #include <string.h>
 
 #include "boundary_impl.h"
+#include "dm_modal.h"
+#include "dm_static.h"
 
 /* T (nB x nB) += s Cc' X Cc on member m's columns (X: nb x nb). */
 static void congruence(const dm_boundary *bw, int m, const double *X, double s, double *T)
@@ -197,28 +199,30 @@ int dm_boundary_bounds(dm_boundary *bw, int k, const double *lambda, double *bou
     return DM_OK;
 }
 
-dm_members *dm_boundary_members_for_modes(const dm_model *md, const dm_pose *pose, int k,
-                                          dm_error *err)
+/* The model's k-th eigenvalue, from its own solver (cold, certified by
+ * its count like every solve of it): the basis rule's scale. */
+static int kth_eigenvalue(const dm_model *md, int k, double *lambda_k, dm_error *err)
 {
-    dm_members *all = dm_members_build(md, INFINITY, err);
-    dm_boundary *bw = all ? dm_boundary_alloc(all, err) : NULL;
-    dm_boundary_statics st;
-    double *lambda = bw ? malloc(sizeof(double) * k) : NULL;
-    int rc = lambda ? DM_OK : DM_ENOMEM;
+    dm_static *st = dm_static_alloc(md, err);
+    dm_modal *mw = st ? dm_modal_alloc(md, k, DM_EIGEN_PARTIAL, err) : NULL;
+    const dm_modes *mo;
+    int rc = mw ? dm_static_factor(st, md, err) : err ? err->code : DM_ENOMEM;
     if (!rc)
-        rc = dm_boundary_solve(bw, pose, &st, err);
+        rc = dm_modal_solve(mw, md, st, k, &mo, err);
     if (!rc)
-        rc = dm_boundary_reduced_modes(bw, k, lambda, err);
-    double cut = rc ? 0 : DM_BOUNDARY_CUT * lambda[k - 1];
-    free(lambda);
-    dm_boundary_free(bw);
-    dm_members_free(all);
-    if (rc) {
-        if (rc == DM_ENOMEM)
-            dm_fail(err, rc, "out of memory for the member bases");
+        *lambda_k = mo->omega_rad_s[k - 1] * mo->omega_rad_s[k - 1];
+    dm_modal_free(mw);
+    dm_static_free(st);
+    return rc;
+}
+
+dm_members *dm_boundary_members_for_modes(const dm_model *md, int k, dm_error *err)
+{
+    double lambda_k;
+    assert(k >= 1 && k < md->n);
+    if (dm_members_serves(md->robot, err) || kth_eigenvalue(md, k, &lambda_k, err))
         return NULL;
-    }
-    return dm_members_build(md, cut, err);
+    return dm_members_build(md, DM_BOUNDARY_CUT * lambda_k, err);
 }
 
 int dm_boundary_reduced_size(const dm_boundary *bw) { return bw->nred; }

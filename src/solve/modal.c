@@ -69,13 +69,9 @@ static int subspace_max(int n, int k)
     return q < n - 1 ? q : n - 1;
 }
 
-/* Relative residual ||x - theta K^-1 M x||_M (x M-normalised) at which a
- * Ritz pair counts as converged. To first order it bounds the relative
- * error of the eigenvalue, and squared over the relative gap to the rest
- * of the spectrum (Kato-Temple; for a cluster, the gap around it): 1e-8
- * leaves eigenvalues within ~1e-14 and invariant subspaces within ~1e-6
- * rad. */
-#define CONVERGED 1e-8
+/* Relative residual at which a Ritz pair counts as converged
+ * (dm_modal.h). */
+#define CONVERGED DM_MODAL_CONVERGED
 /* ... and at a pose near a singularity, where the lowest mode falls to
  * 1e-6 of the last wanted one (han2011 near its workspace's edge), 1e-8
  * is not enough: the locked low modes' small errors along stiff modes
