@@ -206,6 +206,13 @@ void dm_boundary_reduced_vectors(const dm_boundary *bw, int k, double *Y);
  * carries over). */
 void dm_boundary_mode_shapes(dm_boundary *bw, int k, double *phi);
 
+/* M phi (n x k) for the last dm_boundary_mode_shapes' first k shapes, M
+ * the model's mass at the last solve's pose, made member by member from
+ * the cache (dm_members_mult's assembly, Q' M Q, in the members' frames;
+ * never the assembled model): a trajectory's transfer between steps,
+ * Phi_j' M_j Phi_{j-1}, without the model. */
+void dm_boundary_mass_shapes(dm_boundary *bw, int k, double *mphi);
+
 /* The reduced problem's size: boundary DOFs + kept modes + residual vectors. */
 int dm_boundary_reduced_size(const dm_boundary *bw);
 
@@ -257,6 +264,13 @@ dm_members *dm_boundary_members_for_modes(const dm_model *model, int k, dm_error
  * boundary part. */
 void dm_boundary_inertial_loads(dm_boundary *bw, const dm_pose *pose,
                                 const dm_rigid_motion *motion, int q, double *G);
+
+/* T' F_gravity (nred) at the last solve's pose, as dm_boundary_inertial_loads
+ * makes the inertial loads: the model's consistent gravity load (the
+ * members' weight in their frames, the boundary's own: platform, payload,
+ * elbow masses) in the reduced coordinates; its boundary rows are the
+ * condensed load whose S^-1 is the static error. */
+void dm_boundary_gravity_loads(dm_boundary *bw, double *G);
 
 /* The last solve's whole static displacement in the model's DOFs (n). */
 void dm_boundary_displacement(dm_boundary *bw, double *U);

@@ -121,7 +121,7 @@ expect 0 "trajectory on 3 threads" "$DM" trajectory --robot zheng2017 --path "$S
 if cmp -s "$TMP/run1.csv" "$TMP/run3.csv" && cmp -s "$TMP/run1.csv" "$TMP/run.csv"; then ok; else bad "trajectory differs with --threads"; fi
 expect 1 "trajectory --threads 0" "$DM" trajectory --robot zheng2017 --path "$SHORT" --threads 0
 contains err "--threads takes a whole number"
-# a run of 200 steps or more takes its modes from member bases (--method auto), equal
+# a run of 25 steps or more takes its modes from member bases (--method auto), equal
 # to the full model's (--method partial) to the solvers' accuracy (tests/test_integrate.c)
 LONG="circle:centre=0,0,-0.4;radius=0.05;rate=12.566;duration=0.2"
 expect 0 "trajectory on member bases" "$DM" trajectory --robot zheng2017 --path "$LONG" --mesh 1,1 --no-reference --json
@@ -131,7 +131,8 @@ expect 0 "trajectory on the full model" "$DM" trajectory --robot zheng2017 --pat
 json_true "d['member_steps'] == 0 and abs(d['peak_error_m'] / json.load(open('$TMP/members.json'))['peak_error_m'] - 1) < 2e-6"
 expect 0 "trajectory engine in the summary" "$DM" trajectory --robot zheng2017 --path "$LONG" --mesh 1,1 --no-reference
 contains out "modes       from member bases at every step"
-expect 0 "short trajectory on the full model" "$DM" trajectory --robot zheng2017 --path "$SHORT" --mesh 1,1 --no-reference
+TINY="circle:centre=0,0,-0.4;radius=0.05;rate=6.283185307179586;duration=0.024" # 24 steps
+expect 0 "short trajectory on the full model" "$DM" trajectory --robot zheng2017 --path "$TINY" --mesh 1,1 --no-reference
 contains out "modes       from the full model at every step"
 expect 1 "trajectory --method members" "$DM" trajectory --robot zheng2017 --path "$LONG" --method members
 contains err "--method is auto or partial"

@@ -500,19 +500,36 @@ static void loads_by_definition(const dm_members *ms, const dm_members_pose *mp,
     free(z);
 }
 
-/* The reduced inertial loads (dm_boundary_inertial_loads: each member's
- * unit loads combined) equal T' G of the model's own loads, for the
- * standard move's three directions from rest and a motion with arm rates
- * (centripetal terms), the three presets at meshes 1,1 and 4,4 without
- * and with every pose-free effect, 3 random poses each. Both are the
- * same few hundred products summed in other orders: 1e-12 of the largest
- * entry's size is some hundred roundings of it. */
-static void inertial_loads_equal_the_projected_model(void **state)
+/* |got - want| <= 1e-12 of want's largest entry (n of them): both are the
+ * same few hundred products summed in other orders, and 1e-12 is some
+ * hundred roundings of it. Returns that ratio. */
+static double within_roundings(const double *got, const double *want, int n, const char *what)
+{
+    double size = 0, err = 0;
+    for (int i = 0; i < n; i++)
+        size = fmax(size, fabs(want[i]));
+    for (int i = 0; i < n; i++)
+        err = fmax(err, fabs(got[i] - want[i]));
+    assert_true(size > 0);
+    if (!(err <= 1e-12 * size))
+        fail_msg("%s off by %.3e of %.3e", what, err, size);
+    return err / size;
+}
+
+/* The reduced inertial and gravity loads (dm_boundary_inertial_loads,
+ * dm_boundary_gravity_loads: each member's unit loads combined) equal T'
+ * G of the model's own loads, for the standard move's three directions
+ * from rest and a motion with arm rates (centripetal terms); and the
+ * members' M times the mode shapes (dm_boundary_mass_shapes) equals the
+ * assembled model's; the three presets at meshes 1,1 and 4,4 without and
+ * with every pose-free effect, 3 random poses each, each within
+ * within_roundings. */
+static void loads_and_mass_equal_the_model(void **state)
 {
     (void)state;
     const char *presets[] = {"chen2018", "zheng2017", "han2011"};
     dm_rng rng = {11};
-    double worst = 0;
+    double worst = 0, worst_g = 0, worst_m = 0;
     for (int r = 0; r < 3; r++)
         for (int mesh = 1; mesh <= 4; mesh += 3)
             for (int fx = 0; fx < 2; fx++) {
@@ -528,7 +545,10 @@ static void inertial_loads_equal_the_projected_model(void **state)
                 assert_non_null(bw);
                 int n = md->n, nr = dm_boundary_reduced_size(bw);
                 double *G = malloc(sizeof(double) * n * 4), *got = malloc(sizeof(double) * nr * 4);
-                double *want = malloc(sizeof(double) * nr);
+                double *want = malloc(sizeof(double) * (nr > n ? nr : n));
+                double *phi = malloc(sizeof(double) * n * 10), *mphi = malloc(sizeof(double) * n * 10);
+                double *X = malloc(sizeof(double) * n * 10), *Y = malloc(sizeof(double) * n * 10);
+                assert_non_null(Y);
                 for (int t = 0; t < 3; t++) {
                     dm_boundary_statics st;
                     dm_rigid_motion mo[4] = {{{0}, {0}, {1, 0, 0}}, {{0}, {0}, {0, 1, 0}},
@@ -548,26 +568,34 @@ static void inertial_loads_equal_the_projected_model(void **state)
                     assert_int_equal(dm_members_at(ms, &pose, &mp, NULL), 0);
                     for (int l = 0; l < 4; l++) {
                         loads_by_definition(ms, &mp, G + (size_t)l * n, want);
-                        double size = 0, err = 0;
-                        for (int i = 0; i < nr; i++)
-                            size = fmax(size, fabs(want[i]));
-                        for (int i = 0; i < nr; i++)
-                            err = fmax(err, fabs(got[(size_t)l * nr + i] - want[i]));
-                        assert_true(size > 0);
-                        worst = fmax(worst, err / size);
-                        if (!(err <= 1e-12 * size))
-                            fail_msg("%s mesh %d effects %d motion %d: T'G off by %.3e of %.3e",
-                                     presets[r], mesh, fx, l, err, size);
+                        worst = fmax(worst, within_roundings(got + (size_t)l * nr, want, nr,
+                                                             "inertial loads"));
+                    }
+                    dm_boundary_gravity_loads(bw, got);
+                    loads_by_definition(ms, &mp, md->F_gravity, want);
+                    worst_g = fmax(worst_g, within_roundings(got, want, nr, "gravity loads"));
+                    double lam[10];
+                    assert_int_equal(dm_boundary_reduced_modes(bw, 10, lam, NULL), 0);
+                    dm_boundary_mode_shapes(bw, 10, phi);
+                    dm_boundary_mass_shapes(bw, 10, mphi);
+                    for (int i = 0; i < n; i++) /* the model's products take rows of 10 */
+                        for (int j = 0; j < 10; j++)
+                            X[(size_t)i * 10 + j] = phi[(size_t)j * n + i];
+                    dm_model_mult_M(md, X, 10, Y);
+                    for (int j = 0; j < 10; j++) {
+                        for (int i = 0; i < n; i++)
+                            want[i] = Y[(size_t)i * 10 + j];
+                        worst_m = fmax(worst_m, within_roundings(mphi + (size_t)j * n, want, n,
+                                                                 "M phi"));
                     }
                 }
-                free(G);
-                free(got);
-                free(want);
+                free(G), free(got), free(want), free(phi), free(mphi), free(X), free(Y);
                 dm_boundary_free(bw);
                 dm_members_free(ms);
                 dm_model_free(md);
             }
-    print_message("reduced inertial loads against T' G: worst %.2e of the largest entry\n", worst);
+    print_message("against the model: inertial loads %.2e, gravity %.2e, M phi %.2e of the largest "
+                  "entry\n", worst, worst_g, worst_m);
 }
 
 int main(void)
@@ -578,7 +606,7 @@ int main(void)
         cmocka_unit_test(count_equals_dense_inertia),
         cmocka_unit_test(reduced_modes_are_certified),
         cmocka_unit_test(mode_shapes_match_the_reference),
-        cmocka_unit_test(inertial_loads_equal_the_projected_model),
+        cmocka_unit_test(loads_and_mass_equal_the_model),
     };
     return cmocka_run_group_tests_name("boundary", tests, NULL, NULL);
 }

@@ -10,6 +10,7 @@
 
 #include "dm_integrate.h"
 #include "dm_analysis.h"
+#include "dm_boundary.h"
 #include "dm_coupling.h"
 #include "dm_effects.h"
 #include "dm_kinematics.h"
@@ -63,8 +64,10 @@ typedef struct {
     const dm_modes *mo;
     dm_spectrum *all;     /* the reference's modes at the step's pose */
     /* closed-form runs in modal coordinates (see "histories"): the last
-     * step's modes, and Phi_prev and M Phi_prev interleaved (dm_arrow.h) */
+     * step's modes, and Phi_prev and M Phi_prev interleaved (dm_arrow.h;
+     * a member step: M Phi in Yi, n x k) */
     double *phi_prev, *Xi, *Yi;
+    double *Gred; /* a member step's loads in the reduced coordinates: nred x 3 */
     /* what a step takes from its pose (see "frames"): three, so that one
      * thread can solve the next step's modes while another runs this step
      * and builds the model of the step after */
@@ -114,6 +117,7 @@ static void free_ws(run_ws *w)
     free(w->phi_prev);
     free(w->Xi);
     free(w->Yi);
+    free(w->Gred);
     for (int i = 0; i < 3; i++) {
         if (i > 0) { /* frame 0's are w->md and w->statics */
             dm_model_free(w->fr[i].md);
@@ -835,7 +839,9 @@ static int alloc_record_ws(run_ws *w, dm_error *err)
 {
     size_t sz = sizeof(double) * w->n * w->k;
     w->phi_prev = malloc(sz), w->Xi = malloc(sz), w->Yi = malloc(sz);
-    if (!w->phi_prev || !w->Xi || !w->Yi)
+    if (w->an) /* (the full model serving the run needs none) */
+        w->Gred = malloc(sizeof(double) * 3 * dm_boundary_reduced_size(w->an->boundary));
+    if (!w->phi_prev || !w->Xi || !w->Yi || (w->an && !w->Gred))
         return dm_fail(err, DM_ENOMEM, "out of memory for the trajectory run");
     return DM_OK;
 }
@@ -852,13 +858,108 @@ static void transfer(run_ws *w, const double *Phi, double *T)
     cblas_dgemm(CblasColMajor, CblasTrans, CblasTrans, k, k, n, 1.0, Phi, n, w->Yi, k, 0.0, T, k);
 }
 
+/* ---- a member step without the full model ------------------------------
+ *
+ * After the first step (whose equilibrium is solved on the model), a step
+ * the member bases serve takes all of its record from them: the modes
+ * from their solve, the loads at the step's ends in the reduced
+ * coordinates (dm_boundary_inertial_loads, dm_boundary_gravity_loads:
+ * T' F of the model's own loads), so the modal loads are y' T' F and the
+ * static response's platform part S^-1 of their boundary rows exactly,
+ * and the transfer Phi_j' M_j Phi_{j-1} from the members' M times the
+ * shapes (dm_boundary_mass_shapes). The model is neither built nor
+ * factored; all of it equals the model's to rounding (test_boundary
+ * loads_and_mass_equal_the_model). */
+
+/* Step t0's pose frozen from the members alone: their solve there; where
+ * they fail it (the analysis solved it on its own full model), the model
+ * is built and factored too and serves the rest of the run. *served:
+ * whether the step's record comes from the members. */
+static int freeze_members(run_ws *w, double t0, int *served, dm_error *err)
+{
+    dm_pose pose;
+    dm_pose_result res;
+    int rc = step_pose(w, t0, &pose, err);
+    *served = 1;
+    if (rc || !fresh_pose(w, &pose)) /* (the same pose: the last solve stands) */
+        return rc;
+    rc = dm_analysis_run_pose(w->an, &pose, w->ksolve, &res, err);
+    if (!rc && res.engine == DM_ENGINE_MEMBERS) {
+        w->member_steps++;
+        w->coupling_log10 = res.coupling_index_log10;
+    } else if (!rc) {
+        w->members_off = 1, *served = 0;
+        rc = build_at(&pose, w->md, w->statics, &w->coupling_log10, err);
+    }
+    if (!rc)
+        w->mo = res.modes;
+    w->frozen = pose;
+    w->have_frozen = !rc;
+    return rc;
+}
+
+/* The step's loads in the reduced coordinates at the frozen pose (G:
+ * nred x 2, at t0 and t1): gravity, the nominal motion's inertia and the
+ * platform's force, what loads_at puts on the model. */
+static int reduced_loads(run_ws *w, double t0, double t1, double *G, dm_error *err)
+{
+    dm_boundary *bw = w->an->boundary;
+    int nr = dm_boundary_reduced_size(bw), p = dm_boundary_platform_row(bw);
+    dm_rigid_motion mo[2];
+    int rc = motion_at(w, t0, &mo[0], err);
+    if (!rc)
+        rc = motion_at(w, t1, &mo[1], err);
+    if (rc)
+        return rc;
+    double *g = G + 2 * (size_t)nr;
+    dm_boundary_inertial_loads(bw, &w->frozen, mo, 2, G);
+    dm_boundary_gravity_loads(bw, g);
+    for (int l = 0; l < 2; l++) {
+        double *c = G + (size_t)l * nr;
+        for (int i = 0; i < nr; i++)
+            c[i] += g[i];
+        for (int i = 0; i < 3; i++)
+            c[p + i] += w->o.force_n[i];
+    }
+    return DM_OK;
+}
+
+/* A member step's loads, transfer and static remainder into its record. */
+static int record_from_members(run_ws *w, step_record *r, double t0, double t1, dm_error *err)
+{
+    dm_boundary *bw = w->an->boundary;
+    int n = w->n, k = w->k, nr = dm_boundary_reduced_size(bw), p = dm_boundary_platform_row(bw);
+    const double *Y = w->an->reduced; /* the modes' reduced vectors, nr x kmax */
+    double *G = w->Gred;
+    int rc = reduced_loads(w, t0, t1, G, err);
+    if (rc)
+        return rc;
+    cblas_dgemv(CblasColMajor, CblasTrans, nr, k, 1.0, Y, nr, G, 1, 0.0, r->f0, 1);
+    cblas_dgemv(CblasColMajor, CblasTrans, nr, k, 1.0, Y, nr, G + nr, 1, 0.0, r->f1, 1);
+    memset(r->sP, 0, 6 * sizeof(double));
+    if (w->o.quasi_static && k < n) { /* K^-1 F1 on the platform, less the kept modes' part */
+        dm_boundary_eig_solve_K(w->an->eig, bw, G + nr, 1);
+        for (int i = 0; i < 6; i++) {
+            double v = G[nr + p + i];
+            for (int m = 0; m < k; m++)
+                v -= r->phiP[6 * m + i] * r->f1[m] / (r->omega[m] * r->omega[m]);
+            r->sP[i] = v;
+        }
+    }
+    dm_boundary_mass_shapes(bw, k, w->Yi); /* M_j Phi_j, n x k */
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, k, k, n, 1.0, w->Yi, n, w->phi_prev, n,
+                0.0, r->T, k);
+    return DM_OK;
+}
+
 /* Step j's record into slot `slot` of h (step 0 also sets the start). */
 static int record_step(run_ws *w, dm_integ_history *h, long j, long slot, dm_error *err)
 {
-    int n = w->n, k = w->k, pd;
+    int n = w->n, k = w->k, pd, members = 0;
     double t0, t1;
     step_times(w, j, h->nsteps, &t0, &t1);
-    int rc = freeze(w, t0, err);
+    int rc = j > 0 && !full_model_solves(w) ? freeze_members(w, t0, &members, err)
+                                              : freeze(w, t0, err);
     if (rc)
         return rc;
     const dm_modes *mo = w->mo;
@@ -875,20 +976,26 @@ static int record_step(run_ws *w, dm_integ_history *h, long j, long slot, dm_err
         dm_model_mult_M(w->md, w->x, 1, w->xd);
         cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, w->xd, 1, 0.0, h->q0, 1);
         memset(r.T, 0, sizeof(double) * k * k);
-    } else
-        transfer(w, Phi, r.T);
-    if ((rc = loads_at(w, t0, t1, err)))
-        return rc;
-    cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, w->F0, 1, 0.0, r.f0, 1);
-    cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, w->F1, 1, 0.0, r.f1, 1);
+    }
     memcpy(r.omega, mo->omega_rad_s, sizeof(double) * k);
     for (int c = 0; c < k; c++)
         memcpy(r.phiP + 6 * c, Phi + (size_t)c * n + pd, 6 * sizeof(double));
-    memset(r.sP, 0, 6 * sizeof(double));
-    if (w->o.quasi_static && k < n) {
-        if ((rc = static_remainder(w, mo, w->F1, w->F0, err)))
+    if (members) {
+        if ((rc = record_from_members(w, &r, t0, t1, err)))
             return rc;
-        memcpy(r.sP, w->F0 + pd, 6 * sizeof(double));
+    } else {
+        if (j > 0)
+            transfer(w, Phi, r.T);
+        if ((rc = loads_at(w, t0, t1, err)))
+            return rc;
+        cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, w->F0, 1, 0.0, r.f0, 1);
+        cblas_dgemv(CblasColMajor, CblasTrans, n, k, 1.0, Phi, n, w->F1, 1, 0.0, r.f1, 1);
+        memset(r.sP, 0, 6 * sizeof(double));
+        if (w->o.quasi_static && k < n) {
+            if ((rc = static_remainder(w, mo, w->F1, w->F0, err)))
+                return rc;
+            memcpy(r.sP, w->F0 + pd, 6 * sizeof(double));
+        }
     }
     int has_offset;
     sample_base(w, t1, mo, &h->base[slot], r.offset, &has_offset);

@@ -18,22 +18,25 @@ dm_boundary *dm_boundary_alloc(const dm_members *ms, dm_error *err)
         bw->nB = ms->nbound;
         bw->nred = dm_members_reduced_size(ms);
         nr = (size_t)bw->nred;
-        size_t nimax = 1, ncmax = 1;
+        size_t nimax = 1, ncmax = 1, nmmax = 1;
         for (int m = 0; m < DM_MEMBERS_N; m++) {
             const dm_member_basis *mb = &ms->member[m];
             size_t nc = (size_t)(mb->nb + mb->nkeep + mb->nres);
             nimax = (size_t)mb->ni > nimax ? (size_t)mb->ni : nimax;
+            nmmax = (size_t)mb->nm > nmmax ? (size_t)mb->nm : nmmax;
             ncmax = nc > ncmax ? nc : ncmax;
         }
         bw->lwork = 1 + 6 * bw->nred + 2 * bw->nred * bw->nred;
         bw->liwork = 3 + 5 * bw->nred;
         double **arrays[] = {&bw->S,  &bw->Sk,  &bw->D,   &bw->F,    &bw->X6,
                              &bw->Mbb, &bw->z,   &bw->Kr,  &bw->Mr,   &bw->wr,
-                             &bw->work, &bw->wcount, &bw->shW, &bw->shZt, &bw->shZ};
+                             &bw->work, &bw->wcount, &bw->shW, &bw->shZt, &bw->shZ,
+                             &bw->shM};
         size_t sizes[] = {nB * nB, nB * nB, nB * nB, nB, nB * 6, nB * nB,
                           (size_t)ms->n, nr * nr, nr * nr, nr, (size_t)bw->lwork,
                           nimax * (1 + 2 * 9),
-                          ncmax * nr, nr * nimax, (size_t)ms->n * nr};
+                          ncmax * nr, nr * nimax, (size_t)ms->n * nr,
+                          ((size_t)ms->n + 2 * nmmax) * nr};
         for (size_t k = 0; k < sizeof sizes / sizeof *sizes; k++)
             fail |= !(*arrays[k] = malloc(sizeof(double) * sizes[k]));
         bw->iwork = malloc(sizeof(lapack_int) * (size_t)bw->liwork);
@@ -53,7 +56,7 @@ void dm_boundary_free(dm_boundary *bw)
         return;
     double *arrays[] = {bw->S,    bw->Sk,  bw->D,      bw->F,   bw->X6,   bw->Mbb,
                         bw->z,    bw->Kr,  bw->Mr,     bw->wr,  bw->work,
-                        bw->wcount, bw->shW, bw->shZt, bw->shZ};
+                        bw->wcount, bw->shW, bw->shZt, bw->shZ, bw->shM};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; k++)
         free(arrays[k]);
     free(bw->iwork);
@@ -234,22 +237,20 @@ static void member_coefficients(const dm_boundary *bw, int m, const dm_link_moti
                                 L[3 * r + 2] * glob[part][2]);
 }
 
-/* Member m's share of T' G for q rigid motions (columns of G, nred
- * apart): -G c condensed onto the boundary (C' Ghat c) and projected on
- * its kept modes and residual vectors (Gq c, from row q0). The products
- * by Ghat and Gq go through the path's kernels, each entry's sum over the
- * load cases in order (the loops' bits: the same sums). */
-static void member_inertial_loads(dm_boundary *bw, int m, const dm_link_motion *lm, int q, int q0,
-                                  double *G)
+/* Member m's share of T' G for the q load cases whose coefficients of
+ * its unit loads are c (DM_MEMBERS_LOADS each) into G (columns nred
+ * apart, the member's coordinates from row q0): G c condensed onto the
+ * boundary (C' Ghat c) and projected on its kept modes and residual
+ * vectors (Gq c). The products by Ghat and Gq go through the path's
+ * kernels, each entry's sum over the load cases in order. */
+static void member_loads(dm_boundary *bw, int m, const double *c, int q, int q0, double *G)
 {
     const dm_member_basis *mb = &bw->ms->member[m];
     const dm_boundary_kernels *kr = boundary_kernels();
     int nb = mb->nb, nq = mb->nkeep + mb->nres, nr = bw->nred;
-    double C[DM_MEMBERS_LOADS * INERTIAL_BATCH], F[9 * INERTIAL_BATCH];
+    double F[9 * INERTIAL_BATCH];
     assert(q <= INERTIAL_BATCH && nb <= 9);
-    for (int l = 0; l < q; l++)
-        member_coefficients(bw, m, &lm[l], C + l * DM_MEMBERS_LOADS);
-    kr->mult(nb, q, DM_MEMBERS_LOADS, mb->Ghat, nb, C, DM_MEMBERS_LOADS, 0, F, nb);
+    kr->mult(nb, q, DM_MEMBERS_LOADS, mb->Ghat, nb, c, DM_MEMBERS_LOADS, 0, F, nb);
     for (int l = 0; l < q; l++) {
         double *g = G + (size_t)l * nr;
         const double *f = F + l * nb;
@@ -257,7 +258,19 @@ static void member_inertial_loads(dm_boundary *bw, int m, const dm_link_motion *
             for (int r = 0; r < nb; r++)
                 g[bw->cols[m][a]] += bw->Cc[m][a * nb + r] * f[r];
     }
-    kr->mult(nq, q, DM_MEMBERS_LOADS, mb->Gq, nq, C, DM_MEMBERS_LOADS, 0, G + q0, nr);
+    kr->mult(nq, q, DM_MEMBERS_LOADS, mb->Gq, nq, c, DM_MEMBERS_LOADS, 0, G + q0, nr);
+}
+
+/* Member m's share of T' G for q rigid motions: its accelerations as
+ * coefficients of its unit loads, negated (member_coefficients). */
+static void member_inertial_loads(dm_boundary *bw, int m, const dm_link_motion *lm, int q, int q0,
+                                  double *G)
+{
+    double C[DM_MEMBERS_LOADS * INERTIAL_BATCH];
+    assert(q <= INERTIAL_BATCH);
+    for (int l = 0; l < q; l++)
+        member_coefficients(bw, m, &lm[l], C + l * DM_MEMBERS_LOADS);
+    member_loads(bw, m, C, q, q0, G);
 }
 
 /* The loads of q <= INERTIAL_BATCH rigid motions: the boundary's own
@@ -287,6 +300,18 @@ static void inertial_batch(dm_boundary *bw, const dm_pose *pose, const dm_rigid_
             G[(size_t)l * nr + r] = -T[(size_t)l * nB + r];
     for (int m = 0, q0 = nB; m < DM_MEMBERS_N; m++) {
         member_inertial_loads(bw, m, lm, q, q0, G);
+        q0 += ms->member[m].nkeep + ms->member[m].nres;
+    }
+}
+
+void dm_boundary_gravity_loads(dm_boundary *bw, double *G)
+{
+    const dm_members *ms = bw->ms;
+    memcpy(G, ms->Fb, sizeof(double) * bw->nB); /* the boundary's own weight */
+    for (int m = 0, q0 = bw->nB; m < DM_MEMBERS_N; m++) {
+        double c[DM_MEMBERS_LOADS] = {0}; /* uniform: gravity in the member's frame */
+        memcpy(c, bw->gl[m], sizeof bw->gl[m]);
+        member_loads(bw, m, c, 1, q0, G);
         q0 += ms->member[m].nkeep + ms->member[m].nres;
     }
 }

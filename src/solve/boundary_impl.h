@@ -38,6 +38,8 @@ struct dm_boundary {
     double *shW, *shZt, *shZ; /* the shapes' scratch: a member's coefficients
                                * (ncoef x nred), its interior transposed
                                * (nred x ni), the modes in (boundary, interiors) (n x nred) */
+    double *shM;    /* M times the shapes in (boundary, interiors) (n x nred), then a
+                       member's [C x_B; x_i] and its M times them (nm x nred each) */
     int lwork, liwork;
     lapack_int *iwork;    /* dsygvd's integer workspace (liwork) */
 };

@@ -225,6 +225,57 @@ dm_members *dm_boundary_members_for_modes(const dm_model *md, int k, dm_error *e
     return dm_members_build(md, DM_BOUNDARY_CUT * lambda_k, err);
 }
 
+/* Member m's share of M Z for the k shapes Z (n x k, leading dimension
+ * n: (boundary, interiors), its frame) into MZ: its local
+ * displacements w = [C Z_B; Z_i], v = M_m w, then C' v_b onto the
+ * boundary rows and v_i into its interior's. */
+static void member_mass(dm_boundary *bw, int m, int k, const double *Z, double *MZ)
+{
+    const dm_members *ms = bw->ms;
+    const dm_member_basis *mb = &ms->member[m];
+    const dm_boundary_kernels *kr = boundary_kernels();
+    int nb = mb->nb, ni = mb->ni, nm = mb->nm, n = ms->n, i0 = ms->interior0[m];
+    double *w = bw->shM + (size_t)n * bw->nred, *v = w + (size_t)nm * bw->nred;
+    for (int j = 0; j < k; j++) {
+        const double *z = Z + (size_t)j * n;
+        double *wj = w + (size_t)j * nm;
+        for (int r = 0; r < nb; r++) {
+            double a = 0;
+            for (int c = 0; c < bw->nc[m]; c++)
+                a += bw->Cc[m][c * nb + r] * z[bw->cols[m][c]];
+            wj[r] = a;
+        }
+        memcpy(wj + nb, z + i0, sizeof(double) * ni);
+    }
+    kr->mult(nm, k, nm, mb->M, nm, w, nm, 0, v, nm);
+    for (int j = 0; j < k; j++) {
+        const double *vj = v + (size_t)j * nm;
+        double *out = MZ + (size_t)j * n;
+        for (int c = 0; c < bw->nc[m]; c++) {
+            double a = 0;
+            for (int r = 0; r < nb; r++)
+                a += bw->Cc[m][c * nb + r] * vj[r];
+            out[bw->cols[m][c]] += a;
+        }
+        memcpy(out + i0, vj + nb, sizeof(double) * ni);
+    }
+}
+
+void dm_boundary_mass_shapes(dm_boundary *bw, int k, double *mphi)
+{
+    const dm_members *ms = bw->ms;
+    int nB = bw->nB, n = ms->n;
+    assert(k <= bw->nred);
+    double *MZ = bw->shM;
+    for (int j = 0; j < k; j++) /* what acts on the boundary alone: M_b Z_B */
+        boundary_kernels()->mult(nB, 1, nB, ms->Mb, nB, bw->shZ + (size_t)j * n, nB, 0,
+                                 MZ + (size_t)j * n, nB);
+    for (int m = 0; m < DM_MEMBERS_N; m++)
+        member_mass(bw, m, k, bw->shZ, MZ);
+    for (int j = 0; j < k; j++)
+        dm_members_scatter(ms, &bw->mp, MZ + (size_t)j * n, mphi + (size_t)j * n);
+}
+
 int dm_boundary_reduced_size(const dm_boundary *bw) { return bw->nred; }
 
 int dm_boundary_platform_row(const dm_boundary *bw) { return bw->ms->bplat; }
