@@ -146,6 +146,10 @@ void dm_members_gather(const dm_members *members, const dm_members_pose *mp, con
                        double *z);
 void dm_members_scatter(const dm_members *members, const dm_members_pose *mp, const double *z,
                         double *U);
+/* dm_members_scatter for k vectors at once (z and U: n x k,
+ * column-major): the shapes of a trajectory's every step. */
+void dm_members_scatter_many(const dm_members *members, const dm_members_pose *mp, const double *z,
+                             int k, double *U);
 
 /* y = K z or y = M z (which 'K' or 'M') assembled from the members at the
  * pose, in (boundary, interiors) coordinates: Q' K_model Q. The check of

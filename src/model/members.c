@@ -631,56 +631,76 @@ int dm_members_columns(const dm_members *ms, int m, int cols[12])
     return nc;
 }
 
-/* One run of a member's interior between the model (global) and the
- * member's frame: to_local 1: z = L u, 0: u = L' z. */
-static void turn_run(const dm_members_run *run, const double L[9], int to_local, double *u, double *z)
+/* One run of a member's interior from the model (global) into the
+ * member's frame: z = L u. */
+static void run_to_local(const dm_members_run *run, const double L[9], const double *u, double *z)
 {
     if (!run->rotate) {
-        for (int k = 0; k < run->count; k++)
-            if (to_local)
-                z[k] = u[k];
-            else
-                u[k] = z[k];
+        memcpy(z, u, sizeof(double) * run->count);
         return;
     }
-    for (int t = 0; t < run->count; t += 3)
-        for (int r = 0; r < 3; r++) {
-            double s = 0;
-            for (int c = 0; c < 3; c++)
-                s += to_local ? L[3 * r + c] * u[t + c] : L[3 * c + r] * z[t + c];
-            if (to_local)
-                z[t + r] = s;
-            else
-                u[t + r] = s;
-        }
+    for (int t = 0; t < run->count; t += 3) {
+        double a = u[t], b = u[t + 1], c = u[t + 2];
+        z[t] = 0.0 + L[0] * a + L[1] * b + L[2] * c;
+        z[t + 1] = 0.0 + L[3] * a + L[4] * b + L[5] * c;
+        z[t + 2] = 0.0 + L[6] * a + L[7] * b + L[8] * c;
+    }
 }
 
-static void transfer(const dm_members *ms, const dm_members_pose *mp, int to_local, double *U,
-                     double *z)
+/* The same for k vectors (n apart) the other way: u = L' z. */
+static void run_to_model(const dm_members_run *run, const double L[9], const double *z, double *u,
+                         int k, int n)
 {
-    for (int b = 0; b < ms->nbound; b++)
-        if (to_local)
-            z[b] = U[ms->bdof[b]];
-        else
-            U[ms->bdof[b]] = z[b];
-    for (int m = 0; m < DM_MEMBERS_N; m++) {
-        const dm_member_basis *mb = &ms->member[m];
-        for (int k = 0; k < mb->nrun; k++) {
-            const dm_members_run *run = &mb->run[k];
-            turn_run(run, mp->lambda[m], to_local, U + run->model_dof,
-                     z + ms->interior0[m] + run->interior);
+    for (int j = 0; j < k; j++) {
+        const double *zj = z + (size_t)j * n;
+        double *uj = u + (size_t)j * n;
+        if (!run->rotate) {
+            memcpy(uj, zj, sizeof(double) * run->count);
+            continue;
+        }
+        for (int t = 0; t < run->count; t += 3) {
+            double a = zj[t], b = zj[t + 1], c = zj[t + 2];
+            uj[t] = 0.0 + L[0] * a + L[3] * b + L[6] * c;
+            uj[t + 1] = 0.0 + L[1] * a + L[4] * b + L[7] * c;
+            uj[t + 2] = 0.0 + L[2] * a + L[5] * b + L[8] * c;
         }
     }
 }
 
 void dm_members_gather(const dm_members *ms, const dm_members_pose *mp, const double *U, double *z)
 {
-    transfer(ms, mp, 1, (double *)U, z); /* to_local only reads U */
+    for (int b = 0; b < ms->nbound; b++)
+        z[b] = U[ms->bdof[b]];
+    for (int m = 0; m < DM_MEMBERS_N; m++) {
+        const dm_member_basis *mb = &ms->member[m];
+        for (int r = 0; r < mb->nrun; r++) {
+            const dm_members_run *run = &mb->run[r];
+            run_to_local(run, mp->lambda[m], U + run->model_dof,
+                         z + ms->interior0[m] + run->interior);
+        }
+    }
+}
+
+void dm_members_scatter_many(const dm_members *ms, const dm_members_pose *mp, const double *z,
+                             int k, double *U)
+{
+    int n = ms->n;
+    for (int j = 0; j < k; j++)
+        for (int b = 0; b < ms->nbound; b++)
+            U[(size_t)j * n + ms->bdof[b]] = z[(size_t)j * n + b];
+    for (int m = 0; m < DM_MEMBERS_N; m++) {
+        const dm_member_basis *mb = &ms->member[m];
+        for (int r = 0; r < mb->nrun; r++) {
+            const dm_members_run *run = &mb->run[r];
+            run_to_model(run, mp->lambda[m], z + ms->interior0[m] + run->interior,
+                         U + run->model_dof, k, n);
+        }
+    }
 }
 
 void dm_members_scatter(const dm_members *ms, const dm_members_pose *mp, const double *z, double *U)
 {
-    transfer(ms, mp, 0, U, (double *)z); /* to the model only reads z */
+    dm_members_scatter_many(ms, mp, z, 1, U);
 }
 
 int dm_members_mult(const dm_members *ms, const dm_members_pose *mp, char which, const double *z,

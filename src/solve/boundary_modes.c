@@ -272,8 +272,7 @@ void dm_boundary_mass_shapes(dm_boundary *bw, int k, double *mphi)
                                  MZ + (size_t)j * n, nB);
     for (int m = 0; m < DM_MEMBERS_N; m++)
         member_mass(bw, m, k, bw->shZ, MZ);
-    for (int j = 0; j < k; j++)
-        dm_members_scatter(ms, &bw->mp, MZ + (size_t)j * n, mphi + (size_t)j * n);
+    dm_members_scatter_many(ms, &bw->mp, MZ, k, mphi);
 }
 
 int dm_boundary_reduced_size(const dm_boundary *bw) { return bw->nred; }
@@ -338,6 +337,5 @@ void dm_boundary_mode_shapes(dm_boundary *bw, int k, double *phi)
         }
         q0 += mb->nkeep + mb->nres;
     }
-    for (int j = 0; j < k; j++)
-        dm_members_scatter(ms, &bw->mp, bw->shZ + (size_t)j * n, phi + (size_t)j * n);
+    dm_members_scatter_many(ms, &bw->mp, bw->shZ, k, phi);
 }
