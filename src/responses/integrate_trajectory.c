@@ -241,14 +241,20 @@ static int motion_at(const run_ws *w, double t, dm_rigid_motion *mo, dm_error *e
     return rc;
 }
 
+/* The nominal motion at the step's ends t0 and t1 (motion_at). */
+static int step_motions(const run_ws *w, double t0, double t1, dm_rigid_motion mo[2],
+                        dm_error *err)
+{
+    int rc = motion_at(w, t0, &mo[0], err);
+    return rc ? rc : motion_at(w, t1, &mo[1], err);
+}
+
 /* Loads at the step's ends t0 and t1 into F0 and F1 (= F0 + n): gravity
  * + inertia of the nominal motion, both in one pass over the elements. */
 static int loads_at(const run_ws *w, double t0, double t1, dm_error *err)
 {
     dm_rigid_motion mo[2];
-    int rc = motion_at(w, t0, &mo[0], err);
-    if (!rc)
-        rc = motion_at(w, t1, &mo[1], err);
+    int rc = step_motions(w, t0, t1, mo, err);
     if (rc)
         return rc;
     const double no_torque[3] = {0, 0, 0};
@@ -906,9 +912,7 @@ static int reduced_loads(run_ws *w, double t0, double t1, double *G, dm_error *e
     dm_boundary *bw = w->an->boundary;
     int nr = dm_boundary_reduced_size(bw), p = dm_boundary_platform_row(bw);
     dm_rigid_motion mo[2];
-    int rc = motion_at(w, t0, &mo[0], err);
-    if (!rc)
-        rc = motion_at(w, t1, &mo[1], err);
+    int rc = step_motions(w, t0, t1, mo, err);
     if (rc)
         return rc;
     double *g = G + 2 * (size_t)nr;

@@ -239,12 +239,7 @@ static void member_mass(dm_boundary *bw, int m, int k, const double *Z, double *
     for (int j = 0; j < k; j++) {
         const double *z = Z + (size_t)j * n;
         double *wj = w + (size_t)j * nm;
-        for (int r = 0; r < nb; r++) {
-            double a = 0;
-            for (int c = 0; c < bw->nc[m]; c++)
-                a += bw->Cc[m][c * nb + r] * z[bw->cols[m][c]];
-            wj[r] = a;
-        }
+        dm_boundary_member_dofs(bw, m, z, wj);
         memcpy(wj + nb, z + i0, sizeof(double) * ni);
     }
     kr->mult(nm, k, nm, mb->M, nm, w, nm, 0, v, nm);
@@ -297,12 +292,7 @@ static void member_coefficients(dm_boundary *bw, int m, int k, int q0)
     for (int j = 0; j < k; j++) {
         const double *y = bw->Kr + (size_t)j * nr;
         double *w = bw->shW + (size_t)j * nc;
-        for (int r = 0; r < nb; r++) {
-            double s = 0;
-            for (int a = 0; a < bw->nc[m]; a++)
-                s += bw->Cc[m][a * nb + r] * y[bw->cols[m][a]];
-            w[r] = s;
-        }
+        dm_boundary_member_dofs(bw, m, y, w);
         memcpy(w + nb, y + q0, sizeof(double) * nq);
     }
 }
