@@ -262,9 +262,8 @@ void dm_boundary_mass_shapes(dm_boundary *bw, int k, double *mphi)
     int nB = bw->nB, n = ms->n;
     assert(k <= bw->nred);
     double *MZ = bw->shM;
-    for (int j = 0; j < k; j++) /* what acts on the boundary alone: M_b Z_B */
-        boundary_kernels()->mult(nB, 1, nB, ms->Mb, nB, bw->shZ + (size_t)j * n, nB, 0,
-                                 MZ + (size_t)j * n, nB);
+    /* what acts on the boundary alone: M_b Z_B */
+    boundary_kernels()->mult(nB, k, nB, ms->Mb, nB, bw->shZ, n, 0, MZ, n);
     for (int m = 0; m < DM_MEMBERS_N; m++)
         member_mass(bw, m, k, bw->shZ, MZ);
     dm_members_scatter_many(ms, &bw->mp, MZ, k, mphi);
