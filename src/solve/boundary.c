@@ -94,7 +94,7 @@ void dm_boundary_congruence(const dm_boundary *bw, int m, const double *X, doubl
 static void add_member(dm_boundary *bw, int m)
 {
     const dm_member_basis *mb = &bw->ms->member[m];
-    const double *L = bw->mp.lambda[m], *g = bw->mp.gravity, *Cc = bw->Cc[m];
+    const double *L = bw->mp.lambda[m], *g = bw->mp.gravity;
     const int *cols = bw->cols[m];
     int nb = mb->nb, nB = bw->nB, nc = bw->nc[m];
     double f[9];
@@ -107,11 +107,8 @@ static void add_member(dm_boundary *bw, int m)
     }
     double V[12 * 12];
     dm_boundary_congruence(bw, m, mb->Khat, V);
+    dm_boundary_member_add_forces(bw, m, f, bw->F);
     for (int b = 0; b < nc; b++) {
-        double s = 0;
-        for (int r = 0; r < nb; r++)
-            s += Cc[b * nb + r] * f[r];
-        bw->F[cols[b]] += s;
         for (int a = b; a < nc; a++) { /* into S's lower triangle */
             double v = V[a + b * nc];
             int hi = cols[a] > cols[b] ? cols[a] : cols[b], lo = cols[a] + cols[b] - hi;
@@ -168,6 +165,17 @@ void dm_boundary_member_dofs(dm_boundary *bw, int m, const double *y, double *xb
         xb[r] = 0;
         for (int a = 0; a < bw->nc[m]; a++)
             xb[r] += bw->Cc[m][a * nb + r] * y[bw->cols[m][a]];
+    }
+}
+
+void dm_boundary_member_add_forces(const dm_boundary *bw, int m, const double *f, double *F)
+{
+    int nb = bw->ms->member[m].nb;
+    for (int a = 0; a < bw->nc[m]; a++) {
+        double s = 0;
+        for (int r = 0; r < nb; r++)
+            s += bw->Cc[m][a * nb + r] * f[r];
+        F[bw->cols[m][a]] += s;
     }
 }
 

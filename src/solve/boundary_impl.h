@@ -57,6 +57,10 @@ void dm_boundary_congruence(const dm_boundary *bw, int m, const double *X, doubl
  * (nB). */
 void dm_boundary_member_dofs(dm_boundary *bw, int m, const double *y, double *xb);
 
+/* Its transpose: F (nB) += C' f for member m's boundary forces f (nb),
+ * each entry's sum over f first. */
+void dm_boundary_member_add_forces(const dm_boundary *bw, int m, const double *f, double *F);
+
 /* Negative eigenvalues of the symmetric n x n D (lower triangle,
  * destroyed; n <= nB) by Sylvester's inertia; -1 if singular. */
 int dm_boundary_negatives(double *D, int n);

@@ -246,12 +246,7 @@ static void member_mass(dm_boundary *bw, int m, int k, const double *Z, double *
     for (int j = 0; j < k; j++) {
         const double *vj = v + (size_t)j * nm;
         double *out = MZ + (size_t)j * n;
-        for (int c = 0; c < bw->nc[m]; c++) {
-            double a = 0;
-            for (int r = 0; r < nb; r++)
-                a += bw->Cc[m][c * nb + r] * vj[r];
-            out[bw->cols[m][c]] += a;
-        }
+        dm_boundary_member_add_forces(bw, m, vj, out);
         memcpy(out + i0, vj + nb, sizeof(double) * ni);
     }
 }
